@@ -1,0 +1,87 @@
+// Per-frame cascade setup: splits, bounding spheres, stabilised light matrices, depth ranges.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "csm/splits.hpp"
+#include "csm/types.hpp"
+
+namespace csm {
+
+/// One cascade of one frame. "Ls" quantities are in light space about `boxCenterWs`
+/// (x = right, y = up, z = direction of travel of the light, metres).
+struct Cascade {
+  /// View-depth range this cascade covers (distance along the camera's forward axis).
+  double splitNearM = 0.0;
+  double splitFarM = 0.0;
+  /// Bounding sphere of the slice (stabilised mode: minimal sphere, radius quantised).
+  glm::dvec3 sphereCenterWs{0.0};
+  double sphereRadiusM = 0.0;
+  /// Centre of the orthographic light box; in stabilised mode snapped to whole texels of a
+  /// world-anchored grid (its light-space x and y are integer multiples of texelSizeLs).
+  glm::dvec3 boxCenterWs{0.0};
+  /// Half side of the box in light-space x and y (equal when stabilised).
+  glm::dvec2 halfExtentLs{0.0};
+  /// World size of one shadow texel along light-space x and y (= 2 * halfExtent / resolution).
+  glm::dvec2 texelSizeLs{0.0};
+  /// Light-space depth range: near side (toward the light, negative, extended to the scene's
+  /// casters) and far side (at the sphere). Depth 0 maps to depthNearLs, 1 to depthFarLs.
+  double depthNearLs = 0.0;
+  double depthFarLs = 0.0;
+  /// Camera-relative world position (posWs - cameraPositionWs, as float) -> shadow clip space:
+  /// x, y in [-1, 1] across the box (uv = xy * 0.5 + 0.5), z in [0, 1].
+  glm::mat4 viewProjCr{1.0f};
+  /// True when no receiver of the scene lies in this cascade: neither rendered nor sampled.
+  bool empty = false;
+
+  /// Largest texel side in metres (both sides are equal when stabilised).
+  [[nodiscard]] double texelSizeM() const noexcept {
+    return glm::max(texelSizeLs.x, texelSizeLs.y);
+  }
+};
+
+/// Everything the renderer and the lighting shader need for one view in one frame.
+struct CascadeFrame {
+  std::uint32_t cascadeCount = 0;
+  std::uint32_t resolution = 0;
+  std::array<Cascade, kMaxCascades> cascades{};
+  /// The split distances actually used (count + 1 of them).
+  SplitArray splitsM{};
+  /// Where the splits end: shadow distance clamped to camera far and scene extent, quantised.
+  double shadowFarM = 0.0;
+  /// Light basis (columns right, up, forward) and normalised light direction.
+  glm::dmat3 lightBasisWs{1.0};
+  glm::dvec3 lightDirectionWs{0.0, -1.0, 0.0};
+  /// The camera this frame was computed for (the origin of camera-relative space).
+  glm::dvec3 cameraPositionWs{0.0};
+  glm::dvec3 cameraForwardWs{0.0, 0.0, -1.0};
+};
+
+/// What carries over between frames so that sizes change only in quantised steps with
+/// hysteresis (shadow far distance, depth extension toward the light). Keep one per view;
+/// a default-constructed history is a valid start.
+struct CascadeHistory {
+  double shadowFarM = 0.0;
+  double shadowFarMaxM = 0.0;
+  std::array<double, kMaxCascades> depthNearLs{};
+  std::uint32_t cascadeCount = 0;
+};
+
+/// Computes the cascades of one frame. Validates every input first and returns the first
+/// invalid field instead of computing. `sceneBounds` (optional) bounds every receiver and
+/// caster: splits end at its farthest point, cascades that contain none of it are marked empty,
+/// and depth ranges extend toward the light to cover it. `history` (optional, updated in place)
+/// makes size changes quantised and hysteretic across frames. Allocates nothing.
+[[nodiscard]] Result<CascadeFrame> computeCascades(const ShadowSettings& settings,
+                                                   const Camera& camera,
+                                                   const DirectionalLight& light,
+                                                   const AabbWs* sceneBounds = nullptr,
+                                                   CascadeHistory* history = nullptr);
+
+/// Shadow-map coordinates of a world point in one cascade, in double precision:
+/// x, y in texels (0 .. resolution across the box), z the depth in [0, 1].
+[[nodiscard]] glm::dvec3 shadowTexelCoord(const Cascade& cascade, const CascadeFrame& frame,
+                                          const glm::dvec3& posWs) noexcept;
+
+}  // namespace csm

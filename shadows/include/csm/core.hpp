@@ -1,0 +1,11 @@
+// The whole pure cascade math (no Vulkan): include this, link csm::core.
+#pragma once
+
+#include "csm/cascades.hpp"
+#include "csm/culling.hpp"
+#include "csm/error.hpp"
+#include "csm/frustum.hpp"
+#include "csm/light_space.hpp"
+#include "csm/selection.hpp"
+#include "csm/splits.hpp"
+#include "csm/types.hpp"

@@ -1,0 +1,88 @@
+// Per-cascade caster culling against each cascade's light box extruded toward the light.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "csm/cascades.hpp"
+
+namespace csm {
+
+class CasterSet;
+struct CullResult;
+void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minCasterTexels,
+                 CullResult& out);
+void cullCastersBruteForce(const CasterSet& casters, const CascadeFrame& frame,
+                           float minCasterTexels, CullResult& out);
+
+/// Caster bounds in structure-of-arrays form plus a bounding-volume hierarchy over them, so a
+/// query costs in proportion to what lies near the cascades, not to the size of the world.
+/// Each caster is a sphere or an axis-aligned box; its index is the order of insertion.
+class CasterSet {
+ public:
+  /// Adds a bounding sphere and returns the caster's index, or refuses a non-finite centre or
+  /// a radius outside [0, 1e9] (nothing is added then).
+  Result<std::uint32_t> addSphere(const glm::dvec3& centerWs, double radiusM);
+  /// Adds an axis-aligned box and returns the caster's index, or refuses non-finite corners or
+  /// min > max on any axis (nothing is added then).
+  Result<std::uint32_t> addBox(const glm::dvec3& minWs, const glm::dvec3& maxWs);
+  /// Removes every caster.
+  void clear() noexcept;
+  /// Reserves room for `count` casters.
+  void reserve(std::size_t count);
+
+  /// Builds (or rebuilds) the hierarchy. Queries before build() (or after an add) fall back to
+  /// testing every caster. O(n log n).
+  void build();
+  [[nodiscard]] bool built() const noexcept { return built_; }
+  [[nodiscard]] std::size_t size() const noexcept { return centerX_.size(); }
+
+  /// Bounds of caster i as an AABB.
+  [[nodiscard]] AabbWs bounds(std::uint32_t i) const noexcept;
+  [[nodiscard]] bool isSphere(std::uint32_t i) const noexcept { return kind_[i] == 0; }
+
+ private:
+  friend void cullCasters(const CasterSet&, const CascadeFrame&, float, CullResult&);
+  friend void cullCastersBruteForce(const CasterSet&, const CascadeFrame&, float, CullResult&);
+  struct Node {
+    // World-space AABB of everything below the node; children or leaf range.
+    glm::dvec3 minWs;
+    glm::dvec3 maxWs;
+    std::uint32_t first;  // leaf: first index into order_; inner: left child index
+    std::uint32_t count;  // leaf: number of casters; inner: 0 (right child = left + 1)
+  };
+
+  // Structure of arrays: centres in double (worlds reach 1e7 m), half extents in float.
+  std::vector<double> centerX_, centerY_, centerZ_;
+  std::vector<float> halfX_, halfY_, halfZ_;
+  std::vector<std::uint8_t> kind_;  // 0 sphere (half extents all = radius), 1 box
+  std::vector<std::uint32_t> order_;
+  std::vector<Node> nodes_;
+  bool built_ = false;
+
+  void buildRange(std::uint32_t nodeIndex, std::uint32_t begin, std::uint32_t end);
+};
+
+/// Per-cascade lists of caster indices to draw.
+struct CullResult {
+  std::array<std::vector<std::uint32_t>, kMaxCascades> visible;
+  /// Number of hierarchy nodes and casters tested (for benchmarks and reports).
+  std::uint64_t nodesVisited = 0;
+  std::uint64_t castersTested = 0;
+};
+
+/// Fills `out.visible[c]` for each non-empty cascade c of `frame` with every caster whose bounds
+/// intersect the cascade's light box extruded without limit toward the light (x, y within the
+/// box, light-space z <= depthFarLs), in increasing index order, except casters whose bounds
+/// span fewer than `minCasterTexels` of that cascade's texels (0: keep all). Exact per caster
+/// (sphere-box and box-box separating-axis tests); the hierarchy only skips what cannot
+/// intersect. Reuses `out`'s storage.
+void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minCasterTexels,
+                 CullResult& out);
+
+/// The same answer by testing every caster against every cascade (reference for tests).
+void cullCastersBruteForce(const CasterSet& casters, const CascadeFrame& frame,
+                           float minCasterTexels, CullResult& out);
+
+}  // namespace csm

@@ -1,0 +1,35 @@
+// Constants of the GPU interface that C++ (csm/gpu_layout.hpp) and GLSL (csm.glsl) share, beside
+// csm/shared_constants.h. Only preprocessor definitions: GLSL and C++ both parse it.
+#ifndef CSM_GPU_SHARED_H
+#define CSM_GPU_SHARED_H
+
+// Non-comparison view of the shadow map (sampler2DArray, nearest): the debug outputs that show
+// the stored depth need the raw value, which a comparison sampler cannot return.
+#define CSM_BINDING_SHADOW_DEPTH 2
+
+// Debug outputs of csm.glsl, chosen at run time through CsmUniforms.counts.z.
+#define CSM_DEBUG_NONE 0         // normal shading
+#define CSM_DEBUG_NORMAL 1       // world normal * 0.5 + 0.5
+#define CSM_DEBUG_SHADOW 2       // shadow factor as grey (1 lit, 0 shadowed)
+#define CSM_DEBUG_LIGHT_COORDS 3 // shadow-map uv in red/green, receiver depth in blue
+#define CSM_DEBUG_SAMPLED_DEPTH 4 // stored depth at the receiver's texel as grey
+#define CSM_DEBUG_DEPTH_DIFF 5   // red: receiver behind the stored depth (shadow), green: lit
+#define CSM_DEBUG_CASCADE 6      // flat tint of the selected cascade (CSM_TINT_i), black outside
+#define CSM_DEBUG_COUNT 7
+
+// Cascade tints of CSM_DEBUG_CASCADE, as "r, g, b" (write vec3(CSM_TINT_0) on either side).
+// Far apart in RGB so that a test can tell them apart after 8-bit quantisation.
+#define CSM_TINT_0 1.0, 0.0, 0.0
+#define CSM_TINT_1 0.0, 1.0, 0.0
+#define CSM_TINT_2 0.0, 0.0, 1.0
+#define CSM_TINT_3 1.0, 1.0, 0.0
+#define CSM_TINT_4 1.0, 0.0, 1.0
+#define CSM_TINT_5 0.0, 1.0, 1.0
+#define CSM_TINT_6 1.0, 0.5, 0.0
+#define CSM_TINT_7 0.5, 0.0, 1.0
+
+// Depth-pass push constants (csm_depth.vert): camera-relative model matrix (64 bytes) then the
+// cascade index (per-layer mode) or the mask of cascades to replicate into (layered mode).
+#define CSM_DEPTH_PUSH_SIZE 80
+
+#endif

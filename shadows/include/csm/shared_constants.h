@@ -1,0 +1,30 @@
+// Constants shared by C++ and GLSL: both sides include this file, so they cannot disagree.
+// Only preprocessor definitions: GLSL and C++ both parse it. Each value says why it is what it is.
+#ifndef CSM_SHARED_CONSTANTS_H
+#define CSM_SHARED_CONSTANTS_H
+
+// Most cascades a view may have: 8 covers 1e-3 m .. 1e5 m at a usable texel density, and keeps
+// the uniform block (8 x mat4 + params) well under the 16 KiB minimum maxUniformBufferRange.
+#define CSM_MAX_CASCADES 8
+
+// Descriptor set the module's lighting resources live in when a host uses csm.glsl's default
+// bindings; a host may override these before including csm.glsl.
+#define CSM_DEFAULT_SET 1
+#define CSM_BINDING_UNIFORMS 0    // CsmUniforms block
+#define CSM_BINDING_SHADOW_MAP 1  // sampler2DArrayShadow (comparison sampler + 2D-array view)
+
+// PCF kernels (specialisation constant CSM_SPEC_KERNEL). Tent kernels are built from bilinear
+// comparison taps, so an NxN tent costs ((N+1)/2)^2 taps instead of N^2.
+#define CSM_KERNEL_1TAP 0       // the sampler's own 2x2 bilinear comparison
+#define CSM_KERNEL_TENT3 1      // 3x3 tent, 4 taps
+#define CSM_KERNEL_TENT5 2      // 5x5 tent, 9 taps
+#define CSM_KERNEL_TENT7 3      // 7x7 tent, 16 taps
+#define CSM_KERNEL_POISSON16 4  // 16-tap Poisson disk, rotated per pixel
+#define CSM_KERNEL_COUNT 5
+
+// Specialisation constant ids used by csm.glsl.
+#define CSM_SPEC_KERNEL 0
+#define CSM_SPEC_BLEND 1  // 0: hard switch at the split, 1: blend across the band
+#define CSM_SPEC_DEBUG 2  // reserved for compile-time removal of debug outputs
+
+#endif

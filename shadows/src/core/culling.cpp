@@ -1,0 +1,332 @@
+#include "csm/culling.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <string>
+
+namespace csm {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr std::uint32_t kLeafSize = 8;
+
+// One cascade's light box extruded without limit toward the light:
+// { centre + x*right + y*up + z*forward : |x| <= hx, |y| <= hy, z <= zFar }.
+struct Volume {
+  glm::dvec3 centerWs;
+  glm::dvec3 axis[3];  // right, up, forward (world)
+  double hx, hy, zFar;
+  double texelM;
+  float minSizeM;  // casters whose light-space size is below this are dropped
+};
+
+Volume makeVolume(const CascadeFrame& frame, const Cascade& c, float minCasterTexels) noexcept {
+  Volume v;
+  v.centerWs = c.boxCenterWs;
+  for (int k = 0; k < 3; ++k) v.axis[k] = frame.lightBasisWs[k];
+  v.hx = c.halfExtentLs.x;
+  v.hy = c.halfExtentLs.y;
+  v.zFar = c.depthFarLs;
+  v.texelM = c.texelSizeM();
+  v.minSizeM = static_cast<float>(minCasterTexels * v.texelM);
+  return v;
+}
+
+// Interval of the volume projected on direction L, relative to the volume's centre.
+void projectVolume(const Volume& v, const glm::dvec3& l, double& lo, double& hi) noexcept {
+  const double r =
+      v.hx * std::abs(glm::dot(v.axis[0], l)) + v.hy * std::abs(glm::dot(v.axis[1], l));
+  const double f = glm::dot(v.axis[2], l);
+  lo = -r;
+  hi = r;
+  if (f > 0.0) {
+    lo = -kInf;
+    hi += v.zFar * f;
+  } else if (f < 0.0) {
+    hi = kInf;
+    lo += v.zFar * f;
+  }
+}
+
+// True if the box (centre offset d from the volume's centre, half extents e) is separated from
+// the volume along direction L.
+bool separatedOn(const Volume& v, const glm::dvec3& d, const glm::dvec3& e,
+                 const glm::dvec3& l) noexcept {
+  double lo, hi;
+  projectVolume(v, l, lo, hi);
+  const double c = glm::dot(d, l);
+  const double r = e.x * std::abs(l.x) + e.y * std::abs(l.y) + e.z * std::abs(l.z);
+  return c - r > hi || c + r < lo;
+}
+
+// Separating-axis test. `exact` adds the 9 edge-edge axes (exact for a box); without them the
+// test is conservative (never reports a miss for an intersecting box), enough for tree nodes.
+bool boxIntersects(const Volume& v, const glm::dvec3& centerWs, const glm::dvec3& e,
+                   bool exact) noexcept {
+  const glm::dvec3 d = centerWs - v.centerWs;
+  static const glm::dvec3 kWorld[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  for (int k = 0; k < 3; ++k) {
+    if (separatedOn(v, d, e, v.axis[k])) return false;
+    if (separatedOn(v, d, e, kWorld[k])) return false;
+  }
+  if (exact) {
+    for (int k = 0; k < 3; ++k) {
+      for (int j = 0; j < 3; ++j) {
+        const glm::dvec3 l = glm::cross(v.axis[k], kWorld[j]);
+        if (glm::dot(l, l) < 1e-18) continue;  // parallel edges: covered by the face axes
+        if (separatedOn(v, d, e, l)) return false;
+      }
+    }
+  }
+  return true;
+}
+
+bool sphereIntersects(const Volume& v, const glm::dvec3& centerWs, double radius) noexcept {
+  const glm::dvec3 d = centerWs - v.centerWs;
+  const glm::dvec3 q(glm::dot(d, v.axis[0]), glm::dot(d, v.axis[1]), glm::dot(d, v.axis[2]));
+  const double dx = q.x - std::clamp(q.x, -v.hx, v.hx);
+  const double dy = q.y - std::clamp(q.y, -v.hy, v.hy);
+  const double dz = q.z - std::min(q.z, v.zFar);
+  return dx * dx + dy * dy + dz * dz <= radius * radius;
+}
+
+// Light-space size (larger of the x and y extents) of a caster's bounds.
+double lightSpaceSize(const Volume& v, const glm::dvec3& e, bool sphere) noexcept {
+  if (sphere) return 2.0 * e.x;
+  auto extent = [&](const glm::dvec3& a) {
+    return 2.0 * (e.x * std::abs(a.x) + e.y * std::abs(a.y) + e.z * std::abs(a.z));
+  };
+  return std::max(extent(v.axis[0]), extent(v.axis[1]));
+}
+
+}  // namespace
+
+Result<std::uint32_t> CasterSet::addSphere(const glm::dvec3& centerWs, double radiusM) {
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(centerWs[i])) {
+      return ValidationError{"caster.centerWs[" + std::to_string(i) + "]", centerWs[i],
+                             "a finite coordinate"};
+    }
+  }
+  if (!(radiusM >= 0.0 && radiusM <= 1e9)) {
+    return ValidationError{"caster.radiusM", radiusM, "a radius in metres in [0, 1e9]"};
+  }
+  const auto index = static_cast<std::uint32_t>(size());
+  centerX_.push_back(centerWs.x);
+  centerY_.push_back(centerWs.y);
+  centerZ_.push_back(centerWs.z);
+  // Round the radius up when it is narrowed to float, so the bounds stay conservative.
+  float r = static_cast<float>(radiusM);
+  if (static_cast<double>(r) < radiusM) r = std::nextafter(r, std::numeric_limits<float>::max());
+  halfX_.push_back(r);
+  halfY_.push_back(r);
+  halfZ_.push_back(r);
+  kind_.push_back(0);
+  built_ = false;
+  return index;
+}
+
+Result<std::uint32_t> CasterSet::addBox(const glm::dvec3& minWs, const glm::dvec3& maxWs) {
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(minWs[i])) {
+      return ValidationError{"caster.minWs[" + std::to_string(i) + "]", minWs[i],
+                             "a finite coordinate"};
+    }
+    if (!std::isfinite(maxWs[i]) || !(maxWs[i] >= minWs[i])) {
+      return ValidationError{"caster.maxWs[" + std::to_string(i) + "]", maxWs[i],
+                             "a finite coordinate >= caster.minWs[" + std::to_string(i) + "]"};
+    }
+  }
+  const auto index = static_cast<std::uint32_t>(size());
+  const glm::dvec3 c = 0.5 * (minWs + maxWs);
+  centerX_.push_back(c.x);
+  centerY_.push_back(c.y);
+  centerZ_.push_back(c.z);
+  auto half = [](double lo, double hi, double mid) {
+    const double h = std::max(hi - mid, mid - lo);
+    float f = static_cast<float>(h);
+    if (static_cast<double>(f) < h) f = std::nextafter(f, std::numeric_limits<float>::max());
+    return f;
+  };
+  halfX_.push_back(half(minWs.x, maxWs.x, c.x));
+  halfY_.push_back(half(minWs.y, maxWs.y, c.y));
+  halfZ_.push_back(half(minWs.z, maxWs.z, c.z));
+  kind_.push_back(1);
+  built_ = false;
+  return index;
+}
+
+void CasterSet::clear() noexcept {
+  centerX_.clear();
+  centerY_.clear();
+  centerZ_.clear();
+  halfX_.clear();
+  halfY_.clear();
+  halfZ_.clear();
+  kind_.clear();
+  order_.clear();
+  nodes_.clear();
+  built_ = false;
+}
+
+void CasterSet::reserve(std::size_t count) {
+  centerX_.reserve(count);
+  centerY_.reserve(count);
+  centerZ_.reserve(count);
+  halfX_.reserve(count);
+  halfY_.reserve(count);
+  halfZ_.reserve(count);
+  kind_.reserve(count);
+}
+
+AabbWs CasterSet::bounds(std::uint32_t i) const noexcept {
+  const glm::dvec3 c(centerX_[i], centerY_[i], centerZ_[i]);
+  const glm::dvec3 e(halfX_[i], halfY_[i], halfZ_[i]);
+  return {c - e, c + e};
+}
+
+void CasterSet::build() {
+  const auto n = static_cast<std::uint32_t>(size());
+  order_.resize(n);
+  for (std::uint32_t i = 0; i < n; ++i) order_[i] = i;
+  nodes_.clear();
+  if (n > 0) {
+    nodes_.reserve(2 * (n / kLeafSize + 1));
+    nodes_.push_back(Node{});
+    buildRange(0, 0, n);
+  }
+  built_ = true;
+}
+
+void CasterSet::buildRange(std::uint32_t nodeIndex, std::uint32_t begin, std::uint32_t end) {
+  glm::dvec3 lo(kInf), hi(-kInf), cLo(kInf), cHi(-kInf);
+  for (std::uint32_t k = begin; k < end; ++k) {
+    const std::uint32_t i = order_[k];
+    const glm::dvec3 c(centerX_[i], centerY_[i], centerZ_[i]);
+    const glm::dvec3 e(halfX_[i], halfY_[i], halfZ_[i]);
+    lo = glm::min(lo, c - e);
+    hi = glm::max(hi, c + e);
+    cLo = glm::min(cLo, c);
+    cHi = glm::max(cHi, c);
+  }
+  nodes_[nodeIndex].minWs = lo;
+  nodes_[nodeIndex].maxWs = hi;
+  if (end - begin <= kLeafSize) {
+    nodes_[nodeIndex].first = begin;
+    nodes_[nodeIndex].count = end - begin;
+    return;
+  }
+  // Median split on the axis along which the centres spread most.
+  const glm::dvec3 spread = cHi - cLo;
+  const int axis =
+      spread.x >= spread.y ? (spread.x >= spread.z ? 0 : 2) : (spread.y >= spread.z ? 1 : 2);
+  const std::vector<double>& key = axis == 0 ? centerX_ : axis == 1 ? centerY_ : centerZ_;
+  const std::uint32_t mid = begin + (end - begin) / 2;
+  std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
+                   [&key](std::uint32_t a, std::uint32_t b) { return key[a] < key[b]; });
+  const auto left = static_cast<std::uint32_t>(nodes_.size());
+  nodes_.push_back(Node{});
+  nodes_.push_back(Node{});
+  nodes_[nodeIndex].first = left;
+  nodes_[nodeIndex].count = 0;
+  buildRange(left, begin, mid);
+  buildRange(left + 1, mid, end);
+}
+
+namespace {
+
+// Shared by both culling paths: the exact per-caster test, size threshold included.
+bool casterVisible(const Volume& v, const glm::dvec3& c, const glm::dvec3& e,
+                   bool sphere) noexcept {
+  if (v.minSizeM > 0.0f && lightSpaceSize(v, e, sphere) < static_cast<double>(v.minSizeM)) {
+    return false;
+  }
+  return sphere ? sphereIntersects(v, c, e.x) : boxIntersects(v, c, e, true);
+}
+
+}  // namespace
+
+void cullCastersBruteForce(const CasterSet& casters, const CascadeFrame& frame,
+                           float minCasterTexels, CullResult& out) {
+  out.nodesVisited = 0;
+  out.castersTested = 0;
+  for (auto& list : out.visible) list.clear();
+  const auto n = static_cast<std::uint32_t>(casters.size());
+  for (std::uint32_t ci = 0; ci < frame.cascadeCount; ++ci) {
+    const Cascade& cascade = frame.cascades[ci];
+    if (cascade.empty) continue;
+    const Volume v = makeVolume(frame, cascade, minCasterTexels);
+    for (std::uint32_t i = 0; i < n; ++i) {
+      const glm::dvec3 c(casters.centerX_[i], casters.centerY_[i], casters.centerZ_[i]);
+      const glm::dvec3 e(casters.halfX_[i], casters.halfY_[i], casters.halfZ_[i]);
+      ++out.castersTested;
+      if (casterVisible(v, c, e, casters.kind_[i] == 0)) out.visible[ci].push_back(i);
+    }
+  }
+}
+
+void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minCasterTexels,
+                 CullResult& out) {
+  if (!casters.built_) {
+    cullCastersBruteForce(casters, frame, minCasterTexels, out);
+    return;
+  }
+  out.nodesVisited = 0;
+  out.castersTested = 0;
+  for (auto& list : out.visible) list.clear();
+  if (casters.nodes_.empty()) return;
+
+  std::array<Volume, kMaxCascades> volumes;
+  std::uint32_t rootMask = 0;
+  for (std::uint32_t ci = 0; ci < frame.cascadeCount; ++ci) {
+    if (frame.cascades[ci].empty) continue;
+    volumes[ci] = makeVolume(frame, frame.cascades[ci], minCasterTexels);
+    rootMask |= 1u << ci;
+  }
+  if (rootMask == 0) return;
+
+  // Depth-first over the tree, carrying the set of cascades each node may still touch.
+  struct Item {
+    std::uint32_t node;
+    std::uint32_t mask;
+  };
+  std::array<Item, 128> stack;
+  std::size_t top = 0;
+  stack[top++] = {0, rootMask};
+  while (top > 0) {
+    const Item item = stack[--top];
+    const CasterSet::Node& node = casters.nodes_[item.node];
+    ++out.nodesVisited;
+    const glm::dvec3 nodeCenter = 0.5 * (node.minWs + node.maxWs);
+    const glm::dvec3 nodeHalf = 0.5 * (node.maxWs - node.minWs);
+    std::uint32_t mask = 0;
+    for (std::uint32_t m = item.mask; m != 0; m &= m - 1) {
+      const auto ci = static_cast<std::uint32_t>(std::countr_zero(m));
+      if (boxIntersects(volumes[ci], nodeCenter, nodeHalf, false)) mask |= 1u << ci;
+    }
+    if (mask == 0) continue;
+    if (node.count == 0) {
+      stack[top++] = {node.first + 1, mask};
+      stack[top++] = {node.first, mask};
+      continue;
+    }
+    for (std::uint32_t k = node.first; k < node.first + node.count; ++k) {
+      const std::uint32_t i = casters.order_[k];
+      const glm::dvec3 c(casters.centerX_[i], casters.centerY_[i], casters.centerZ_[i]);
+      const glm::dvec3 e(casters.halfX_[i], casters.halfY_[i], casters.halfZ_[i]);
+      const bool sphere = casters.kind_[i] == 0;
+      for (std::uint32_t m = mask; m != 0; m &= m - 1) {
+        const auto ci = static_cast<std::uint32_t>(std::countr_zero(m));
+        ++out.castersTested;
+        if (casterVisible(volumes[ci], c, e, sphere)) out.visible[ci].push_back(i);
+      }
+    }
+  }
+  for (std::uint32_t ci = 0; ci < frame.cascadeCount; ++ci) {
+    std::sort(out.visible[ci].begin(), out.visible[ci].end());
+  }
+}
+
+}  // namespace csm

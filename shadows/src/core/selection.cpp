@@ -1,0 +1,29 @@
+#include "csm/selection.hpp"
+
+namespace csm {
+
+double viewDepthM(const CascadeFrame& frame, const glm::dvec3& posWs) noexcept {
+  return glm::dot(posWs - frame.cameraPositionWs, frame.cameraForwardWs);
+}
+
+CascadeSelection selectCascade(const CascadeFrame& frame, double viewDepth,
+                               double blendBand) noexcept {
+  CascadeSelection sel;
+  const std::uint32_t n = frame.cascadeCount;
+  if (n == 0 || !(viewDepth >= frame.splitsM[0] && viewDepth < frame.splitsM[n])) return sel;
+  std::uint32_t i = 0;
+  while (i + 1 < n && viewDepth >= frame.splitsM[i + 1]) ++i;
+  if (frame.cascades[i].empty) return sel;
+  sel.index = static_cast<int>(i);
+  if (blendBand > 0.0 && i + 1 < n && !frame.cascades[i + 1].empty) {
+    const double splitFar = frame.splitsM[i + 1];
+    const double bandStart = splitFar - blendBand * (splitFar - frame.splitsM[i]);
+    if (viewDepth > bandStart) {
+      sel.blendIndex = static_cast<int>(i + 1);
+      sel.blendWeight = static_cast<float>((viewDepth - bandStart) / (splitFar - bandStart));
+    }
+  }
+  return sel;
+}
+
+}  // namespace csm

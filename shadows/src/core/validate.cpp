@@ -1,0 +1,126 @@
+// Validation of every input of the cascade math. Comparisons are written so that NaN fails
+// them (`!(x >= lo)`), and every refusal names the field, its value and the allowed range.
+#include <cmath>
+#include <optional>
+#include <string>
+
+#include "csm/types.hpp"
+
+namespace csm {
+namespace {
+
+using Check = std::optional<ValidationError>;
+
+Check refuse(std::string field, double value, std::string allowed) {
+  return ValidationError{std::move(field), value, std::move(allowed)};
+}
+
+Check finiteVec(const glm::dvec3& v, const std::string& field) {
+  static constexpr const char* kAxes[3] = {".x", ".y", ".z"};
+  for (int i = 0; i < 3; ++i) {
+    if (!std::isfinite(v[i])) return refuse(field + kAxes[i], v[i], "a finite number");
+  }
+  return std::nullopt;
+}
+
+bool isPowerOfTwo(std::uint32_t v) {
+  return v != 0 && (v & (v - 1)) == 0;
+}
+
+}  // namespace
+
+std::optional<ValidationError> validate(const ShadowSettings& s) {
+  if (!(s.cascadeCount >= 1 && s.cascadeCount <= kMaxCascades)) {
+    return refuse("settings.cascadeCount", s.cascadeCount,
+                  "an integer in [1, " + std::to_string(kMaxCascades) + "]");
+  }
+  if (!(s.resolution >= kMinResolution && s.resolution <= kMaxResolution) ||
+      !isPowerOfTwo(s.resolution)) {
+    return refuse("settings.resolution", s.resolution, "a power of two in [256, 16384]");
+  }
+  if (!(s.splitLambda >= 0.0 && s.splitLambda <= 1.0)) {
+    return refuse("settings.splitLambda", s.splitLambda, "a number in [0, 1]");
+  }
+  if (!(s.shadowDistanceM > 0.0) || !std::isfinite(s.shadowDistanceM)) {
+    return refuse("settings.shadowDistanceM", s.shadowDistanceM,
+                  "a finite distance in metres > camera.nearM");
+  }
+  if (!(s.blendBand >= 0.0 && s.blendBand <= 0.5)) {
+    return refuse("settings.blendBand", s.blendBand, "a fraction of a cascade's depth in [0, 0.5]");
+  }
+  if (!(s.depthBiasConstant >= 0.0f) || !std::isfinite(s.depthBiasConstant)) {
+    return refuse("settings.depthBiasConstant", s.depthBiasConstant, "a finite number >= 0");
+  }
+  if (!(s.depthBiasSlope >= 0.0f) || !std::isfinite(s.depthBiasSlope)) {
+    return refuse("settings.depthBiasSlope", s.depthBiasSlope, "a finite number >= 0");
+  }
+  if (!(s.normalOffsetTexels >= 0.0f) || !std::isfinite(s.normalOffsetTexels)) {
+    return refuse("settings.normalOffsetTexels", s.normalOffsetTexels, "a finite number >= 0");
+  }
+  if (!(s.minCasterTexels >= 0.0f && s.minCasterTexels <= 1e6f)) {
+    return refuse("settings.minCasterTexels", s.minCasterTexels,
+                  "a number of texels in [0, 1e6] (0 turns the test off)");
+  }
+  return std::nullopt;
+}
+
+std::optional<ValidationError> validate(const Camera& c) {
+  if (auto e = finiteVec(c.positionWs, "camera.positionWs")) return e;
+  const glm::dquat& q = c.orientationWs;
+  const double len = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
+  if (!(std::abs(len - 1.0) <= 1e-3)) {
+    return refuse("camera.orientationWs (length)", len,
+                  "a unit quaternion (length in [0.999, 1.001])");
+  }
+  if (!(c.fovYRad > 0.0 && c.fovYRad < glm::pi<double>())) {
+    return refuse("camera.fovYRad", c.fovYRad, "an angle in radians in (0, pi)");
+  }
+  if (!(c.aspect > 0.0 && c.aspect <= 1e4)) {
+    return refuse("camera.aspect", c.aspect, "width / height in (0, 1e4]");
+  }
+  if (!(c.nearM > 0.0) || !std::isfinite(c.nearM)) {
+    return refuse("camera.nearM", c.nearM, "a finite distance in metres > 0");
+  }
+  if (!(c.farM > c.nearM * (1.0 + 1e-6)) || !std::isfinite(c.farM)) {
+    return refuse("camera.farM", c.farM, "a finite distance in metres > camera.nearM * (1 + 1e-6)");
+  }
+  return std::nullopt;
+}
+
+std::optional<ValidationError> validate(const DirectionalLight& l) {
+  if (auto e = finiteVec(l.directionWs, "light.directionWs")) return e;
+  const double len = glm::length(l.directionWs);
+  if (!(len > 1e-12)) {
+    return refuse("light.directionWs (length)", len, "a non-zero direction (length > 1e-12)");
+  }
+  return std::nullopt;
+}
+
+std::optional<ValidationError> validate(const AabbWs& box, const char* field) {
+  const std::string name = field;
+  if (auto e = finiteVec(box.minWs, name + ".minWs")) return e;
+  if (auto e = finiteVec(box.maxWs, name + ".maxWs")) return e;
+  static constexpr const char* kAxes[3] = {".x", ".y", ".z"};
+  for (int i = 0; i < 3; ++i) {
+    if (!(box.maxWs[i] >= box.minWs[i])) {
+      return refuse(name + ".maxWs" + kAxes[i], box.maxWs[i],
+                    "a coordinate >= " + name + ".minWs" + kAxes[i]);
+    }
+  }
+  return std::nullopt;
+}
+
+std::optional<ValidationError> validate(const ShadowSettings& settings, const Camera& camera,
+                                        const DirectionalLight& light) {
+  if (auto e = validate(settings)) return e;
+  if (auto e = validate(camera)) return e;
+  if (auto e = validate(light)) return e;
+  if (!(settings.shadowDistanceM > camera.nearM * (1.0 + 1e-6))) {
+    return refuse(
+        "settings.shadowDistanceM", settings.shadowDistanceM,
+        "a distance > camera.nearM * (1 + 1e-6) = " + std::to_string(camera.nearM * (1.0 + 1e-6)));
+  }
+  return std::nullopt;
+}
+
+}  // namespace csm
