@@ -30,6 +30,6 @@
 
 // Depth-pass push constants (csm_depth.vert): camera-relative model matrix (64 bytes) then the
 // cascade index (per-layer mode) or the mask of cascades to replicate into (layered mode).
-#define CSM_DEPTH_PUSH_SIZE 80
+#define CSM_DEPTH_PUSH_SIZE 68
 
 #endif

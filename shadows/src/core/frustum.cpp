@@ -39,7 +39,7 @@ SliceSphere minimalSliceSphere(double fovYRad, double aspect, double nearM, doub
 double quantizeLengthUp(double lengthM) noexcept {
   if (!(lengthM > 0.0) || !std::isfinite(lengthM)) return lengthM;
   const int e = std::ilogb(lengthM);
-  const double quantum = std::ldexp(1.0, e - 10);
+  const double quantum = std::ldexp(1.0, e - 16);
   return std::ceil(lengthM / quantum) * quantum;
 }
 

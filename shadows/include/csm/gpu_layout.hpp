@@ -1,0 +1,90 @@
+// The uniform block a lighting shader reads through csm.glsl (std140), and how a CascadeFrame is
+// packed into it. Pure: GLM only, no Vulkan. The GLSL side (shaders/csm.glsl) declares the same
+// block; the static_asserts in gpu_layout.cpp pin every offset so that the two cannot drift.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <cstddef>
+#include <cstdint>
+
+#include "csm/cascades.hpp"
+#include "csm/gpu_shared.h"
+#include "csm/shared_constants.h"
+
+namespace csm {
+
+/// Run-time debug outputs of csm.glsl (values of CSM_DEBUG_* in csm/gpu_shared.h).
+enum class DebugMode : std::uint32_t {
+  kNone = CSM_DEBUG_NONE,
+  kNormal = CSM_DEBUG_NORMAL,
+  kShadowFactor = CSM_DEBUG_SHADOW,
+  kLightCoords = CSM_DEBUG_LIGHT_COORDS,
+  kSampledDepth = CSM_DEBUG_SAMPLED_DEPTH,
+  kDepthDifference = CSM_DEBUG_DEPTH_DIFF,
+  kCascadeTint = CSM_DEBUG_CASCADE,
+};
+
+/// PCF kernels of csm.glsl (values of CSM_KERNEL_* in csm/shared_constants.h); chosen by the
+/// lighting pipeline's specialization constant CSM_SPEC_KERNEL.
+enum class PcfKernel : std::uint32_t {
+  k1Tap = CSM_KERNEL_1TAP,
+  kTent3 = CSM_KERNEL_TENT3,
+  kTent5 = CSM_KERNEL_TENT5,
+  kTent7 = CSM_KERNEL_TENT7,
+  kPoisson16 = CSM_KERNEL_POISSON16,
+};
+
+/// Human-readable kernel name ("tent5x5"), for reports and test names.
+[[nodiscard]] const char* kernelName(PcfKernel kernel) noexcept;
+
+/// How far (in texels of the kernel's own cascade, before kernelScale) a kernel reads from its
+/// centre: the radius the normal offset is scaled by. Mirrors csmKernelRadius() in csm.glsl.
+[[nodiscard]] float kernelRadiusTexels(PcfKernel kernel) noexcept;
+
+/// One cascade as the shader sees it (std140 array element, 96 bytes).
+struct CsmCascadeGpu {
+  /// Camera-relative world position -> shadow clip space (x, y in [-1, 1], z depth in [0, 1]).
+  glm::mat4 viewProjCr{1.0f};
+  /// x: split near (m, view depth), y: split far (m), z: texel size (m), w: kernel scale (tap
+  /// spacing in texels; 1, or texel_0 / texel_i for kernels of constant world size).
+  glm::vec4 splitTexel{0.0f};
+  /// x: view depth where the blend band toward the next cascade starts (m; = y of splitTexel when
+  /// there is no band), y: metres of light-space depth per unit of stored depth, z, w: 0.
+  glm::vec4 depthInfo{0.0f};
+};
+
+/// The whole block (std140, set CSM_SET, binding CSM_BINDING_UNIFORMS in csm.glsl).
+struct CsmUniforms {
+  CsmCascadeGpu cascades[CSM_MAX_CASCADES];
+  /// xyz: camera forward (world axes; camera-relative space shares them), w: shadow far (m).
+  glm::vec4 cameraForward{0.0f, 0.0f, -1.0f, 0.0f};
+  /// xyz: normalised direction the light travels (world axes), w: 0.
+  glm::vec4 lightDirection{0.0f, -1.0f, 0.0f, 0.0f};
+  /// x: blend band (fraction of a cascade's depth range), y: normal offset (texels), z: shadow
+  /// map resolution (texels), w: 1 / resolution.
+  glm::vec4 params{0.0f};
+  /// x: cascade count, y: bit mask of non-empty cascades, z: debug mode (DebugMode), w: 0.
+  glm::uvec4 counts{0u};
+};
+
+/// Per-frame choices that go into the block besides the cascades and the settings.
+struct UniformOptions {
+  /// Run-time debug output of the lighting shader.
+  DebugMode debugMode = DebugMode::kNone;
+  /// Keep the PCF kernel the same size in metres in every cascade (that of cascade 0): tap
+  /// spacing in cascade i becomes texel_0 / texel_i texels. Off: the same size in texels.
+  bool worldSpaceKernel = false;
+};
+
+/// Packs one frame's cascades for the shader. `frame` must come from computeCascades() with the
+/// same `settings` (blend band, normal offset and resolution are taken from `settings`). Empty
+/// and unused cascades are zeroed and left out of the non-empty mask. Never produces NaN.
+[[nodiscard]] CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settings,
+                                       const UniformOptions& options = {}) noexcept;
+
+/// The tint CSM_DEBUG_CASCADE paints cascade `index` with (CSM_TINT_i); black for -1 or out of
+/// range. Tests map a pixel back to its cascade with it.
+[[nodiscard]] glm::vec3 cascadeTint(int index) noexcept;
+
+}  // namespace csm

@@ -1,0 +1,264 @@
+// The Vulkan renderer of the cascades: one depth image with a layer per cascade, the depth pass
+// that fills it, and what a host's lighting shader needs to sample it through csm.glsl.
+//
+// Per frame, in order:
+//   renderer.update(settings, options)           // once, and whenever settings change
+//   frame = csm::computeCascades(...)            // the pure math
+//   csm::cullCasters(casterSet, frame, ..., cull)
+//   renderer.recordShadowPass(cmd, frame, casters, &cull)   // or the callback form
+//   ... host's lighting pass: bind lightingSet() (or its own set) and include csm.glsl
+//
+// The renderer takes the host's Vulkan handles and allocates its own memory (one allocation per
+// resource); it depends on nothing but Vulkan, GLM and csm::core. Not thread-safe: one thread
+// records at a time.
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "csm/cascades.hpp"
+#include "csm/culling.hpp"
+#include "csm/gpu_layout.hpp"
+#include "csm/types.hpp"
+#include "csm/vulkan/status.hpp"
+
+namespace csm::vk {
+
+/// What the host's device is and which of its optional features it enabled (the renderer cannot
+/// query enabled features from a VkDevice, so the host states them).
+struct DeviceInfo {
+  VkPhysicalDevice physicalDevice = VK_NULL_HANDLE;
+  VkDevice device = VK_NULL_HANDLE;
+  /// Queue family whose command buffers record the shadow pass (graphics).
+  std::uint32_t queueFamily = 0;
+  /// Optional pipeline cache the depth pipelines are created through.
+  VkPipelineCache pipelineCache = VK_NULL_HANDLE;
+  /// VkPhysicalDeviceFeatures::depthClamp enabled: casters in front of the light box's near
+  /// plane still write depth (clamped). Without it they are clipped.
+  bool depthClampEnabled = false;
+  /// VkPhysicalDeviceVulkan12Features::shaderOutputLayer enabled: allows RenderMode::kLayered.
+  bool shaderOutputLayerEnabled = false;
+  /// VK_EXT_debug_utils is enabled on the instance: objects get names, the pass gets labels.
+  bool debugUtilsEnabled = false;
+};
+
+/// How the vertex buffers of casters are laid out: the depth pass reads a float3 position.
+struct VertexLayout {
+  /// Bytes from one vertex to the next.
+  std::uint32_t stride = 12;
+  /// Byte offset of the position within a vertex.
+  std::uint32_t positionOffset = 0;
+  /// Format of the position: VK_FORMAT_R32G32B32_SFLOAT (or R32G32B32A32_SFLOAT, w ignored).
+  VkFormat positionFormat = VK_FORMAT_R32G32B32_SFLOAT;
+  /// VK_INDEX_TYPE_UINT32 or VK_INDEX_TYPE_UINT16.
+  VkIndexType indexType = VK_INDEX_TYPE_UINT32;
+};
+
+/// How the cascades are drawn.
+enum class RenderMode {
+  /// One dynamic-rendering pass per non-empty cascade into its layer view.
+  kPerLayer,
+  /// One pass over every layer; each caster is drawn once, instanced into the cascades it was
+  /// culled into, the layer chosen by gl_Layer in the vertex shader. Needs shaderOutputLayer.
+  kLayered,
+  /// The faster on lavapipe (measured by csm_gpu_bench, see README): kPerLayer; kLayered where
+  /// the device lacks nothing for it is not chosen automatically.
+  kAuto,
+};
+
+/// What the renderer builds its resources from (besides csm::ShadowSettings).
+struct RendererOptions {
+  /// VK_FORMAT_D32_SFLOAT (default) or VK_FORMAT_D16_UNORM.
+  VkFormat depthFormat = VK_FORMAT_D32_SFLOAT;
+  /// Face culling of the depth pass (none by default: thin and open casters still cast).
+  VkCullModeFlags cullMode = VK_CULL_MODE_NONE;
+  /// Front face for cullMode.
+  VkFrontFace frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  /// See RenderMode.
+  RenderMode renderMode = RenderMode::kAuto;
+  /// Pipeline stages of the host that sample the shadow map and read the uniform block after the
+  /// pass (the destination of the pass's final barrier, the source of its first one).
+  VkPipelineStageFlags2 consumerStages =
+      VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  /// Shader stages of the lighting descriptor set layout.
+  VkShaderStageFlags consumerShaderStages =
+      VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
+};
+
+/// A range of an index buffer drawn as one caster mesh.
+struct MeshDraw {
+  VkBuffer vertexBuffer = VK_NULL_HANDLE;
+  VkDeviceSize vertexBufferOffset = 0;
+  VkBuffer indexBuffer = VK_NULL_HANDLE;
+  VkDeviceSize indexBufferOffset = 0;
+  std::uint32_t firstIndex = 0;
+  std::uint32_t indexCount = 0;
+  std::int32_t vertexOffset = 0;
+};
+
+/// One shadow caster: a mesh placed in the world. The model transform is `linearWs` (rotation,
+/// scale) then a translation to `translationWs` in double precision; the renderer makes it
+/// camera-relative itself. Its index in the caster list is its index in csm::CasterSet.
+struct CasterInstance {
+  /// Index into the mesh list given with the casters.
+  std::uint32_t mesh = 0;
+  glm::dvec3 translationWs{0.0};
+  glm::mat3 linearWs{1.0f};
+};
+
+/// The caster list of one frame: meshes and their instances.
+struct CasterList {
+  std::span<const MeshDraw> meshes;
+  std::span<const CasterInstance> instances;
+};
+
+/// What a draw callback gets for one cascade: the command buffer inside the cascade's render
+/// pass with the depth pipeline, its descriptor set and the vertex layout bound, ready for the
+/// host's vertex/index buffers and draws.
+struct CascadeDrawContext {
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  std::uint32_t cascade = 0;
+  /// The cascade's list from the CullResult passed in (or nullptr when none was).
+  const std::vector<std::uint32_t>* visible = nullptr;
+  VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
+  /// Camera position of the frame (the origin of camera-relative space).
+  glm::dvec3 cameraPositionWs{0.0};
+
+  /// Sets the model transform of the following draws (pushes the camera-relative matrix).
+  void setTransform(const glm::dvec3& translationWs, const glm::mat3& linearWs) const;
+};
+
+/// Called once per non-empty cascade by the callback form of recordShadowPass.
+using CascadeDrawCallback = std::function<void(const CascadeDrawContext&)>;
+
+/// The shadow renderer. Create with create(); then update() before the first record.
+class ShadowRenderer {
+ public:
+  /// Creates the renderer's device objects that do not depend on settings (pipeline layout,
+  /// descriptor layouts, samplers, uniform buffer). Returns nullptr and fills `status` on error.
+  [[nodiscard]] static std::unique_ptr<ShadowRenderer> create(const DeviceInfo& device,
+                                                              const VertexLayout& layout,
+                                                              Status* status = nullptr);
+  /// Destroys every object. The host must have waited for the GPU to finish using them.
+  ~ShadowRenderer();
+  ShadowRenderer(const ShadowRenderer&) = delete;
+  ShadowRenderer& operator=(const ShadowRenderer&) = delete;
+
+  /// Applies settings and options: validates them, checks them against the device's limits and
+  /// formats, and recreates only what changed (the depth image and its views on resolution,
+  /// cascade count or format; the pipelines on format, cull mode or render mode). When something
+  /// is recreated it waits for the device to be idle first. On error nothing changes.
+  Status update(const ShadowSettings& settings, const RendererOptions& options = {});
+
+  /// Sets what recordShadowPass packs into the uniform block besides the cascades (debug mode,
+  /// world-space kernel). Takes effect at the next record.
+  void setUniformOptions(const UniformOptions& options) noexcept { uniformOptions_ = options; }
+
+  /// Records the shadow pass of `frame` into `cmd` (a primary command buffer of the queue family,
+  /// outside any render pass): uploads the uniform block, then for each non-empty cascade draws
+  /// the casters of `visible->visible[c]` (every caster when `visible` is null), then leaves the
+  /// image in sampledLayout() for `options.consumerStages`. Errors: kWrongOrder before update(),
+  /// kInvalidArgument when the frame's cascade count or resolution differs from the settings,
+  /// kIndexOutOfRange for a visible index or mesh index out of range (nothing is recorded).
+  Status recordShadowPass(VkCommandBuffer cmd, const CascadeFrame& frame, const CasterList& casters,
+                          const CullResult* visible);
+
+  /// The callback form: the same pass, with `draw` called inside each non-empty cascade's render
+  /// pass (always per-layer). `visible` is only handed through to the callback.
+  Status recordShadowPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                          const CascadeDrawCallback& draw, const CullResult* visible = nullptr);
+
+  /// Whether update() succeeded at least once (the renderer can record).
+  [[nodiscard]] bool ready() const noexcept { return image_ != VK_NULL_HANDLE; }
+  /// The 2D-array view over every cascade layer (sampled by csm.glsl).
+  [[nodiscard]] VkImageView arrayView() const noexcept { return arrayView_; }
+  /// The comparison sampler (LESS_OR_EQUAL, linear, clamp to an opaque white border = lit).
+  [[nodiscard]] VkSampler comparisonSampler() const noexcept { return compareSampler_; }
+  /// A plain nearest sampler for reading raw depth (debug outputs, thumbnails).
+  [[nodiscard]] VkSampler depthSampler() const noexcept { return depthSampler_; }
+  /// The layout the image is in after a recorded pass.
+  [[nodiscard]] static constexpr VkImageLayout sampledLayout() noexcept {
+    return VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+  }
+  /// The depth image and its format.
+  [[nodiscard]] VkImage image() const noexcept { return image_; }
+  [[nodiscard]] VkFormat depthFormat() const noexcept { return options_.depthFormat; }
+  /// The render mode in use (kAuto resolved).
+  [[nodiscard]] RenderMode renderMode() const noexcept { return resolvedMode_; }
+  /// The uniform block as packed by the last recordShadowPass (for hosts with their own buffer).
+  [[nodiscard]] const CsmUniforms& uniforms() const noexcept { return uniforms_; }
+  /// The renderer's uniform buffer holding that block (updated inside the recorded pass).
+  [[nodiscard]] VkBuffer uniformBuffer() const noexcept { return uniformBuffer_; }
+
+  /// Descriptor set layout of csm.glsl's resources: CSM_BINDING_UNIFORMS (uniform buffer),
+  /// CSM_BINDING_SHADOW_MAP (comparison sampler + array view), CSM_BINDING_SHADOW_DEPTH (depth
+  /// sampler + array view), visible to options.consumerShaderStages.
+  [[nodiscard]] VkDescriptorSetLayout lightingSetLayout() const noexcept { return lightingLayout_; }
+  /// A descriptor set of that layout owned by the renderer and kept pointing at the current
+  /// resources (rewritten by update() when they are recreated).
+  [[nodiscard]] VkDescriptorSet lightingSet() const noexcept { return lightingSet_; }
+  /// Writes the current resources into a host-allocated set of lightingSetLayout().
+  Status writeLightingSet(VkDescriptorSet set) const;
+
+ private:
+  ShadowRenderer() = default;
+  Status init(const DeviceInfo& device, const VertexLayout& layout);
+  Status createImage(const ShadowSettings& settings, VkFormat format);
+  Status createPipelines(const RendererOptions& options, RenderMode mode);
+  void destroyImage() noexcept;
+  void destroyPipelines() noexcept;
+  Status checkFrame(const CascadeFrame& frame) const;
+  void recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame);
+  void recordEnd(VkCommandBuffer cmd);
+  void beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, std::uint32_t layerCount);
+  void setName(std::uint64_t handle, VkObjectType type, const char* name) const;
+
+  DeviceInfo device_{};
+  VertexLayout layout_{};
+  VkPhysicalDeviceProperties properties_{};
+  VkPhysicalDeviceMemoryProperties memory_{};
+  PFN_vkSetDebugUtilsObjectNameEXT setObjectName_ = nullptr;
+  PFN_vkCmdBeginDebugUtilsLabelEXT beginLabel_ = nullptr;
+  PFN_vkCmdEndDebugUtilsLabelEXT endLabel_ = nullptr;
+
+  ShadowSettings settings_{};
+  RendererOptions options_{};
+  RenderMode resolvedMode_ = RenderMode::kPerLayer;
+  UniformOptions uniformOptions_{};
+  CsmUniforms uniforms_{};
+  bool pipelinesBuilt_ = false;
+
+  // Settings-independent objects.
+  VkDescriptorSetLayout depthSetLayout_ = VK_NULL_HANDLE;
+  VkDescriptorSetLayout lightingLayout_ = VK_NULL_HANDLE;
+  VkPipelineLayout pipelineLayout_ = VK_NULL_HANDLE;
+  VkDescriptorPool pool_ = VK_NULL_HANDLE;
+  VkDescriptorSet depthSet_ = VK_NULL_HANDLE;
+  VkDescriptorSet lightingSet_ = VK_NULL_HANDLE;
+  VkSampler compareSampler_ = VK_NULL_HANDLE;
+  VkSampler depthSampler_ = VK_NULL_HANDLE;
+  VkBuffer uniformBuffer_ = VK_NULL_HANDLE;
+  VkDeviceMemory uniformMemory_ = VK_NULL_HANDLE;
+  VkShaderModule vertexModule_ = VK_NULL_HANDLE;
+  VkShaderModule layeredModule_ = VK_NULL_HANDLE;
+
+  // Settings-dependent objects.
+  VkImage image_ = VK_NULL_HANDLE;
+  VkDeviceMemory imageMemory_ = VK_NULL_HANDLE;
+  VkImageView arrayView_ = VK_NULL_HANDLE;
+  VkImageView layerViews_[kMaxCascades] = {};
+  std::uint32_t layerCount_ = 0;
+  std::uint32_t resolution_ = 0;
+  VkPipeline pipeline_ = VK_NULL_HANDLE;         // per-layer
+  VkPipeline layeredPipeline_ = VK_NULL_HANDLE;  // layered (when supported)
+
+  // Scratch for the layered mode (cascade mask per caster), reused across frames.
+  std::vector<std::uint32_t> casterMasks_;
+};
+
+}  // namespace csm::vk

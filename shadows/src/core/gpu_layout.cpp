@@ -1,0 +1,95 @@
+// Packing of a CascadeFrame into the std140 block that csm.glsl declares.
+#include "csm/gpu_layout.hpp"
+
+#include <cmath>
+
+namespace csm {
+
+// std140 offsets, pinned. csm.glsl declares the same members in the same order; a change here
+// without the same change there (or the reverse) breaks these asserts or the GPU tests.
+static_assert(sizeof(CsmCascadeGpu) == 96);
+static_assert(offsetof(CsmCascadeGpu, viewProjCr) == 0);
+static_assert(offsetof(CsmCascadeGpu, splitTexel) == 64);
+static_assert(offsetof(CsmCascadeGpu, depthInfo) == 80);
+static_assert(offsetof(CsmUniforms, cascades) == 0);
+static_assert(offsetof(CsmUniforms, cameraForward) == 96 * CSM_MAX_CASCADES);
+static_assert(offsetof(CsmUniforms, lightDirection) == 96 * CSM_MAX_CASCADES + 16);
+static_assert(offsetof(CsmUniforms, params) == 96 * CSM_MAX_CASCADES + 32);
+static_assert(offsetof(CsmUniforms, counts) == 96 * CSM_MAX_CASCADES + 48);
+static_assert(sizeof(CsmUniforms) == 96 * CSM_MAX_CASCADES + 64);
+static_assert(sizeof(CsmUniforms) <= 16384, "must fit the minimum maxUniformBufferRange");
+static_assert(sizeof(CsmUniforms) % 4 == 0, "vkCmdUpdateBuffer needs a multiple of 4 bytes");
+static_assert(CSM_MAX_CASCADES <= 32, "the non-empty mask is one 32-bit word");
+
+const char* kernelName(PcfKernel kernel) noexcept {
+  switch (kernel) {
+    case PcfKernel::k1Tap: return "1tap";
+    case PcfKernel::kTent3: return "tent3x3";
+    case PcfKernel::kTent5: return "tent5x5";
+    case PcfKernel::kTent7: return "tent7x7";
+    case PcfKernel::kPoisson16: return "poisson16";
+  }
+  return "unknown";
+}
+
+float kernelRadiusTexels(PcfKernel kernel) noexcept {
+  switch (kernel) {
+    case PcfKernel::k1Tap: return 1.0f;
+    case PcfKernel::kTent3: return 1.5f;
+    case PcfKernel::kTent5: return 2.5f;
+    case PcfKernel::kTent7: return 3.5f;
+    case PcfKernel::kPoisson16: return 2.5f;
+  }
+  return 1.0f;
+}
+
+namespace {
+
+// Finite or zero: nothing that is not finite may reach the GPU.
+float finiteOr0(double v) noexcept { return std::isfinite(v) ? static_cast<float>(v) : 0.0f; }
+
+}  // namespace
+
+CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settings,
+                         const UniformOptions& options) noexcept {
+  CsmUniforms u{};
+  const std::uint32_t count = frame.cascadeCount < kMaxCascades ? frame.cascadeCount : kMaxCascades;
+  const double band = settings.blendBand;
+  const double texel0 = count > 0 ? frame.cascades[0].texelSizeM() : 0.0;
+  std::uint32_t nonEmpty = 0;
+  for (std::uint32_t i = 0; i < count; ++i) {
+    const Cascade& c = frame.cascades[i];
+    if (c.empty) continue;
+    nonEmpty |= 1u << i;
+    CsmCascadeGpu& g = u.cascades[i];
+    const double nearM = frame.splitsM[i];
+    const double farM = frame.splitsM[i + 1];
+    const double texel = c.texelSizeM();
+    double scale = 1.0;
+    if (options.worldSpaceKernel && texel > 0.0 && texel0 > 0.0) scale = texel0 / texel;
+    g.viewProjCr = c.viewProjCr;
+    g.splitTexel = glm::vec4(finiteOr0(nearM), finiteOr0(farM), finiteOr0(texel), finiteOr0(scale));
+    g.depthInfo = glm::vec4(finiteOr0(farM - band * (farM - nearM)),
+                            finiteOr0(c.depthFarLs - c.depthNearLs), 0.0f, 0.0f);
+  }
+  const glm::dvec3 fwd = frame.cameraForwardWs;
+  const glm::dvec3 dir = frame.lightDirectionWs;
+  u.cameraForward = glm::vec4(finiteOr0(fwd.x), finiteOr0(fwd.y), finiteOr0(fwd.z),
+                              finiteOr0(frame.shadowFarM));
+  u.lightDirection = glm::vec4(finiteOr0(dir.x), finiteOr0(dir.y), finiteOr0(dir.z), 0.0f);
+  const double res = frame.resolution > 0 ? frame.resolution : settings.resolution;
+  u.params = glm::vec4(finiteOr0(band), settings.normalOffsetTexels, finiteOr0(res),
+                       res > 0.0 ? finiteOr0(1.0 / res) : 0.0f);
+  u.counts = glm::uvec4(count, nonEmpty, static_cast<std::uint32_t>(options.debugMode), 0u);
+  return u;
+}
+
+glm::vec3 cascadeTint(int index) noexcept {
+  static const glm::vec3 kTints[CSM_MAX_CASCADES] = {
+      glm::vec3(CSM_TINT_0), glm::vec3(CSM_TINT_1), glm::vec3(CSM_TINT_2), glm::vec3(CSM_TINT_3),
+      glm::vec3(CSM_TINT_4), glm::vec3(CSM_TINT_5), glm::vec3(CSM_TINT_6), glm::vec3(CSM_TINT_7)};
+  if (index < 0 || index >= CSM_MAX_CASCADES) return glm::vec3(0.0f);
+  return kTints[index];
+}
+
+}  // namespace csm

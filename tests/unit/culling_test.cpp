@@ -1,0 +1,143 @@
+// Culling drops only what cannot cast into a cascade, and the hierarchy agrees with brute force.
+#include <gtest/gtest.h>
+
+#include "test_util.hpp"
+
+namespace csm {
+namespace {
+
+CascadeFrame makeFrame(const glm::dvec3& camPos, const glm::dvec3& lightDir,
+                       std::uint32_t count = 4) {
+  ShadowSettings s;
+  s.cascadeCount = count;
+  s.resolution = 1024;
+  s.shadowDistanceM = 300.0;
+  Camera cam;
+  cam.positionWs = camPos;
+  cam.orientationWs = test::lookAlong({0.3, -0.2, -1});
+  return test::computeOrDie(s, cam, DirectionalLight{lightDir});
+}
+
+// Independent test of "point inside the extruded light box of cascade c".
+bool pointInExtrudedBox(const CascadeFrame& f, std::uint32_t c, const glm::dvec3& p) {
+  const Cascade& k = f.cascades[c];
+  const glm::dvec3 ls = toLightSpace(f.lightBasisWs, k.boxCenterWs, p);
+  return std::abs(ls.x) <= k.halfExtentLs.x && std::abs(ls.y) <= k.halfExtentLs.y &&
+         ls.z <= k.depthFarLs;
+}
+
+void fillRandomScene(CasterSet& set, std::mt19937_64& rng, const glm::dvec3& around, double extent,
+                     int n) {
+  std::uniform_real_distribution<double> pos(-extent, extent), size(0.05, 20.0);
+  for (int i = 0; i < n; ++i) {
+    const glm::dvec3 c = around + glm::dvec3(pos(rng), pos(rng) * 0.2, pos(rng));
+    if (i % 2 == 0) {
+      ASSERT_TRUE(set.addSphere(c, size(rng)).ok());
+    } else {
+      const glm::dvec3 h(size(rng), size(rng), size(rng));
+      ASSERT_TRUE(set.addBox(c - h, c + h).ok());
+    }
+  }
+}
+
+TEST(Culling, HierarchyMatchesBruteForceAndDropsNothingThatIntersects) {
+  std::mt19937_64 rng(5);
+  for (const glm::dvec3& origin : {glm::dvec3(0, 20, 0), glm::dvec3(1e7, 20, -1e7)}) {
+    for (const glm::dvec3& light :
+         {glm::dvec3(0.3, -1, 0.2), glm::dvec3(0, -1, 0), glm::dvec3(0.3, -0.2, -1)}) {
+      CasterSet set;
+      fillRandomScene(set, rng, origin, 600.0, 4000);
+      set.build();
+      const CascadeFrame f = makeFrame(origin, light);
+      CullResult tree, brute;
+      cullCasters(set, f, 0.0f, tree);
+      cullCastersBruteForce(set, f, 0.0f, brute);
+      std::size_t total = 0;
+      for (std::uint32_t c = 0; c < f.cascadeCount; ++c) {
+        ASSERT_EQ(tree.visible[c], brute.visible[c]) << "cascade " << c;
+        total += tree.visible[c].size();
+        // Independent check: every caster with a sample point inside the extruded box is kept.
+        std::vector<bool> kept(set.size(), false);
+        for (auto i : tree.visible[c]) kept[i] = true;
+        for (std::uint32_t i = 0; i < set.size(); ++i) {
+          const AabbWs b = set.bounds(i);
+          const glm::dvec3 center = 0.5 * (b.minWs + b.maxWs), half = 0.5 * (b.maxWs - b.minWs);
+          bool inside = false;
+          for (int sx = -2; sx <= 2 && !inside; ++sx)
+            for (int sy = -2; sy <= 2 && !inside; ++sy)
+              for (int sz = -2; sz <= 2 && !inside; ++sz) {
+                glm::dvec3 d(sx / 2.0, sy / 2.0, sz / 2.0);
+                if (set.isSphere(i)) {
+                  if (glm::length(d) > 1.0) continue;
+                }
+                inside = pointInExtrudedBox(f, c, center + d * half);
+              }
+          if (inside) {
+            EXPECT_TRUE(kept[i]) << "caster " << i << " dropped from cascade " << c;
+          }
+        }
+      }
+      EXPECT_GT(total, 0u);
+      // The hierarchy visits far fewer casters than brute force does.
+      EXPECT_LT(tree.castersTested, brute.castersTested);
+    }
+  }
+}
+
+TEST(Culling, BehindAndBesideAreDroppedTowardTheLightIsKept) {
+  const glm::dvec3 light(0.0, -1.0, 0.0);
+  const CascadeFrame f = makeFrame({0, 10, 0}, light, 1);
+  const Cascade& k = f.cascades[0];
+  const glm::dmat3& b = f.lightBasisWs;
+  const double h = k.halfExtentLs.x;
+  CasterSet set;
+  const double r = 1.0;
+  // 0: inside; 1: behind the box (beyond its far side); 2: beside it; 3: far toward the light
+  // (a mountain top high above the cascade); 4: beside and toward the light.
+  ASSERT_TRUE(set.addSphere(k.boxCenterWs, r).ok());
+  ASSERT_TRUE(set.addSphere(k.boxCenterWs + b[2] * (k.depthFarLs + 2 * r), r).ok());
+  ASSERT_TRUE(set.addSphere(k.boxCenterWs + b[0] * (h + 2 * r), r).ok());
+  ASSERT_TRUE(set.addSphere(k.boxCenterWs - b[2] * 5000.0, r).ok());
+  ASSERT_TRUE(set.addBox(k.boxCenterWs + b[1] * (h + 3 * r) - b[2] * 100.0 - glm::dvec3(r),
+                         k.boxCenterWs + b[1] * (h + 3 * r) - b[2] * 100.0 + glm::dvec3(r))
+                  .ok());
+  set.build();
+  CullResult out;
+  cullCasters(set, f, 0.0f, out);
+  EXPECT_EQ(out.visible[0], (std::vector<std::uint32_t>{0, 3}));
+}
+
+TEST(Culling, CastersSmallerThanTheThresholdAreDroppedPerCascade) {
+  const CascadeFrame f = makeFrame({0, 10, 0}, {0.2, -1, 0.1}, 4);
+  // A small sphere in the overlap of cascade 0's and cascade 3's boxes.
+  const glm::dvec3 p = f.cascades[0].sphereCenterWs;
+  ASSERT_TRUE(pointInExtrudedBox(f, 3, p));
+  const double texel3 = f.cascades[3].texelSizeM();
+  const double texel0 = f.cascades[0].texelSizeM();
+  ASSERT_LT(texel0 * 8, texel3);
+  CasterSet set;
+  ASSERT_TRUE(set.addSphere(p, 0.5 * texel3).ok());  // one texel of cascade 3, many of cascade 0
+  set.build();
+  CullResult out;
+  cullCasters(set, f, 2.0f, out);
+  EXPECT_EQ(out.visible[0].size(), 1u);
+  EXPECT_EQ(out.visible[3].size(), 0u);
+  cullCasters(set, f, 0.0f, out);  // off
+  EXPECT_EQ(out.visible[3].size(), 1u);
+}
+
+TEST(Culling, EmptyCascadesAndEmptySets) {
+  CasterSet set;
+  set.build();
+  const CascadeFrame f = makeFrame({0, 10, 0}, {0, -1, 0});
+  CullResult out;
+  cullCasters(set, f, 0.0f, out);
+  for (auto& v : out.visible) EXPECT_TRUE(v.empty());
+  ASSERT_TRUE(set.addSphere({0, 0, 0}, 1.0).ok());
+  EXPECT_FALSE(set.built());  // an add invalidates the hierarchy; queries fall back
+  cullCasters(set, f, 0.0f, out);
+  EXPECT_EQ(out.visible[0].size(), 1u);
+}
+
+}  // namespace
+}  // namespace csm

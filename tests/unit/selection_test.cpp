@@ -1,0 +1,64 @@
+#include <gtest/gtest.h>
+
+#include "test_util.hpp"
+
+namespace csm {
+namespace {
+
+TEST(Selection, PicksByViewDepthAndBlendsAcrossTheBand) {
+  ShadowSettings s;
+  s.cascadeCount = 4;
+  s.splitLambda = 0.0;  // uniform splits: easy to reason about
+  s.shadowDistanceM = 400.0;
+  Camera cam;
+  cam.nearM = 0.5;
+  const CascadeFrame f = test::computeOrDie(s, cam, DirectionalLight{});
+  const double band = 0.2;
+  EXPECT_EQ(selectCascade(f, 0.4, band).index, -1);    // before near
+  EXPECT_EQ(selectCascade(f, 400.0, band).index, -1);  // at/after the last split
+  EXPECT_EQ(selectCascade(f, 1e9, band).index, -1);
+  EXPECT_EQ(selectCascade(f, std::nan(""), band).index, -1);
+  for (std::uint32_t i = 0; i < 4; ++i) {
+    const double a = f.splitsM[i], b = f.splitsM[i + 1];
+    const auto mid = selectCascade(f, a + 0.5 * (b - a), band);
+    EXPECT_EQ(mid.index, int(i));
+    EXPECT_EQ(mid.blendIndex, -1);
+    EXPECT_EQ(selectCascade(f, a, band).index, int(i));
+    const auto inBand = selectCascade(f, b - 0.25 * band * (b - a), band);
+    EXPECT_EQ(inBand.index, int(i));
+    if (i + 1 < 4) {
+      EXPECT_EQ(inBand.blendIndex, int(i + 1));
+      EXPECT_NEAR(inBand.blendWeight, 0.75, 1e-6);
+    } else {
+      EXPECT_EQ(inBand.blendIndex, -1);  // nothing beyond the last cascade
+    }
+  }
+  // The weight rises monotonically across the band from 0 to 1.
+  float prev = -1.0f;
+  const double a = f.splitsM[1], b = f.splitsM[2];
+  for (int k = 0; k <= 100; ++k) {
+    const double d = b - band * (b - a) + (band * (b - a)) * k / 100.0 * 0.9999;
+    const auto sel = selectCascade(f, d, band);
+    EXPECT_GE(sel.blendWeight, prev);
+    prev = sel.blendWeight;
+  }
+  EXPECT_GT(prev, 0.99f);
+  // No band: no blending anywhere.
+  EXPECT_EQ(selectCascade(f, b - 1e-3, 0.0).blendIndex, -1);
+}
+
+TEST(Selection, ViewDepthAndEmptyCascades) {
+  ShadowSettings s;
+  Camera cam;
+  cam.positionWs = {1e7, 0, 0};
+  cam.orientationWs = test::lookAlong({1, 0, 0});
+  const AabbWs scene{{1e7 + 100, -5, -5}, {1e7 + 200, 5, 5}};
+  s.shadowDistanceM = 400.0;
+  const CascadeFrame f = test::computeOrDie(s, cam, DirectionalLight{}, &scene);
+  EXPECT_NEAR(viewDepthM(f, {1e7 + 150, 3, 2}), 150.0, 1e-9);
+  EXPECT_TRUE(f.cascades[0].empty);
+  EXPECT_EQ(selectCascade(f, f.splitsM[0] + 1e-3, 0.1).index, -1);
+}
+
+}  // namespace
+}  // namespace csm
