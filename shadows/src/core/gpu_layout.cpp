@@ -23,22 +23,32 @@ static_assert(CSM_MAX_CASCADES <= 32, "the non-empty mask is one 32-bit word");
 
 const char* kernelName(PcfKernel kernel) noexcept {
   switch (kernel) {
-    case PcfKernel::k1Tap: return "1tap";
-    case PcfKernel::kTent3: return "tent3x3";
-    case PcfKernel::kTent5: return "tent5x5";
-    case PcfKernel::kTent7: return "tent7x7";
-    case PcfKernel::kPoisson16: return "poisson16";
+    case PcfKernel::k1Tap:
+      return "1tap";
+    case PcfKernel::kTent3:
+      return "tent3x3";
+    case PcfKernel::kTent5:
+      return "tent5x5";
+    case PcfKernel::kTent7:
+      return "tent7x7";
+    case PcfKernel::kPoisson16:
+      return "poisson16";
   }
   return "unknown";
 }
 
 float kernelRadiusTexels(PcfKernel kernel) noexcept {
   switch (kernel) {
-    case PcfKernel::k1Tap: return 1.0f;
-    case PcfKernel::kTent3: return 1.5f;
-    case PcfKernel::kTent5: return 2.5f;
-    case PcfKernel::kTent7: return 3.5f;
-    case PcfKernel::kPoisson16: return 2.5f;
+    case PcfKernel::k1Tap:
+      return 1.0f;
+    case PcfKernel::kTent3:
+      return 1.5f;
+    case PcfKernel::kTent5:
+      return 2.5f;
+    case PcfKernel::kTent7:
+      return 3.5f;
+    case PcfKernel::kPoisson16:
+      return 2.5f;
   }
   return 1.0f;
 }
@@ -46,7 +56,9 @@ float kernelRadiusTexels(PcfKernel kernel) noexcept {
 namespace {
 
 // Finite or zero: nothing that is not finite may reach the GPU.
-float finiteOr0(double v) noexcept { return std::isfinite(v) ? static_cast<float>(v) : 0.0f; }
+float finiteOr0(double v) noexcept {
+  return std::isfinite(v) ? static_cast<float>(v) : 0.0f;
+}
 
 }  // namespace
 
@@ -74,8 +86,8 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
   }
   const glm::dvec3 fwd = frame.cameraForwardWs;
   const glm::dvec3 dir = frame.lightDirectionWs;
-  u.cameraForward = glm::vec4(finiteOr0(fwd.x), finiteOr0(fwd.y), finiteOr0(fwd.z),
-                              finiteOr0(frame.shadowFarM));
+  u.cameraForward =
+      glm::vec4(finiteOr0(fwd.x), finiteOr0(fwd.y), finiteOr0(fwd.z), finiteOr0(frame.shadowFarM));
   u.lightDirection = glm::vec4(finiteOr0(dir.x), finiteOr0(dir.y), finiteOr0(dir.z), 0.0f);
   const double res = frame.resolution > 0 ? frame.resolution : settings.resolution;
   u.params = glm::vec4(finiteOr0(band), settings.normalOffsetTexels, finiteOr0(res),

@@ -85,9 +85,6 @@ struct RendererOptions {
   /// pass (the destination of the pass's final barrier, the source of its first one).
   VkPipelineStageFlags2 consumerStages =
       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  /// Shader stages of the lighting descriptor set layout.
-  VkShaderStageFlags consumerShaderStages =
-      VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
 };
 
 /// A range of an index buffer drawn as one caster mesh.
@@ -197,7 +194,7 @@ class ShadowRenderer {
 
   /// Descriptor set layout of csm.glsl's resources: CSM_BINDING_UNIFORMS (uniform buffer),
   /// CSM_BINDING_SHADOW_MAP (comparison sampler + array view), CSM_BINDING_SHADOW_DEPTH (depth
-  /// sampler + array view), visible to options.consumerShaderStages.
+  /// sampler + array view), visible to fragment and compute shaders.
   [[nodiscard]] VkDescriptorSetLayout lightingSetLayout() const noexcept { return lightingLayout_; }
   /// A descriptor set of that layout owned by the renderer and kept pointing at the current
   /// resources (rewritten by update() when they are recreated).
@@ -208,14 +205,17 @@ class ShadowRenderer {
  private:
   ShadowRenderer() = default;
   Status init(const DeviceInfo& device, const VertexLayout& layout);
+  Status allocate(const VkMemoryRequirements& req, VkDeviceMemory* memory, const char* name) const;
+  Status checkFormat(VkFormat format) const;
   Status createImage(const ShadowSettings& settings, VkFormat format);
-  Status createPipelines(const RendererOptions& options, RenderMode mode);
+  Status createPipelines(VkFormat format);
   void destroyImage() noexcept;
   void destroyPipelines() noexcept;
   Status checkFrame(const CascadeFrame& frame) const;
   void recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame);
   void recordEnd(VkCommandBuffer cmd);
   void beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, std::uint32_t layerCount);
+  void endLayer(VkCommandBuffer cmd);
   void setName(std::uint64_t handle, VkObjectType type, const char* name) const;
 
   DeviceInfo device_{};

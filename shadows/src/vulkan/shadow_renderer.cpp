@@ -1,0 +1,848 @@
+// The cascades' depth image, the depth pass and the lighting descriptors.
+#include "csm/vulkan/shadow_renderer.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cstdio>
+#include <string>
+
+#include <csm_shaders/csm_depth.vert.spv.h>
+#include <csm_shaders/csm_depth_layered.vert.spv.h>
+
+namespace csm::vk {
+
+namespace {
+
+static_assert(CSM_DEPTH_PUSH_SIZE == sizeof(glm::mat4) + sizeof(std::uint32_t));
+
+/// The depth pass's push constants (csm_depth.vert, csm_depth_layered.vert).
+struct DepthPush {
+  glm::mat4 modelCr;
+  std::uint32_t cascadeOrMask;
+};
+static_assert(offsetof(DepthPush, cascadeOrMask) == 64);
+
+/// A zeroed Vulkan struct with its sType (and pNext) set.
+template <class T>
+T vkInit(VkStructureType type, void* next = nullptr) {
+  T value{};
+  value.sType = type;
+  value.pNext = next;
+  return value;
+}
+
+template <class T>
+std::uint64_t handleBits(T handle) {
+  return (std::uint64_t)(handle);  // NOLINT: handles are pointers or 64-bit integers
+}
+
+Status vkError(VkResult r, const char* what) {
+  return Status(ErrorCode::kVulkan, std::string(what) + " failed: VkResult " + std::to_string(r),
+                r);
+}
+
+#define CSM_VK_TRY(call)                                             \
+  do {                                                               \
+    const VkResult csmResult_ = (call);                              \
+    if (csmResult_ != VK_SUCCESS) return vkError(csmResult_, #call); \
+  } while (false)
+
+glm::mat4 modelCameraRelative(const glm::dvec3& translationWs, const glm::mat3& linearWs,
+                              const glm::dvec3& cameraWs) {
+  glm::mat4 m(linearWs);
+  m[3] = glm::vec4(glm::vec3(translationWs - cameraWs), 1.0f);
+  return m;
+}
+
+std::string fmt(const char* format, auto... args) {
+  char buf[512];
+  std::snprintf(buf, sizeof(buf), format, args...);
+  return buf;
+}
+
+}  // namespace
+
+const char* errorCodeName(ErrorCode code) noexcept {
+  switch (code) {
+    case ErrorCode::kOk:
+      return "ok";
+    case ErrorCode::kWrongOrder:
+      return "wrong order";
+    case ErrorCode::kInvalidArgument:
+      return "invalid argument";
+    case ErrorCode::kIndexOutOfRange:
+      return "index out of range";
+    case ErrorCode::kDeviceLimit:
+      return "device limit";
+    case ErrorCode::kUnsupportedFormat:
+      return "unsupported format";
+    case ErrorCode::kVulkan:
+      return "Vulkan error";
+  }
+  return "unknown";
+}
+
+void CascadeDrawContext::setTransform(const glm::dvec3& translationWs,
+                                      const glm::mat3& linearWs) const {
+  DepthPush push{modelCameraRelative(translationWs, linearWs, cameraPositionWs), cascade};
+  vkCmdPushConstants(cmd, pipelineLayout, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
+                     &push);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Creation and destruction
+
+std::unique_ptr<ShadowRenderer> ShadowRenderer::create(const DeviceInfo& device,
+                                                       const VertexLayout& layout, Status* status) {
+  std::unique_ptr<ShadowRenderer> r(new ShadowRenderer());
+  Status s = r->init(device, layout);
+  if (status) *status = s;
+  if (!s.ok()) return nullptr;
+  return r;
+}
+
+void ShadowRenderer::setName(std::uint64_t handle, VkObjectType type, const char* name) const {
+  if (!setObjectName_ || handle == 0) return;
+  auto info =
+      vkInit<VkDebugUtilsObjectNameInfoEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT);
+  info.objectType = type;
+  info.objectHandle = handle;
+  info.pObjectName = name;
+  (void)setObjectName_(device_.device, &info);  // naming is best effort; never fails a call
+}
+
+Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout) {
+  if (device.physicalDevice == VK_NULL_HANDLE || device.device == VK_NULL_HANDLE) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "DeviceInfo: physicalDevice and device are required");
+  }
+  if (layout.stride == 0 || layout.positionOffset + 12 > layout.stride ||
+      (layout.positionFormat != VK_FORMAT_R32G32B32_SFLOAT &&
+       layout.positionFormat != VK_FORMAT_R32G32B32A32_SFLOAT) ||
+      (layout.indexType != VK_INDEX_TYPE_UINT32 && layout.indexType != VK_INDEX_TYPE_UINT16)) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("VertexLayout: stride %u, positionOffset %u, format %d, index type %d is "
+                      "invalid: allowed a float3/float4 position inside the stride and a "
+                      "16/32-bit index type",
+                      layout.stride, layout.positionOffset, int(layout.positionFormat),
+                      int(layout.indexType)));
+  }
+  device_ = device;
+  layout_ = layout;
+  VkDevice dev = device.device;
+  vkGetPhysicalDeviceProperties(device.physicalDevice, &properties_);
+  vkGetPhysicalDeviceMemoryProperties(device.physicalDevice, &memory_);
+  if (device.debugUtilsEnabled) {
+    setObjectName_ = reinterpret_cast<PFN_vkSetDebugUtilsObjectNameEXT>(
+        vkGetDeviceProcAddr(dev, "vkSetDebugUtilsObjectNameEXT"));
+    beginLabel_ = reinterpret_cast<PFN_vkCmdBeginDebugUtilsLabelEXT>(
+        vkGetDeviceProcAddr(dev, "vkCmdBeginDebugUtilsLabelEXT"));
+    endLabel_ = reinterpret_cast<PFN_vkCmdEndDebugUtilsLabelEXT>(
+        vkGetDeviceProcAddr(dev, "vkCmdEndDebugUtilsLabelEXT"));
+  }
+
+  // Descriptor set layouts: the depth pass reads the uniform block; the lighting pass reads the
+  // block and the map through both samplers.
+  {
+    VkDescriptorSetLayoutBinding b{};
+    b.binding = CSM_BINDING_UNIFORMS;
+    b.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    b.descriptorCount = 1;
+    b.stageFlags = VK_SHADER_STAGE_VERTEX_BIT;
+    auto ci = vkInit<VkDescriptorSetLayoutCreateInfo>(
+        VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+    ci.bindingCount = 1;
+    ci.pBindings = &b;
+    CSM_VK_TRY(vkCreateDescriptorSetLayout(dev, &ci, nullptr, &depthSetLayout_));
+    setName(handleBits(depthSetLayout_), VK_OBJECT_TYPE_DESCRIPTOR_SET_LAYOUT,
+            "csm depth set layout");
+  }
+  {
+    const VkShaderStageFlags stages = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
+    VkDescriptorSetLayoutBinding b[3]{};
+    b[0] = {CSM_BINDING_UNIFORMS, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, stages, nullptr};
+    b[1] = {CSM_BINDING_SHADOW_MAP, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, stages, nullptr};
+    b[2] = {CSM_BINDING_SHADOW_DEPTH, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, stages,
+            nullptr};
+    auto ci = vkInit<VkDescriptorSetLayoutCreateInfo>(
+        VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+    ci.bindingCount = 3;
+    ci.pBindings = b;
+    CSM_VK_TRY(vkCreateDescriptorSetLayout(dev, &ci, nullptr, &lightingLayout_));
+    setName(handleBits(lightingLayout_), VK_OBJECT_TYPE_DESCRIPTOR_SET_LAYOUT,
+            "csm lighting set layout");
+  }
+  {
+    VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE};
+    auto ci = vkInit<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+    ci.setLayoutCount = 1;
+    ci.pSetLayouts = &depthSetLayout_;
+    ci.pushConstantRangeCount = 1;
+    ci.pPushConstantRanges = &range;
+    CSM_VK_TRY(vkCreatePipelineLayout(dev, &ci, nullptr, &pipelineLayout_));
+    setName(handleBits(pipelineLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT,
+            "csm depth pipeline layout");
+  }
+  {
+    VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2},
+                                     {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2}};
+    auto ci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+    ci.maxSets = 2;
+    ci.poolSizeCount = 2;
+    ci.pPoolSizes = sizes;
+    CSM_VK_TRY(vkCreateDescriptorPool(dev, &ci, nullptr, &pool_));
+    setName(handleBits(pool_), VK_OBJECT_TYPE_DESCRIPTOR_POOL, "csm descriptor pool");
+    VkDescriptorSetLayout layouts[2] = {depthSetLayout_, lightingLayout_};
+    VkDescriptorSet sets[2]{};
+    auto ai = vkInit<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+    ai.descriptorPool = pool_;
+    ai.descriptorSetCount = 2;
+    ai.pSetLayouts = layouts;
+    CSM_VK_TRY(vkAllocateDescriptorSets(dev, &ai, sets));
+    depthSet_ = sets[0];
+    lightingSet_ = sets[1];
+    setName(handleBits(depthSet_), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm depth set");
+    setName(handleBits(lightingSet_), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm lighting set");
+  }
+  {
+    auto ci = vkInit<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
+    ci.magFilter = VK_FILTER_LINEAR;
+    ci.minFilter = VK_FILTER_LINEAR;
+    ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+    ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
+    ci.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
+    ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    ci.compareEnable = VK_TRUE;
+    ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+    ci.minLod = 0.0f;
+    ci.maxLod = 0.0f;
+    // Outside the map reads as the far plane: every receiver compares lit.
+    ci.borderColor = VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE;
+    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &compareSampler_));
+    setName(handleBits(compareSampler_), VK_OBJECT_TYPE_SAMPLER, "csm comparison sampler");
+    ci.magFilter = VK_FILTER_NEAREST;
+    ci.minFilter = VK_FILTER_NEAREST;
+    ci.compareEnable = VK_FALSE;
+    ci.compareOp = VK_COMPARE_OP_ALWAYS;
+    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &depthSampler_));
+    setName(handleBits(depthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler");
+  }
+  {
+    auto ci = vkInit<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
+    ci.size = sizeof(CsmUniforms);
+    ci.usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    CSM_VK_TRY(vkCreateBuffer(dev, &ci, nullptr, &uniformBuffer_));
+    setName(handleBits(uniformBuffer_), VK_OBJECT_TYPE_BUFFER, "csm uniforms");
+    VkMemoryRequirements req{};
+    vkGetBufferMemoryRequirements(dev, uniformBuffer_, &req);
+    Status s = allocate(req, &uniformMemory_, "csm uniforms memory");
+    if (!s.ok()) return s;
+    CSM_VK_TRY(vkBindBufferMemory(dev, uniformBuffer_, uniformMemory_, 0));
+    VkDescriptorBufferInfo bi{uniformBuffer_, 0, sizeof(CsmUniforms)};
+    VkWriteDescriptorSet w[2]{};
+    for (int i = 0; i < 2; ++i) {
+      w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+      w[i].dstSet = i == 0 ? depthSet_ : lightingSet_;
+      w[i].dstBinding = CSM_BINDING_UNIFORMS;
+      w[i].descriptorCount = 1;
+      w[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+      w[i].pBufferInfo = &bi;
+    }
+    vkUpdateDescriptorSets(dev, 2, w, 0, nullptr);
+  }
+  {
+    auto ci = vkInit<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
+    ci.codeSize = sizeof(csm_depth_vert_spv);
+    ci.pCode = csm_depth_vert_spv;
+    CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &vertexModule_));
+    setName(handleBits(vertexModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth.vert");
+    if (device.shaderOutputLayerEnabled) {
+      ci.codeSize = sizeof(csm_depth_layered_vert_spv);
+      ci.pCode = csm_depth_layered_vert_spv;
+      CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &layeredModule_));
+      setName(handleBits(layeredModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth_layered.vert");
+    }
+  }
+  return {};
+}
+
+Status ShadowRenderer::allocate(const VkMemoryRequirements& req, VkDeviceMemory* memory,
+                                const char* name) const {
+  // Device-local when there is such a type that fits, else any type that fits.
+  std::uint32_t type = UINT32_MAX;
+  for (int pass = 0; pass < 2 && type == UINT32_MAX; ++pass) {
+    for (std::uint32_t i = 0; i < memory_.memoryTypeCount; ++i) {
+      const bool fits = (req.memoryTypeBits & (1u << i)) != 0;
+      const bool local =
+          (memory_.memoryTypes[i].propertyFlags & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT) != 0;
+      if (fits && (local || pass == 1)) {
+        type = i;
+        break;
+      }
+    }
+  }
+  if (type == UINT32_MAX) {
+    return Status(ErrorCode::kVulkan, std::string(name) + ": no memory type fits",
+                  VK_ERROR_OUT_OF_DEVICE_MEMORY);
+  }
+  auto ai = vkInit<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
+  ai.allocationSize = req.size;
+  ai.memoryTypeIndex = type;
+  CSM_VK_TRY(vkAllocateMemory(device_.device, &ai, nullptr, memory));
+  setName(handleBits(*memory), VK_OBJECT_TYPE_DEVICE_MEMORY, name);
+  return {};
+}
+
+ShadowRenderer::~ShadowRenderer() {
+  VkDevice dev = device_.device;
+  if (dev == VK_NULL_HANDLE) return;
+  destroyPipelines();
+  destroyImage();
+  vkDestroyShaderModule(dev, vertexModule_, nullptr);
+  vkDestroyShaderModule(dev, layeredModule_, nullptr);
+  vkDestroyBuffer(dev, uniformBuffer_, nullptr);
+  vkFreeMemory(dev, uniformMemory_, nullptr);
+  vkDestroySampler(dev, compareSampler_, nullptr);
+  vkDestroySampler(dev, depthSampler_, nullptr);
+  vkDestroyDescriptorPool(dev, pool_, nullptr);
+  vkDestroyPipelineLayout(dev, pipelineLayout_, nullptr);
+  vkDestroyDescriptorSetLayout(dev, depthSetLayout_, nullptr);
+  vkDestroyDescriptorSetLayout(dev, lightingLayout_, nullptr);
+}
+
+void ShadowRenderer::destroyImage() noexcept {
+  VkDevice dev = device_.device;
+  for (VkImageView& v : layerViews_) {
+    vkDestroyImageView(dev, v, nullptr);
+    v = VK_NULL_HANDLE;
+  }
+  vkDestroyImageView(dev, arrayView_, nullptr);
+  vkDestroyImage(dev, image_, nullptr);
+  vkFreeMemory(dev, imageMemory_, nullptr);
+  arrayView_ = VK_NULL_HANDLE;
+  image_ = VK_NULL_HANDLE;
+  imageMemory_ = VK_NULL_HANDLE;
+  layerCount_ = 0;
+  resolution_ = 0;
+}
+
+void ShadowRenderer::destroyPipelines() noexcept {
+  vkDestroyPipeline(device_.device, pipeline_, nullptr);
+  vkDestroyPipeline(device_.device, layeredPipeline_, nullptr);
+  pipeline_ = VK_NULL_HANDLE;
+  layeredPipeline_ = VK_NULL_HANDLE;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Settings
+
+Status ShadowRenderer::checkFormat(VkFormat format) const {
+  if (format != VK_FORMAT_D32_SFLOAT && format != VK_FORMAT_D16_UNORM) {
+    return Status(ErrorCode::kUnsupportedFormat,
+                  fmt("options.depthFormat = %d is invalid: allowed VK_FORMAT_D32_SFLOAT (%d) or "
+                      "VK_FORMAT_D16_UNORM (%d)",
+                      int(format), int(VK_FORMAT_D32_SFLOAT), int(VK_FORMAT_D16_UNORM)));
+  }
+  auto props3 = vkInit<VkFormatProperties3>(VK_STRUCTURE_TYPE_FORMAT_PROPERTIES_3);
+  auto props = vkInit<VkFormatProperties2>(VK_STRUCTURE_TYPE_FORMAT_PROPERTIES_2, &props3);
+  vkGetPhysicalDeviceFormatProperties2(device_.physicalDevice, format, &props);
+  const VkFormatFeatureFlags2 need = VK_FORMAT_FEATURE_2_DEPTH_STENCIL_ATTACHMENT_BIT |
+                                     VK_FORMAT_FEATURE_2_SAMPLED_IMAGE_BIT |
+                                     VK_FORMAT_FEATURE_2_SAMPLED_IMAGE_FILTER_LINEAR_BIT |
+                                     VK_FORMAT_FEATURE_2_SAMPLED_IMAGE_DEPTH_COMPARISON_BIT;
+  if ((props3.optimalTilingFeatures & need) != need) {
+    return Status(ErrorCode::kUnsupportedFormat,
+                  fmt("options.depthFormat = %d is not supported by this device for depth "
+                      "attachment + linear comparison sampling",
+                      int(format)));
+  }
+  return {};
+}
+
+Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOptions& options) {
+  if (auto e = csm::validate(settings)) {
+    return Status(ErrorCode::kInvalidArgument, e->message());
+  }
+  Status s = checkFormat(options.depthFormat);
+  if (!s.ok()) return s;
+  const VkPhysicalDeviceLimits& lim = properties_.limits;
+  const std::uint32_t maxSide =
+      std::min({lim.maxImageDimension2D, lim.maxFramebufferWidth, lim.maxFramebufferHeight,
+                lim.maxViewportDimensions[0], lim.maxViewportDimensions[1]});
+  if (settings.resolution > maxSide) {
+    return Status(ErrorCode::kDeviceLimit,
+                  fmt("settings.resolution = %u is invalid: this device allows at most %u",
+                      settings.resolution, maxSide));
+  }
+  if (settings.cascadeCount > lim.maxImageArrayLayers) {
+    return Status(ErrorCode::kDeviceLimit,
+                  fmt("settings.cascadeCount = %u is invalid: this device allows at most %u layers",
+                      settings.cascadeCount, lim.maxImageArrayLayers));
+  }
+  RenderMode mode = options.renderMode;
+  if (mode == RenderMode::kAuto) mode = RenderMode::kPerLayer;
+  if (mode == RenderMode::kLayered) {
+    if (!device_.shaderOutputLayerEnabled) {
+      return Status(ErrorCode::kInvalidArgument,
+                    "options.renderMode = kLayered needs shaderOutputLayer "
+                    "(DeviceInfo::shaderOutputLayerEnabled)");
+    }
+    if (settings.cascadeCount > lim.maxFramebufferLayers) {
+      return Status(ErrorCode::kDeviceLimit,
+                    fmt("settings.cascadeCount = %u is invalid for kLayered: this device allows "
+                        "at most %u framebuffer layers",
+                        settings.cascadeCount, lim.maxFramebufferLayers));
+    }
+  }
+  if ((options.cullMode & ~VkCullModeFlags(VK_CULL_MODE_FRONT_AND_BACK)) != 0) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("options.cullMode = %u is invalid: allowed VK_CULL_MODE_* flags",
+                      unsigned(options.cullMode)));
+  }
+
+  const bool newImage = image_ == VK_NULL_HANDLE || settings.resolution != resolution_ ||
+                        settings.cascadeCount != layerCount_ ||
+                        options.depthFormat != options_.depthFormat;
+  const bool newPipelines = !pipelinesBuilt_ || options.depthFormat != options_.depthFormat;
+  if ((newImage && image_ != VK_NULL_HANDLE) || (newPipelines && pipelinesBuilt_)) {
+    CSM_VK_TRY(vkDeviceWaitIdle(device_.device));
+  }
+  if (newPipelines) {
+    s = createPipelines(options.depthFormat);
+    if (!s.ok()) return s;
+  }
+  if (newImage) {
+    s = createImage(settings, options.depthFormat);
+    if (!s.ok()) return s;
+  }
+  settings_ = settings;
+  options_ = options;
+  resolvedMode_ = mode;
+  return {};
+}
+
+Status ShadowRenderer::createImage(const ShadowSettings& settings, VkFormat format) {
+  VkDevice dev = device_.device;
+  VkImage image = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkImageView arrayView = VK_NULL_HANDLE;
+  VkImageView layerViews[kMaxCascades] = {};
+  auto cleanup = [&] {
+    for (VkImageView v : layerViews) vkDestroyImageView(dev, v, nullptr);
+    vkDestroyImageView(dev, arrayView, nullptr);
+    vkDestroyImage(dev, image, nullptr);
+    vkFreeMemory(dev, memory, nullptr);
+  };
+  auto fail = [&](Status st) {
+    cleanup();
+    return st;
+  };
+
+  auto ci = vkInit<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
+  ci.imageType = VK_IMAGE_TYPE_2D;
+  ci.format = format;
+  ci.extent = {settings.resolution, settings.resolution, 1};
+  ci.mipLevels = 1;
+  ci.arrayLayers = settings.cascadeCount;
+  ci.samples = VK_SAMPLE_COUNT_1_BIT;
+  ci.tiling = VK_IMAGE_TILING_OPTIMAL;
+  ci.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+  ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  ci.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  VkResult r = vkCreateImage(dev, &ci, nullptr, &image);
+  if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImage(shadow map)"));
+  setName(handleBits(image), VK_OBJECT_TYPE_IMAGE, "csm shadow map");
+  VkMemoryRequirements req{};
+  vkGetImageMemoryRequirements(dev, image, &req);
+  Status s = allocate(req, &memory, "csm shadow map memory");
+  if (!s.ok()) return fail(s);
+  r = vkBindImageMemory(dev, image, memory, 0);
+  if (r != VK_SUCCESS) return fail(vkError(r, "vkBindImageMemory(shadow map)"));
+
+  auto vi = vkInit<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
+  vi.image = image;
+  vi.viewType = VK_IMAGE_VIEW_TYPE_2D_ARRAY;
+  vi.format = format;
+  vi.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, settings.cascadeCount};
+  r = vkCreateImageView(dev, &vi, nullptr, &arrayView);
+  if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImageView(shadow map array)"));
+  setName(handleBits(arrayView), VK_OBJECT_TYPE_IMAGE_VIEW, "csm shadow map array view");
+  for (std::uint32_t i = 0; i < settings.cascadeCount; ++i) {
+    vi.viewType = VK_IMAGE_VIEW_TYPE_2D;
+    vi.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, i, 1};
+    r = vkCreateImageView(dev, &vi, nullptr, &layerViews[i]);
+    if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImageView(shadow map layer)"));
+    const std::string name = "csm shadow map layer " + std::to_string(i);
+    setName(handleBits(layerViews[i]), VK_OBJECT_TYPE_IMAGE_VIEW, name.c_str());
+  }
+
+  destroyImage();
+  image_ = image;
+  imageMemory_ = memory;
+  arrayView_ = arrayView;
+  std::copy(std::begin(layerViews), std::end(layerViews), std::begin(layerViews_));
+  layerCount_ = settings.cascadeCount;
+  resolution_ = settings.resolution;
+  return writeLightingSet(lightingSet_);
+}
+
+Status ShadowRenderer::createPipelines(VkFormat format) {
+  VkPipeline pipes[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
+  for (int layered = 0; layered < 2; ++layered) {
+    if (layered == 1 && layeredModule_ == VK_NULL_HANDLE) break;
+    auto stage = vkInit<VkPipelineShaderStageCreateInfo>(
+        VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
+    stage.stage = VK_SHADER_STAGE_VERTEX_BIT;
+    stage.module = layered ? layeredModule_ : vertexModule_;
+    stage.pName = "main";
+    VkVertexInputBindingDescription binding{0, layout_.stride, VK_VERTEX_INPUT_RATE_VERTEX};
+    VkVertexInputAttributeDescription attr{0, 0, layout_.positionFormat, layout_.positionOffset};
+    auto vin = vkInit<VkPipelineVertexInputStateCreateInfo>(
+        VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
+    vin.vertexBindingDescriptionCount = 1;
+    vin.pVertexBindingDescriptions = &binding;
+    vin.vertexAttributeDescriptionCount = 1;
+    vin.pVertexAttributeDescriptions = &attr;
+    auto ia = vkInit<VkPipelineInputAssemblyStateCreateInfo>(
+        VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
+    ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+    auto vp = vkInit<VkPipelineViewportStateCreateInfo>(
+        VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO);
+    vp.viewportCount = 1;
+    vp.scissorCount = 1;
+    auto rs = vkInit<VkPipelineRasterizationStateCreateInfo>(
+        VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO);
+    rs.depthClampEnable = device_.depthClampEnabled ? VK_TRUE : VK_FALSE;
+    rs.polygonMode = VK_POLYGON_MODE_FILL;
+    rs.depthBiasEnable = VK_TRUE;
+    rs.lineWidth = 1.0f;
+    auto ms = vkInit<VkPipelineMultisampleStateCreateInfo>(
+        VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
+    ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+    auto ds = vkInit<VkPipelineDepthStencilStateCreateInfo>(
+        VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
+    ds.depthTestEnable = VK_TRUE;
+    ds.depthWriteEnable = VK_TRUE;
+    ds.depthCompareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+    auto cb = vkInit<VkPipelineColorBlendStateCreateInfo>(
+        VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
+    const VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR,
+                                  VK_DYNAMIC_STATE_DEPTH_BIAS, VK_DYNAMIC_STATE_CULL_MODE,
+                                  VK_DYNAMIC_STATE_FRONT_FACE};
+    auto dy = vkInit<VkPipelineDynamicStateCreateInfo>(
+        VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO);
+    dy.dynamicStateCount = static_cast<std::uint32_t>(std::size(dyn));
+    dy.pDynamicStates = dyn;
+    auto rendering =
+        vkInit<VkPipelineRenderingCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO);
+    rendering.depthAttachmentFormat = format;
+    auto ci = vkInit<VkGraphicsPipelineCreateInfo>(VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO,
+                                                   &rendering);
+    ci.stageCount = 1;
+    ci.pStages = &stage;
+    ci.pVertexInputState = &vin;
+    ci.pInputAssemblyState = &ia;
+    ci.pViewportState = &vp;
+    ci.pRasterizationState = &rs;
+    ci.pMultisampleState = &ms;
+    ci.pDepthStencilState = &ds;
+    ci.pColorBlendState = &cb;
+    ci.pDynamicState = &dy;
+    ci.layout = pipelineLayout_;
+    const VkResult r = vkCreateGraphicsPipelines(device_.device, device_.pipelineCache, 1, &ci,
+                                                 nullptr, &pipes[layered]);
+    if (r != VK_SUCCESS) {
+      vkDestroyPipeline(device_.device, pipes[0], nullptr);
+      return vkError(r, "vkCreateGraphicsPipelines(csm depth)");
+    }
+    setName(handleBits(pipes[layered]), VK_OBJECT_TYPE_PIPELINE,
+            layered ? "csm depth pipeline (layered)" : "csm depth pipeline");
+  }
+  destroyPipelines();
+  pipeline_ = pipes[0];
+  layeredPipeline_ = pipes[1];
+  pipelinesBuilt_ = true;
+  return {};
+}
+
+Status ShadowRenderer::writeLightingSet(VkDescriptorSet set) const {
+  if (image_ == VK_NULL_HANDLE) {
+    return Status(ErrorCode::kWrongOrder, "writeLightingSet before a successful update()");
+  }
+  if (set == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "set is VK_NULL_HANDLE");
+  VkDescriptorBufferInfo bi{uniformBuffer_, 0, sizeof(CsmUniforms)};
+  VkDescriptorImageInfo compare{compareSampler_, arrayView_, sampledLayout()};
+  VkDescriptorImageInfo depth{depthSampler_, arrayView_, sampledLayout()};
+  VkWriteDescriptorSet w[3]{};
+  for (auto& x : w) {
+    x.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    x.dstSet = set;
+    x.descriptorCount = 1;
+  }
+  w[0].dstBinding = CSM_BINDING_UNIFORMS;
+  w[0].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  w[0].pBufferInfo = &bi;
+  w[1].dstBinding = CSM_BINDING_SHADOW_MAP;
+  w[1].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  w[1].pImageInfo = &compare;
+  w[2].dstBinding = CSM_BINDING_SHADOW_DEPTH;
+  w[2].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  w[2].pImageInfo = &depth;
+  vkUpdateDescriptorSets(device_.device, 3, w, 0, nullptr);
+  return {};
+}
+
+// ---------------------------------------------------------------------------------------------
+// The pass. Its resources: the depth image (all layers) written as a depth attachment through
+// the per-layer views (or the array view when layered), the uniform buffer written by
+// vkCmdUpdateBuffer; its barriers: consumers' reads -> transfer/attachment writes at the start,
+// attachment/transfer writes -> consumers' reads (SHADER_READ_ONLY_OPTIMAL) at the end.
+
+Status ShadowRenderer::checkFrame(const CascadeFrame& frame) const {
+  if (image_ == VK_NULL_HANDLE) {
+    return Status(ErrorCode::kWrongOrder, "recordShadowPass before a successful update()");
+  }
+  if (frame.cascadeCount != settings_.cascadeCount || frame.resolution != settings_.resolution) {
+    return Status(
+        ErrorCode::kInvalidArgument,
+        fmt("frame has %u cascades of %u texels but the renderer was updated with %u of "
+            "%u: compute the frame with the settings given to update()",
+            frame.cascadeCount, frame.resolution, settings_.cascadeCount, settings_.resolution));
+  }
+  return {};
+}
+
+void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame) {
+  uniforms_ = packUniforms(frame, settings_, uniformOptions_);
+  if (beginLabel_) {
+    auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
+    label.pLabelName = "csm shadow pass";
+    label.color[0] = 0.3f;
+    label.color[1] = 0.3f;
+    label.color[2] = 0.8f;
+    label.color[3] = 1.0f;
+    beginLabel_(cmd, &label);
+  }
+  const VkPipelineStageFlags2 readers =
+      options_.consumerStages | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT;
+
+  // Earlier readers of the uniform block finish before it is overwritten (write after read);
+  // earlier samplers of the map finish before it is discarded and rendered again.
+  auto toWrite = vkInit<VkBufferMemoryBarrier2>(VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2);
+  toWrite.srcStageMask = readers;
+  toWrite.srcAccessMask = VK_ACCESS_2_NONE;
+  toWrite.dstStageMask = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
+  toWrite.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  toWrite.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toWrite.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toWrite.buffer = uniformBuffer_;
+  toWrite.size = VK_WHOLE_SIZE;
+  auto toAttachment = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
+  toAttachment.srcStageMask = options_.consumerStages;
+  toAttachment.srcAccessMask = VK_ACCESS_2_NONE;
+  toAttachment.dstStageMask =
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+  toAttachment.dstAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+                               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  toAttachment.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;  // the previous frame's depth is not kept
+  toAttachment.newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  toAttachment.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toAttachment.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toAttachment.image = image_;
+  toAttachment.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
+  auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
+  dep.bufferMemoryBarrierCount = 1;
+  dep.pBufferMemoryBarriers = &toWrite;
+  dep.imageMemoryBarrierCount = 1;
+  dep.pImageMemoryBarriers = &toAttachment;
+  vkCmdPipelineBarrier2(cmd, &dep);
+
+  vkCmdUpdateBuffer(cmd, uniformBuffer_, 0, sizeof(CsmUniforms), &uniforms_);
+
+  VkBufferMemoryBarrier2 toRead = toWrite;
+  toRead.srcStageMask = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
+  toRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  toRead.dstStageMask = readers;
+  toRead.dstAccessMask = VK_ACCESS_2_UNIFORM_READ_BIT;
+  auto dep2 = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
+  dep2.bufferMemoryBarrierCount = 1;
+  dep2.pBufferMemoryBarriers = &toRead;
+  vkCmdPipelineBarrier2(cmd, &dep2);
+}
+
+void ShadowRenderer::recordEnd(VkCommandBuffer cmd) {
+  auto toSampled = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
+  toSampled.srcStageMask =
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+  toSampled.srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  toSampled.dstStageMask = options_.consumerStages;
+  toSampled.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
+  toSampled.oldLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  toSampled.newLayout = sampledLayout();
+  toSampled.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toSampled.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toSampled.image = image_;
+  toSampled.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
+  auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
+  dep.imageMemoryBarrierCount = 1;
+  dep.pImageMemoryBarriers = &toSampled;
+  vkCmdPipelineBarrier2(cmd, &dep);
+  if (endLabel_) endLabel_(cmd);
+}
+
+void ShadowRenderer::beginLayer(VkCommandBuffer cmd, std::uint32_t cascade,
+                                std::uint32_t layerCount) {
+  if (beginLabel_) {
+    const std::string name = layerCount > 1 ? std::string("csm cascades (layered)")
+                                            : "csm cascade " + std::to_string(cascade);
+    auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
+    label.pLabelName = name.c_str();
+    beginLabel_(cmd, &label);
+  }
+  auto depth = vkInit<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+  depth.imageView = layerCount > 1 ? arrayView_ : layerViews_[cascade];
+  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  depth.clearValue.depthStencil = {1.0f, 0};
+  auto ri = vkInit<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
+  ri.renderArea = {{0, 0}, {resolution_, resolution_}};
+  ri.layerCount = layerCount;
+  ri.pDepthAttachment = &depth;
+  vkCmdBeginRendering(cmd, &ri);
+  const VkViewport viewport{0.0f, 0.0f, float(resolution_), float(resolution_), 0.0f, 1.0f};
+  const VkRect2D scissor{{0, 0}, {resolution_, resolution_}};
+  vkCmdSetViewport(cmd, 0, 1, &viewport);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
+  vkCmdSetDepthBias(cmd, settings_.depthBiasConstant, 0.0f, settings_.depthBiasSlope);
+  vkCmdSetCullMode(cmd, options_.cullMode);
+  vkCmdSetFrontFace(cmd, options_.frontFace);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                    layerCount > 1 ? layeredPipeline_ : pipeline_);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
+                          0, nullptr);
+}
+
+void ShadowRenderer::endLayer(VkCommandBuffer cmd) {
+  vkCmdEndRendering(cmd);
+  if (endLabel_) endLabel_(cmd);
+}
+
+Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                                        const CasterList& casters, const CullResult* visible) {
+  Status s = checkFrame(frame);
+  if (!s.ok()) return s;
+  if (cmd == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "cmd is VK_NULL_HANDLE");
+  const std::size_t instanceCount = casters.instances.size();
+  for (std::size_t i = 0; i < instanceCount; ++i) {
+    if (casters.instances[i].mesh >= casters.meshes.size()) {
+      return Status(ErrorCode::kIndexOutOfRange,
+                    fmt("casters.instances[%zu].mesh = %u is out of range: allowed [0, %zu)", i,
+                        casters.instances[i].mesh, casters.meshes.size()));
+    }
+  }
+  if (visible) {
+    for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+      if (frame.cascades[c].empty) continue;
+      for (std::size_t k = 0; k < visible->visible[c].size(); ++k) {
+        if (visible->visible[c][k] >= instanceCount) {
+          return Status(ErrorCode::kIndexOutOfRange,
+                        fmt("visible[%u][%zu] = %u is out of range: allowed [0, %zu)", c, k,
+                            visible->visible[c][k], instanceCount));
+        }
+      }
+    }
+  }
+
+  recordBegin(cmd, frame);
+  const glm::dvec3 cam = frame.cameraPositionWs;
+  const MeshDraw* bound = nullptr;
+  auto drawCaster = [&](std::uint32_t index, std::uint32_t cascadeOrMask, std::uint32_t copies) {
+    const CasterInstance& inst = casters.instances[index];
+    const MeshDraw& mesh = casters.meshes[inst.mesh];
+    if (mesh.indexCount == 0) return;
+    if (bound == nullptr || bound->vertexBuffer != mesh.vertexBuffer ||
+        bound->vertexBufferOffset != mesh.vertexBufferOffset) {
+      vkCmdBindVertexBuffers(cmd, 0, 1, &mesh.vertexBuffer, &mesh.vertexBufferOffset);
+    }
+    if (bound == nullptr || bound->indexBuffer != mesh.indexBuffer ||
+        bound->indexBufferOffset != mesh.indexBufferOffset) {
+      vkCmdBindIndexBuffer(cmd, mesh.indexBuffer, mesh.indexBufferOffset, layout_.indexType);
+    }
+    bound = &mesh;
+    const DepthPush push{modelCameraRelative(inst.translationWs, inst.linearWs, cam),
+                         cascadeOrMask};
+    vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
+                       &push);
+    vkCmdDrawIndexed(cmd, mesh.indexCount, copies, mesh.firstIndex, mesh.vertexOffset, 0);
+  };
+
+  std::uint32_t nonEmpty = 0;
+  for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+    if (!frame.cascades[c].empty) nonEmpty |= 1u << c;
+  }
+  if (resolvedMode_ == RenderMode::kLayered && nonEmpty != 0) {
+    // One pass; each caster once, instanced into the cascades it was culled into.
+    casterMasks_.assign(instanceCount, 0u);
+    for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+      if ((nonEmpty & (1u << c)) == 0) continue;
+      if (visible) {
+        for (std::uint32_t i : visible->visible[c]) casterMasks_[i] |= 1u << c;
+      } else {
+        for (std::size_t i = 0; i < instanceCount; ++i) casterMasks_[i] |= 1u << c;
+      }
+    }
+    beginLayer(cmd, 0, layerCount_);
+    for (std::size_t i = 0; i < instanceCount; ++i) {
+      const std::uint32_t mask = casterMasks_[i];
+      if (mask != 0) {
+        drawCaster(static_cast<std::uint32_t>(i), mask,
+                   static_cast<std::uint32_t>(std::popcount(mask)));
+      }
+    }
+    endLayer(cmd);
+  } else {
+    for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+      if ((nonEmpty & (1u << c)) == 0) continue;
+      beginLayer(cmd, c, 1);
+      bound = nullptr;
+      if (visible) {
+        for (std::uint32_t i : visible->visible[c]) drawCaster(i, c, 1);
+      } else {
+        for (std::size_t i = 0; i < instanceCount; ++i) {
+          drawCaster(static_cast<std::uint32_t>(i), c, 1);
+        }
+      }
+      endLayer(cmd);
+    }
+  }
+  recordEnd(cmd);
+  return {};
+}
+
+Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                                        const CascadeDrawCallback& draw,
+                                        const CullResult* visible) {
+  Status s = checkFrame(frame);
+  if (!s.ok()) return s;
+  if (cmd == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "cmd is VK_NULL_HANDLE");
+  if (!draw) return Status(ErrorCode::kInvalidArgument, "draw callback is empty");
+  recordBegin(cmd, frame);
+  for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+    if (frame.cascades[c].empty) continue;
+    beginLayer(cmd, c, 1);
+    CascadeDrawContext ctx;
+    ctx.cmd = cmd;
+    ctx.cascade = c;
+    ctx.visible = visible ? &visible->visible[c] : nullptr;
+    ctx.pipelineLayout = pipelineLayout_;
+    ctx.cameraPositionWs = frame.cameraPositionWs;
+    draw(ctx);
+    endLayer(cmd);
+  }
+  recordEnd(cmd);
+  return {};
+}
+
+}  // namespace csm::vk

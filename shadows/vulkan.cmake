@@ -1,0 +1,18 @@
+# csm::vulkan: the renderer. Links csm::core and Vulkan; the depth-pass SPIR-V is embedded, so
+# it needs no files at run time.
+find_package(Vulkan REQUIRED)
+
+# The GPU layout of the uniform block is pure (GLM only) and belongs to the core.
+target_sources(csm_core PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src/core/gpu_layout.cpp)
+
+csm_compile_shaders(csm_depth_shaders csm_depth.vert csm_depth_layered.vert)
+
+add_library(csm_vulkan STATIC
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer.cpp)
+add_library(csm::vulkan ALIAS csm_vulkan)
+target_link_libraries(csm_vulkan PUBLIC csm::core Vulkan::Vulkan)
+# The embedded shaders are a build-time dependency only (no link or install interface).
+add_dependencies(csm_vulkan csm_depth_shaders)
+target_include_directories(csm_vulkan PRIVATE ${CSM_SHADER_OUT})
+set_target_properties(csm_vulkan PROPERTIES POSITION_INDEPENDENT_CODE ON)
+csm_target_warnings(csm_vulkan)
