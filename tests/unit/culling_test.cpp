@@ -85,26 +85,44 @@ TEST(Culling, HierarchyMatchesBruteForceAndDropsNothingThatIntersects) {
 }
 
 TEST(Culling, BehindAndBesideAreDroppedTowardTheLightIsKept) {
-  const glm::dvec3 light(0.0, -1.0, 0.0);
-  const CascadeFrame f = makeFrame({0, 10, 0}, light, 1);
-  const Cascade& k = f.cascades[0];
-  const glm::dmat3& b = f.lightBasisWs;
-  const double h = k.halfExtentLs.x;
-  CasterSet set;
-  const double r = 1.0;
-  // 0: inside; 1: behind the box (beyond its far side); 2: beside it; 3: far toward the light
-  // (a mountain top high above the cascade); 4: beside and toward the light.
-  ASSERT_TRUE(set.addSphere(k.boxCenterWs, r).ok());
-  ASSERT_TRUE(set.addSphere(k.boxCenterWs + b[2] * (k.depthFarLs + 2 * r), r).ok());
-  ASSERT_TRUE(set.addSphere(k.boxCenterWs + b[0] * (h + 2 * r), r).ok());
-  ASSERT_TRUE(set.addSphere(k.boxCenterWs - b[2] * 5000.0, r).ok());
-  ASSERT_TRUE(set.addBox(k.boxCenterWs + b[1] * (h + 3 * r) - b[2] * 100.0 - glm::dvec3(r),
-                         k.boxCenterWs + b[1] * (h + 3 * r) - b[2] * 100.0 + glm::dvec3(r))
-                  .ok());
-  set.build();
-  CullResult out;
-  cullCasters(set, f, 0.0f, out);
-  EXPECT_EQ(out.visible[0], (std::vector<std::uint32_t>{0, 3}));
+  // Oblique lights too: there the light's axes are not world axes, and rounding in the
+  // separating-axis projections once kept boxes that lie beside the volume.
+  for (const glm::dvec3& light :
+       {glm::dvec3(0.0, -1.0, 0.0), glm::dvec3(0.3, -1.0, 0.2), glm::dvec3(0.3, -0.2, -1.0)}) {
+    const CascadeFrame f = makeFrame({0, 10, 0}, light, 1);
+    const Cascade& k = f.cascades[0];
+    const glm::dmat3& b = f.lightBasisWs;
+    const double h = k.halfExtentLs.x;
+    CasterSet set;
+    const double r = 1.0;
+    // A box whose light-space bounds are [centre +- r] along each light axis is an oriented
+    // box; its world AABB is larger by at most sqrt(3), so place the boxes 2 r clear of that.
+    const glm::dvec3 e = glm::dvec3(r);
+    const double clear = 2.5 * r;
+    // 0: inside; 1: behind the box (beyond its far side); 2: beside it; 3: far toward the
+    // light (a mountain top high above the cascade); 4: beside and toward the light (box);
+    // 5: beside on the other axis (box); 6: straddling the side (box).
+    ASSERT_TRUE(set.addSphere(k.boxCenterWs, r).ok());
+    ASSERT_TRUE(set.addSphere(k.boxCenterWs + b[2] * (k.depthFarLs + 2 * r), r).ok());
+    ASSERT_TRUE(set.addSphere(k.boxCenterWs + b[0] * (h + 2 * r), r).ok());
+    ASSERT_TRUE(set.addSphere(k.boxCenterWs - b[2] * 5000.0, r).ok());
+    const glm::dvec3 p4 = k.boxCenterWs + b[1] * (h + clear * 2) - b[2] * 100.0;
+    ASSERT_TRUE(set.addBox(p4 - e, p4 + e).ok());
+    const glm::dvec3 p5 = k.boxCenterWs - b[0] * (h + clear * 2) - b[2] * 10.0;
+    ASSERT_TRUE(set.addBox(p5 - e, p5 + e).ok());
+    const glm::dvec3 p6 = k.boxCenterWs + b[0] * h - b[2] * 30.0;
+    ASSERT_TRUE(set.addBox(p6 - e, p6 + e).ok());
+    // 7: just beside the side along light x (0.3 m clear of it, exactly computed).
+    const double rx = glm::dot(e, glm::abs(b[0]));
+    const glm::dvec3 p7 = k.boxCenterWs + b[0] * (h + rx + 0.3) - b[2] * 30.0;
+    ASSERT_TRUE(set.addBox(p7 - e, p7 + e).ok());
+    set.build();
+    CullResult out, brute;
+    cullCasters(set, f, 0.0f, out);
+    cullCastersBruteForce(set, f, 0.0f, brute);
+    EXPECT_EQ(out.visible[0], (std::vector<std::uint32_t>{0, 3, 6})) << light.x;
+    EXPECT_EQ(brute.visible[0], out.visible[0]);
+  }
 }
 
 TEST(Culling, CastersSmallerThanTheThresholdAreDroppedPerCascade) {

@@ -19,7 +19,9 @@ struct Volume {
   glm::dvec3 axis[3];  // right, up, forward (world)
   double hx, hy, zFar;
   double texelM;
-  float minSizeM;  // casters whose light-space size is below this are dropped
+  float minSizeM;               // casters whose light-space size is below this are dropped
+  glm::dvec3 absAxis[3];        // |right|, |up|, |forward| componentwise
+  glm::dvec3 worldLo, worldHi;  // the volume projected on the world axes, about its centre
 };
 
 Volume makeVolume(const CascadeFrame& frame, const Cascade& c, float minCasterTexels) noexcept {
@@ -31,14 +33,44 @@ Volume makeVolume(const CascadeFrame& frame, const Cascade& c, float minCasterTe
   v.zFar = c.depthFarLs;
   v.texelM = c.texelSizeM();
   v.minSizeM = static_cast<float>(minCasterTexels * v.texelM);
+  for (int k = 0; k < 3; ++k) v.absAxis[k] = glm::abs(v.axis[k]);
+  for (int j = 0; j < 3; ++j) {
+    const double r = v.hx * v.absAxis[0][j] + v.hy * v.absAxis[1][j];
+    double f = v.axis[2][j];
+    if (std::abs(f) <= 1e-12) f = 0.0;
+    v.worldLo[j] = f > 0.0 ? -kInf : -r + v.zFar * f;
+    v.worldHi[j] = f < 0.0 ? kInf : r + v.zFar * f;
+    if (f == 0.0) {
+      v.worldLo[j] = -r;
+      v.worldHi[j] = r;
+    }
+  }
   return v;
+}
+
+// Conservative test for tree nodes: the 3 light axes and the 3 world axes, with every
+// projection of the volume precomputed.
+bool nodeIntersects(const Volume& v, const glm::dvec3& d, const glm::dvec3& e) noexcept {
+  if (glm::any(glm::greaterThan(d - e, v.worldHi)) || glm::any(glm::lessThan(d + e, v.worldLo))) {
+    return false;
+  }
+  const double x = glm::dot(d, v.axis[0]), rx = glm::dot(e, v.absAxis[0]);
+  if (std::abs(x) > v.hx + rx) return false;
+  const double y = glm::dot(d, v.axis[1]), ry = glm::dot(e, v.absAxis[1]);
+  if (std::abs(y) > v.hy + ry) return false;
+  const double z = glm::dot(d, v.axis[2]), rz = glm::dot(e, v.absAxis[2]);
+  return z - rz <= v.zFar;
 }
 
 // Interval of the volume projected on direction L, relative to the volume's centre.
 void projectVolume(const Volume& v, const glm::dvec3& l, double& lo, double& hi) noexcept {
   const double r =
       v.hx * std::abs(glm::dot(v.axis[0], l)) + v.hy * std::abs(glm::dot(v.axis[1], l));
-  const double f = glm::dot(v.axis[2], l);
+  // An axis orthogonal to the light (the light's own x and y, forward x world) has f = 0
+  // exactly in theory but ~1e-17 after rounding, which would make the projection half-infinite
+  // and keep boxes that lie beside the volume: treat |f| below 1e-12 |L| as zero.
+  double f = glm::dot(v.axis[2], l);
+  if (std::abs(f) <= 1e-12 * glm::length(l)) f = 0.0;
   lo = -r;
   hi = r;
   if (f > 0.0) {
@@ -304,7 +336,9 @@ void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minC
     std::uint32_t mask = 0;
     for (std::uint32_t m = item.mask; m != 0; m &= m - 1) {
       const auto ci = static_cast<std::uint32_t>(std::countr_zero(m));
-      if (boxIntersects(volumes[ci], nodeCenter, nodeHalf, false)) mask |= 1u << ci;
+      if (nodeIntersects(volumes[ci], nodeCenter - volumes[ci].centerWs, nodeHalf)) {
+        mask |= 1u << ci;
+      }
     }
     if (mask == 0) continue;
     if (node.count == 0) {
