@@ -1,0 +1,309 @@
+// Shared fixture of the shadow GPU tests (see shadow_scene.hpp).
+#include "shadow_scene.hpp"
+
+#include <engine/debug.hpp>
+#include <engine/render_target.hpp>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <limits>
+
+namespace csm_test {
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Ray (o, d) against a sphere: nearest t > tMin, or +inf.
+double raySphere(const glm::dvec3& o, const glm::dvec3& d, const SphereWs& s, double tMin) {
+  const glm::dvec3 oc = o - s.centerWs;
+  const double b = glm::dot(oc, d);
+  const double c = glm::dot(oc, oc) - s.radiusM * s.radiusM;
+  const double disc = b * b - c * glm::dot(d, d);
+  if (disc < 0.0) return kInf;
+  const double sq = std::sqrt(disc);
+  const double dd = glm::dot(d, d);
+  const double t0 = (-b - sq) / dd;
+  const double t1 = (-b + sq) / dd;
+  if (t0 > tMin) return t0;
+  if (t1 > tMin) return t1;
+  return kInf;
+}
+
+// Ray against an AABB (slabs): nearest t > tMin, or +inf.
+double rayBox(const glm::dvec3& o, const glm::dvec3& d, const csm::AabbWs& b, double tMin) {
+  double t0 = -kInf, t1 = kInf;
+  for (int a = 0; a < 3; ++a) {
+    if (std::abs(d[a]) < 1e-300) {
+      if (o[a] < b.minWs[a] || o[a] > b.maxWs[a]) return kInf;
+      continue;
+    }
+    double ta = (b.minWs[a] - o[a]) / d[a];
+    double tb = (b.maxWs[a] - o[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  if (t0 > t1) return kInf;
+  if (t0 > tMin) return t0;
+  if (t1 > tMin) return t1;
+  return kInf;
+}
+
+}  // namespace
+
+uint64_t validationMessages() { return engine::validationMessageCount(); }
+
+void makeSphere(std::vector<engine::Vertex>& vertices, std::vector<uint32_t>& indices,
+                int segments, int rings) {
+  vertices.clear();
+  indices.clear();
+  for (int r = 0; r <= rings; ++r) {
+    const double phi = glm::pi<double>() * r / rings;
+    for (int s = 0; s <= segments; ++s) {
+      const double theta = 2.0 * glm::pi<double>() * s / segments;
+      const glm::vec3 n(std::sin(phi) * std::cos(theta), std::cos(phi),
+                        std::sin(phi) * std::sin(theta));
+      vertices.push_back({n, n});
+    }
+  }
+  const uint32_t row = static_cast<uint32_t>(segments + 1);
+  for (uint32_t r = 0; r < static_cast<uint32_t>(rings); ++r) {
+    for (uint32_t s = 0; s < static_cast<uint32_t>(segments); ++s) {
+      const uint32_t a = r * row + s, b = a + row;
+      indices.insert(indices.end(), {a, b, a + 1, a + 1, b, b + 1});
+    }
+  }
+}
+
+ShadowScene::ShadowScene(uint32_t width, uint32_t height) {
+  engine::resetValidationCounts();
+  engine::ContextDesc desc;
+  desc.appName = "csm shadow tests";
+  desc.validation = true;
+  ctx_ = std::make_unique<engine::Context>(desc);
+  engine::HeadlessDesc hd;
+  hd.extent = {width, height};
+  target_ = std::make_unique<engine::HeadlessTarget>(*ctx_, hd);
+  meshes_ = std::make_unique<engine::MeshStore>(*ctx_, 1 << 16, 1 << 18, "shadow test meshes");
+
+  camera.positionWs = {0.0, 6.0, 6.0};
+  camera.lookAt({0.0, 0.0, -12.0});
+  camera.aspect = double(width) / double(height);
+  camera.nearM = 0.1;
+  camera.farM = 200.0;
+  light.directionWs = glm::normalize(glm::dvec3(0.45, -1.0, -0.2));
+  spheres = {{{-2.0, 2.2, -6.0}, 1.2}, {{3.0, 3.5, -22.0}, 2.0}};
+  boxes = {{{1.5, 1.0, -9.5}, {3.5, 2.5, -7.5}},
+           {{-6.0, 1.5, -30.0}, {-3.0, 3.0, -27.0}},
+           // A long rail along the view direction: its shadow edge runs through every cascade.
+           {{6.0, 1.5, -45.0}, {6.6, 2.0, -2.0}}};
+
+  csm::vk::DeviceInfo info;
+  info.physicalDevice = ctx_->physicalDevice();
+  info.device = ctx_->device();
+  info.queueFamily = ctx_->queueFamily();
+  info.depthClampEnabled = ctx_->features().depthClamp;
+  info.shaderOutputLayerEnabled = ctx_->features().shaderOutputLayer;
+  info.debugUtilsEnabled = ctx_->debugUtilsEnabled();
+  csm::vk::VertexLayout layout;
+  layout.stride = sizeof(engine::Vertex);
+  layout.positionOffset = 0;
+  csm::vk::Status status;
+  renderer_ = csm::vk::ShadowRenderer::create(info, layout, &status);
+  if (!renderer_) throw std::runtime_error("ShadowRenderer::create: " + status.message());
+}
+
+ShadowScene::~ShadowScene() {
+  if (ctx_) ctx_->waitIdle();
+  litPasses_.clear();
+  renderer_.reset();
+  meshes_.reset();
+  target_.reset();
+  if (ctx_) ctx_->shutdown();
+}
+
+csm::Camera ShadowScene::csmCamera() const {
+  csm::Camera c;
+  c.positionWs = camera.positionWs;
+  c.orientationWs = camera.orientation;
+  c.fovYRad = camera.fovYRad;
+  c.aspect = camera.aspect;
+  c.nearM = camera.nearM;
+  c.farM = camera.farM;
+  return c;
+}
+
+void ShadowScene::buildScene() {
+  std::vector<engine::Vertex> v;
+  std::vector<uint32_t> idx;
+  // Ground: a 2 x 2 quad in xz scaled by the instance.
+  v = {{{-1, 0, -1}, {0, 1, 0}}, {{1, 0, -1}, {0, 1, 0}}, {{1, 0, 1}, {0, 1, 0}},
+       {{-1, 0, 1}, {0, 1, 0}}};
+  idx = {0, 2, 1, 0, 3, 2};
+  planeMesh_ = meshes_->upload(v, idx);
+  makeSphere(v, idx, 96, 48);
+  sphereMesh_ = meshes_->upload(v, idx);
+  engine::makeCube(v, idx);
+  cubeMesh_ = meshes_->upload(v, idx);
+
+  auto meshDraw = [&](const engine::MeshRange& m) {
+    csm::vk::MeshDraw d;
+    d.vertexBuffer = meshes_->vertexBuffer();
+    d.indexBuffer = meshes_->indexBuffer();
+    d.firstIndex = m.firstIndex;
+    d.indexCount = m.indexCount;
+    d.vertexOffset = m.vertexOffset;
+    return d;
+  };
+  casterMeshes_ = {meshDraw(planeMesh_), meshDraw(sphereMesh_), meshDraw(cubeMesh_)};
+  auto add = [&](uint32_t mesh, const engine::MeshRange& range, const glm::dvec3& t,
+                 const glm::dvec3& scale, const glm::vec4& color) {
+    const glm::mat3 linear(glm::diagmat3x3(glm::vec3(scale)));
+    casters_.push_back({mesh, t, linear});
+    litDraws_.push_back({range, t, linear, color});
+  };
+  // The ground receives and casts (so that self-shadowing acne would show).
+  add(0, planeMesh_, planeCenterWs, {planeHalfM, 1.0, planeHalfM}, {0.8f, 0.8f, 0.8f, 1.0f});
+  casterSet_.addBox(planeCenterWs - glm::dvec3(planeHalfM, 0.0, planeHalfM),
+                    planeCenterWs + glm::dvec3(planeHalfM, 0.0, planeHalfM));
+  for (const SphereWs& s : spheres) {
+    add(1, sphereMesh_, s.centerWs, glm::dvec3(s.radiusM), {0.9f, 0.3f, 0.2f, 1.0f});
+    casterSet_.addSphere(s.centerWs, s.radiusM);
+  }
+  for (const csm::AabbWs& b : boxes) {
+    add(2, cubeMesh_, 0.5 * (b.minWs + b.maxWs), b.maxWs - b.minWs, {0.2f, 0.4f, 0.9f, 1.0f});
+    casterSet_.addBox(b.minWs, b.maxWs);
+  }
+  casterSet_.build();
+  sceneBounds.minWs = planeCenterWs - glm::dvec3(planeHalfM, 0.0, planeHalfM);
+  sceneBounds.maxWs = planeCenterWs + glm::dvec3(planeHalfM, 6.0, planeHalfM);
+  built_ = true;
+}
+
+csm::vk::Status ShadowScene::update(const csm::ShadowSettings& settings,
+                                    const csm::vk::RendererOptions& options) {
+  if (!built_) buildScene();
+  csm::vk::Status s = renderer_->update(settings, options);
+  if (s.ok()) {
+    settings_ = settings;
+    history_ = {};
+  }
+  return s;
+}
+
+Rendered ShadowScene::render(csm::PcfKernel kernel, csm::DebugMode debug, bool blend,
+                             bool worldSpaceKernel) {
+  if (!built_) buildScene();
+  const auto key = std::make_pair(static_cast<uint32_t>(kernel), blend ? 1u : 0u);
+  auto& lit = litPasses_[key];
+  if (!lit) {
+    engine::LitPassDesc desc;
+    desc.colorFormat = target_->colorFormat();
+    desc.depthFormat = target_->depthFormat();
+    desc.shadowSetLayout = renderer_->lightingSetLayout();
+    desc.specialization = {{CSM_SPEC_KERNEL, key.first}, {CSM_SPEC_BLEND, key.second}};
+    lit = std::make_unique<engine::LitPass>(*ctx_, desc);
+  }
+
+  Rendered out;
+  csm::Result<csm::CascadeFrame> frame =
+      csm::computeCascades(settings_, csmCamera(), light, &sceneBounds, &history_);
+  if (!frame.ok()) throw std::runtime_error("computeCascades: " + frame.error().message());
+  out.frame = frame.value();
+  csm::cullCasters(casterSet_, out.frame, settings_.minCasterTexels, cull_);
+
+  std::optional<engine::Frame> f = target_->beginFrame();
+  if (!f) throw std::runtime_error("beginFrame returned no frame");
+  renderer_->setUniformOptions({debug, worldSpaceKernel});
+  csm::vk::Status s = renderer_->recordShadowPass(f->cmd, out.frame,
+                                                  csm::vk::CasterList{casterMeshes_, casters_}, &cull_);
+  if (!s.ok()) throw std::runtime_error("recordShadowPass: " + s.message());
+  engine::LitFrame lf;
+  lf.viewProjCr = camera.viewProjectionCr();
+  lf.cameraPositionWs = camera.positionWs;
+  lf.lightDirectionWs = glm::vec3(light.directionWs);
+  lit->prepare(f->cmd, lf);
+  engine::beginRendering(*f, VkClearColorValue{{0.1f, 0.1f, 0.15f, 1.0f}});
+  lit->draw(f->cmd, *meshes_, renderer_->lightingSet(), litDraws_, f->extent);
+  vkCmdEndRendering(f->cmd);
+  target_->endFrame();
+  out.image = target_->readback();
+  return out;
+}
+
+ShadowScene::Hit ShadowScene::trace(uint32_t x, uint32_t y) const {
+  const glm::dmat4 inv = glm::inverse(glm::dmat4(camera.viewProjectionCr()));
+  const VkExtent2D e = target_->extent();
+  const glm::dvec4 ndc((x + 0.5) / e.width * 2.0 - 1.0, (y + 0.5) / e.height * 2.0 - 1.0, 0.5,
+                       1.0);
+  const glm::dvec4 p = inv * ndc;
+  const glm::dvec3 d = glm::normalize(glm::dvec3(p) / p.w);
+  const glm::dvec3 o = camera.positionWs;
+  Hit hit;
+  double best = kInf;
+  if (d.y < 0.0) {
+    const double t = -o.y / d.y;
+    const glm::dvec3 q = o + t * d;
+    if (std::abs(q.x - planeCenterWs.x) <= planeHalfM &&
+        std::abs(q.z - planeCenterWs.z) <= planeHalfM) {
+      best = t;
+      hit.plane = true;
+    }
+  }
+  for (const SphereWs& s : spheres) {
+    const double t = raySphere(o, d, s, 0.0);
+    if (t < best) {
+      best = t;
+      hit.plane = false;
+    }
+  }
+  for (const csm::AabbWs& b : boxes) {
+    const double t = rayBox(o, d, b, 0.0);
+    if (t < best) {
+      best = t;
+      hit.plane = false;
+    }
+  }
+  hit.hit = best < kInf;
+  if (hit.hit) hit.posWs = o + best * d;
+  return hit;
+}
+
+bool ShadowScene::shadowedAnalytic(const glm::dvec3& posWs) const {
+  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
+  for (const SphereWs& s : spheres) {
+    if (raySphere(posWs, toLight, s, 1e-6) < kInf) return true;
+  }
+  for (const csm::AabbWs& b : boxes) {
+    if (rayBox(posWs, toLight, b, 1e-6) < kInf) return true;
+  }
+  return false;
+}
+
+bool ShadowScene::farFromEdge(const glm::dvec3& posWs, double radiusM,
+                              const csm::CascadeFrame& frame) const {
+  const bool here = shadowedAnalytic(posWs);
+  const glm::dvec3 right = frame.lightBasisWs[0];
+  const glm::dvec3 up = frame.lightBasisWs[1];
+  for (double r : {radiusM, 0.5 * radiusM}) {
+    for (int k = 0; k < 16; ++k) {
+      const double a = 2.0 * glm::pi<double>() * k / 16.0;
+      const glm::dvec3 q = posWs + r * (std::cos(a) * right + std::sin(a) * up);
+      if (shadowedAnalytic(q) != here) return false;
+    }
+  }
+  return true;
+}
+
+std::string ShadowScene::saveArtefact(const engine::CpuImage& image,
+                                      const std::string& name) const {
+  const std::filesystem::path dir = CSM_TEST_ARTEFACT_DIR;
+  std::filesystem::create_directories(dir);
+  const std::string path = (dir / (name + ".png")).string();
+  engine::writePng(path, image);
+  return path;
+}
+
+}  // namespace csm_test

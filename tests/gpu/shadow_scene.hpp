@@ -1,0 +1,107 @@
+// Shared fixture of the shadow GPU tests: a plane with spheres and boxes above it under a
+// directional light, rendered headless through csm::vk::ShadowRenderer and the engine's lit
+// pass, with the analytic shadow answer computed on the CPU in double precision.
+#pragma once
+
+#include <csm/core.hpp>
+#include <csm/gpu_layout.hpp>
+#include <csm/vulkan/shadow_renderer.hpp>
+#include <engine/camera.hpp>
+#include <engine/context.hpp>
+#include <engine/headless_target.hpp>
+#include <engine/lit_pass.hpp>
+#include <engine/mesh_store.hpp>
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace csm_test {
+
+struct SphereWs {
+  glm::dvec3 centerWs;
+  double radiusM;
+};
+
+/// What one render produced.
+struct Rendered {
+  engine::CpuImage image;
+  csm::CascadeFrame frame;
+};
+
+/// The whole scene: device, target, meshes, renderer, lit pipelines (one per kernel and blend
+/// mode, built on first use) and the analytic description.
+class ShadowScene {
+ public:
+  /// Validation on; views of `width` x `height`.
+  explicit ShadowScene(uint32_t width = 320, uint32_t height = 180);
+  ~ShadowScene();
+
+  /// Applies settings (and options) to the renderer; fails the calling test on error.
+  csm::vk::Status update(const csm::ShadowSettings& settings,
+                         const csm::vk::RendererOptions& options = {});
+
+  /// Renders one frame with the given kernel, blend specialization and debug output.
+  Rendered render(csm::PcfKernel kernel, csm::DebugMode debug, bool blend = true,
+                  bool worldSpaceKernel = false);
+
+  /// Nearest surface a camera ray through pixel (x, y) hits: its world point, and whether it is
+  /// the ground plane (false: a caster, or nothing).
+  struct Hit {
+    bool hit = false;
+    bool plane = false;
+    glm::dvec3 posWs{0.0};
+  };
+  [[nodiscard]] Hit trace(uint32_t x, uint32_t y) const;
+  /// Whether the ray from `posWs` toward the light hits a caster.
+  [[nodiscard]] bool shadowedAnalytic(const glm::dvec3& posWs) const;
+  /// Whether every point within `radiusM` of `posWs` across the light direction has the same
+  /// analytic answer as `posWs` (16 directions on rings of radius and radius / 2).
+  [[nodiscard]] bool farFromEdge(const glm::dvec3& posWs, double radiusM,
+                                 const csm::CascadeFrame& frame) const;
+
+  /// Writes `image` under the build tree's test artefact folder; returns the path.
+  std::string saveArtefact(const engine::CpuImage& image, const std::string& name) const;
+
+  engine::Context& context() { return *ctx_; }
+  csm::vk::ShadowRenderer& renderer() { return *renderer_; }
+  const csm::ShadowSettings& settings() const { return settings_; }
+  csm::Camera csmCamera() const;
+
+  engine::Camera camera;
+  csm::DirectionalLight light;
+  csm::AabbWs sceneBounds{};
+  std::vector<SphereWs> spheres;
+  std::vector<csm::AabbWs> boxes;
+  double planeHalfM = 40.0;
+  glm::dvec3 planeCenterWs{0.0, 0.0, -25.0};
+
+ private:
+  std::unique_ptr<engine::Context> ctx_;
+  std::unique_ptr<engine::HeadlessTarget> target_;
+  std::unique_ptr<engine::MeshStore> meshes_;
+  std::unique_ptr<csm::vk::ShadowRenderer> renderer_;
+  std::map<std::pair<uint32_t, uint32_t>, std::unique_ptr<engine::LitPass>> litPasses_;
+  engine::MeshRange planeMesh_, sphereMesh_, cubeMesh_;
+  std::vector<csm::vk::MeshDraw> casterMeshes_;
+  std::vector<csm::vk::CasterInstance> casters_;
+  csm::CasterSet casterSet_;
+  csm::CullResult cull_;
+  std::vector<engine::LitDraw> litDraws_;
+  csm::ShadowSettings settings_{};
+  csm::CascadeHistory history_{};
+  bool built_ = false;
+
+  void buildScene();
+};
+
+/// Counts validation messages (warnings + errors) seen so far in this process.
+uint64_t validationMessages();
+
+/// A UV sphere of unit radius (vertices on the sphere, outward normals).
+void makeSphere(std::vector<engine::Vertex>& vertices, std::vector<uint32_t>& indices, int segments,
+                int rings);
+
+}  // namespace csm_test
