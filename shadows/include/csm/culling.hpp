@@ -61,7 +61,6 @@ class CasterSet {
   std::vector<Node> nodes_;
   bool built_ = false;
 
-  void buildRange(std::uint32_t nodeIndex, std::uint32_t begin, std::uint32_t end);
 };
 
 /// Per-cascade lists of caster indices to draw.

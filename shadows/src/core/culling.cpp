@@ -219,52 +219,70 @@ AabbWs CasterSet::bounds(std::uint32_t i) const noexcept {
   return {c - e, c + e};
 }
 
+namespace {
+
+// A caster as the tree builder sees it: contiguous, so partitioning touches no other memory.
+struct BuildItem {
+  glm::dvec3 center;
+  glm::vec3 half;
+  std::uint32_t index;
+};
+
+}  // namespace
+
 void CasterSet::build() {
   const auto n = static_cast<std::uint32_t>(size());
-  order_.resize(n);
-  for (std::uint32_t i = 0; i < n; ++i) order_[i] = i;
+  std::vector<BuildItem> items(n);
+  for (std::uint32_t i = 0; i < n; ++i) {
+    items[i] = {{centerX_[i], centerY_[i], centerZ_[i]}, {halfX_[i], halfY_[i], halfZ_[i]}, i};
+  }
   nodes_.clear();
+  order_.resize(n);
   if (n > 0) {
     nodes_.reserve(2 * (n / kLeafSize + 1));
     nodes_.push_back(Node{});
-    buildRange(0, 0, n);
+    // Iterative top-down median split on the axis along which the centres spread most.
+    struct Task {
+      std::uint32_t node, begin, end;
+    };
+    std::vector<Task> tasks{{0, 0, n}};
+    while (!tasks.empty()) {
+      const Task t = tasks.back();
+      tasks.pop_back();
+      glm::dvec3 lo(kInf), hi(-kInf), cLo(kInf), cHi(-kInf);
+      for (std::uint32_t k = t.begin; k < t.end; ++k) {
+        const glm::dvec3 e(items[k].half);
+        lo = glm::min(lo, items[k].center - e);
+        hi = glm::max(hi, items[k].center + e);
+        cLo = glm::min(cLo, items[k].center);
+        cHi = glm::max(cHi, items[k].center);
+      }
+      nodes_[t.node].minWs = lo;
+      nodes_[t.node].maxWs = hi;
+      if (t.end - t.begin <= kLeafSize) {
+        nodes_[t.node].first = t.begin;
+        nodes_[t.node].count = t.end - t.begin;
+        continue;
+      }
+      const glm::dvec3 spread = cHi - cLo;
+      const int axis =
+          spread.x >= spread.y ? (spread.x >= spread.z ? 0 : 2) : (spread.y >= spread.z ? 1 : 2);
+      const std::uint32_t mid = t.begin + (t.end - t.begin) / 2;
+      std::nth_element(items.begin() + t.begin, items.begin() + mid, items.begin() + t.end,
+                       [axis](const BuildItem& a, const BuildItem& b) {
+                         return a.center[axis] < b.center[axis];
+                       });
+      const auto left = static_cast<std::uint32_t>(nodes_.size());
+      nodes_.push_back(Node{});
+      nodes_.push_back(Node{});
+      nodes_[t.node].first = left;
+      nodes_[t.node].count = 0;
+      tasks.push_back({left + 1, mid, t.end});
+      tasks.push_back({left, t.begin, mid});
+    }
   }
+  for (std::uint32_t k = 0; k < n; ++k) order_[k] = items[k].index;
   built_ = true;
-}
-
-void CasterSet::buildRange(std::uint32_t nodeIndex, std::uint32_t begin, std::uint32_t end) {
-  glm::dvec3 lo(kInf), hi(-kInf), cLo(kInf), cHi(-kInf);
-  for (std::uint32_t k = begin; k < end; ++k) {
-    const std::uint32_t i = order_[k];
-    const glm::dvec3 c(centerX_[i], centerY_[i], centerZ_[i]);
-    const glm::dvec3 e(halfX_[i], halfY_[i], halfZ_[i]);
-    lo = glm::min(lo, c - e);
-    hi = glm::max(hi, c + e);
-    cLo = glm::min(cLo, c);
-    cHi = glm::max(cHi, c);
-  }
-  nodes_[nodeIndex].minWs = lo;
-  nodes_[nodeIndex].maxWs = hi;
-  if (end - begin <= kLeafSize) {
-    nodes_[nodeIndex].first = begin;
-    nodes_[nodeIndex].count = end - begin;
-    return;
-  }
-  // Median split on the axis along which the centres spread most.
-  const glm::dvec3 spread = cHi - cLo;
-  const int axis =
-      spread.x >= spread.y ? (spread.x >= spread.z ? 0 : 2) : (spread.y >= spread.z ? 1 : 2);
-  const std::vector<double>& key = axis == 0 ? centerX_ : axis == 1 ? centerY_ : centerZ_;
-  const std::uint32_t mid = begin + (end - begin) / 2;
-  std::nth_element(order_.begin() + begin, order_.begin() + mid, order_.begin() + end,
-                   [&key](std::uint32_t a, std::uint32_t b) { return key[a] < key[b]; });
-  const auto left = static_cast<std::uint32_t>(nodes_.size());
-  nodes_.push_back(Node{});
-  nodes_.push_back(Node{});
-  nodes_[nodeIndex].first = left;
-  nodes_[nodeIndex].count = 0;
-  buildRange(left, begin, mid);
-  buildRange(left + 1, mid, end);
 }
 
 namespace {
