@@ -18,6 +18,13 @@
 #include <string>
 #include <vector>
 
+/// Asserts that a csm::vk::Status is ok, printing its message when not.
+#define CSM_ASSERT_OK(expr)                               \
+  do {                                                    \
+    const csm::vk::Status csmStatus_ = (expr);            \
+    ASSERT_TRUE(csmStatus_.ok()) << csmStatus_.message(); \
+  } while (false)
+
 namespace csm_test {
 
 struct SphereWs {
@@ -46,6 +53,12 @@ class ShadowScene {
   /// Renders one frame with the given kernel, blend specialization and debug output.
   Rendered render(csm::PcfKernel kernel, csm::DebugMode debug, bool blend = true,
                   bool worldSpaceKernel = false);
+
+  /// Computes (and culls) the cascades of the current camera, light and settings.
+  csm::CascadeFrame computeFrame();
+  /// Records the shadow pass of `frame` (computed by computeFrame()) into `cmd`.
+  void recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame, csm::DebugMode debug,
+                    bool worldSpaceKernel = false);
 
   /// Nearest surface a camera ray through pixel (x, y) hits: its world point, and whether it is
   /// the ground plane (false: a caster, or nothing).

@@ -347,9 +347,10 @@ Status ShadowRenderer::checkFormat(VkFormat format) const {
   auto props3 = vkInit<VkFormatProperties3>(VK_STRUCTURE_TYPE_FORMAT_PROPERTIES_3);
   auto props = vkInit<VkFormatProperties2>(VK_STRUCTURE_TYPE_FORMAT_PROPERTIES_2, &props3);
   vkGetPhysicalDeviceFormatProperties2(device_.physicalDevice, format, &props);
+  // Linear filtering of a comparison sampler needs only SAMPLED_IMAGE_DEPTH_COMPARISON
+  // (FILTER_LINEAR governs non-comparison sampling; lavapipe does not report it for depth).
   const VkFormatFeatureFlags2 need = VK_FORMAT_FEATURE_2_DEPTH_STENCIL_ATTACHMENT_BIT |
                                      VK_FORMAT_FEATURE_2_SAMPLED_IMAGE_BIT |
-                                     VK_FORMAT_FEATURE_2_SAMPLED_IMAGE_FILTER_LINEAR_BIT |
                                      VK_FORMAT_FEATURE_2_SAMPLED_IMAGE_DEPTH_COMPARISON_BIT;
   if ((props3.optimalTilingFeatures & need) != need) {
     return Status(ErrorCode::kUnsupportedFormat,
