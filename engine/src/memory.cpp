@@ -102,6 +102,9 @@ Allocation Allocator::allocate(const VkMemoryRequirements& req, MemoryUsage usag
   if (size > blockSize / 2) {
     Allocation a;
     a.memory = allocateMemory(type, size, &a.mapped);
+    setDebugName(device_, a.memory,
+                 "engine.memory.type" + std::to_string(type) + ".dedicated" +
+                     std::to_string(dedicatedCount_));
     a.size = size;
     a.memoryType = type;
     a.dedicated = true;

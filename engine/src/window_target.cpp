@@ -81,8 +81,7 @@ WindowTarget::WindowTarget(Context& ctx, const WindowDesc& desc)
 }
 
 WindowTarget::~WindowTarget() {
-  vkDeviceWaitIdle(ctx_->device());
-  ring_.waitAll();
+  vkDeviceWaitIdle(ctx_->device());  // non-throwing, unlike ring_.waitAll()
   destroySwapchain(false);
   vkDestroySurfaceKHR(ctx_->instance(), surface_, nullptr);
   glfwDestroyWindow(window_);

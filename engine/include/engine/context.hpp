@@ -77,7 +77,8 @@ class Context {
   Allocator& allocator() { return *allocator_; }
 
   /// Records commands with `record` into a one-time command buffer, submits them and waits for
-  /// completion (uploads, readbacks, initial layout transitions). Blocking; not for per-frame use.
+  /// completion (uploads, readbacks, initial layout transitions). Blocking and not thread-safe;
+  /// not meant for per-frame work.
   void submitAndWait(const std::function<void(VkCommandBuffer)>& record);
   /// vkDeviceWaitIdle, checked.
   void waitIdle();
