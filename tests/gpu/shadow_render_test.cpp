@@ -175,19 +175,24 @@ TEST(ShadowRenderModes, LayeredAndPerLayerRenderTheSameImage) {
   {
     ShadowScene scene;
     if (!scene.context().features().shaderOutputLayer) GTEST_SKIP() << "no shaderOutputLayer";
-    csm::vk::RendererOptions options;
-    options.renderMode = csm::vk::RenderMode::kPerLayer;
-    CSM_ASSERT_OK(scene.update(testSettings(4, 512), options));
-    const Rendered a = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
-    options.renderMode = csm::vk::RenderMode::kLayered;
-    CSM_ASSERT_OK(scene.update(testSettings(4, 512), options));
-    EXPECT_EQ(scene.renderer().renderMode(), csm::vk::RenderMode::kLayered);
-    const Rendered b = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
-    ASSERT_EQ(a.image.rgba.size(), b.image.rgba.size());
-    size_t differing = 0;
-    for (size_t i = 0; i < a.image.rgba.size(); ++i)
-      differing += a.image.rgba[i] != b.image.rgba[i];
-    EXPECT_EQ(differing, 0u);
+    for (uint32_t cascades : {1u, 4u}) {
+      SCOPED_TRACE("cascades " + std::to_string(cascades));
+      csm::vk::RendererOptions options;
+      options.renderMode = csm::vk::RenderMode::kPerLayer;
+      CSM_ASSERT_OK(scene.update(testSettings(cascades, 512), options));
+      const Rendered a = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+      options.renderMode = csm::vk::RenderMode::kLayered;
+      CSM_ASSERT_OK(scene.update(testSettings(cascades, 512), options));
+      EXPECT_EQ(scene.renderer().renderMode(), csm::vk::RenderMode::kLayered);
+      const Rendered b = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+      ASSERT_EQ(a.image.rgba.size(), b.image.rgba.size());
+      size_t differing = 0;
+      for (size_t i = 0; i < a.image.rgba.size(); ++i) {
+        differing += a.image.rgba[i] != b.image.rgba[i];
+      }
+      EXPECT_EQ(differing, 0u);
+      EXPECT_GE(compareWithAnalytic(scene, b).ratio(), 0.995);
+    }
   }
   EXPECT_EQ(validationMessages(), 0u);
 }

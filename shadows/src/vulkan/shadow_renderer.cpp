@@ -692,17 +692,17 @@ void ShadowRenderer::recordEnd(VkCommandBuffer cmd) {
   if (endLabel_) endLabel_(cmd);
 }
 
-void ShadowRenderer::beginLayer(VkCommandBuffer cmd, std::uint32_t cascade,
-                                std::uint32_t layerCount) {
+void ShadowRenderer::beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered) {
+  const std::uint32_t layerCount = layered ? layerCount_ : 1;
   if (beginLabel_) {
-    const std::string name = layerCount > 1 ? std::string("csm cascades (layered)")
-                                            : "csm cascade " + std::to_string(cascade);
+    const std::string name =
+        layered ? std::string("csm cascades (layered)") : "csm cascade " + std::to_string(cascade);
     auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
     label.pLabelName = name.c_str();
     beginLabel_(cmd, &label);
   }
   auto depth = vkInit<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
-  depth.imageView = layerCount > 1 ? arrayView_ : layerViews_[cascade];
+  depth.imageView = layered ? arrayView_ : layerViews_[cascade];
   depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
   depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
   depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
@@ -719,8 +719,7 @@ void ShadowRenderer::beginLayer(VkCommandBuffer cmd, std::uint32_t cascade,
   vkCmdSetDepthBias(cmd, settings_.depthBiasConstant, 0.0f, settings_.depthBiasSlope);
   vkCmdSetCullMode(cmd, options_.cullMode);
   vkCmdSetFrontFace(cmd, options_.frontFace);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
-                    layerCount > 1 ? layeredPipeline_ : pipeline_);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layered ? layeredPipeline_ : pipeline_);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
                           0, nullptr);
 }
@@ -794,7 +793,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
         for (std::size_t i = 0; i < instanceCount; ++i) casterMasks_[i] |= 1u << c;
       }
     }
-    beginLayer(cmd, 0, layerCount_);
+    beginLayer(cmd, 0, true);
     for (std::size_t i = 0; i < instanceCount; ++i) {
       const std::uint32_t mask = casterMasks_[i];
       if (mask != 0) {
@@ -806,7 +805,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
   } else {
     for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
       if ((nonEmpty & (1u << c)) == 0) continue;
-      beginLayer(cmd, c, 1);
+      beginLayer(cmd, c, false);
       bound = nullptr;
       if (visible) {
         for (std::uint32_t i : visible->visible[c]) drawCaster(i, c, 1);
@@ -832,7 +831,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
   recordBegin(cmd, frame);
   for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
     if (frame.cascades[c].empty) continue;
-    beginLayer(cmd, c, 1);
+    beginLayer(cmd, c, false);
     CascadeDrawContext ctx;
     ctx.cmd = cmd;
     ctx.cascade = c;

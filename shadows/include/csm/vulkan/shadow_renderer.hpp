@@ -214,7 +214,7 @@ class ShadowRenderer {
   Status checkFrame(const CascadeFrame& frame) const;
   void recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame);
   void recordEnd(VkCommandBuffer cmd);
-  void beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, std::uint32_t layerCount);
+  void beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered);
   void endLayer(VkCommandBuffer cmd);
   void setName(std::uint64_t handle, VkObjectType type, const char* name) const;
 
