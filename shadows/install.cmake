@@ -1,7 +1,7 @@
 # Packaging: `cmake --install` puts the module where another engine finds it with
 #   find_package(csm CONFIG REQUIRED)
 #   target_link_libraries(app PRIVATE csm::shadows)
-# and its lighting shaders #include "csm.glsl" from ${CSM_SHADER_INCLUDE_DIR}.
+# and its lighting shaders #include "csm.glsl" with -I for each of ${CSM_SHADER_INCLUDE_DIRS}.
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
@@ -9,8 +9,10 @@ include(CMakePackageConfigHelpers)
 add_library(csm_shadows INTERFACE)
 add_library(csm::shadows ALIAS csm_shadows)
 target_link_libraries(csm_shadows INTERFACE csm_core csm_vulkan)
-# The directory a host's GLSL compiler includes csm.glsl from, in the build tree.
-set(CSM_SHADER_INCLUDE_DIR ${PROJECT_SOURCE_DIR}/shaders CACHE INTERNAL "")
+# The directories a host's GLSL compiler needs (-I each) to #include "csm.glsl": in the build
+# tree the shaders and the shared constants live apart; installed, they sit in one directory.
+set(CSM_SHADER_INCLUDE_DIRS ${PROJECT_SOURCE_DIR}/shaders ${CMAKE_CURRENT_SOURCE_DIR}/include
+    CACHE INTERNAL "")
 
 set_target_properties(csm_core PROPERTIES EXPORT_NAME core)
 set_target_properties(csm_vulkan PROPERTIES EXPORT_NAME vulkan)
@@ -45,6 +47,7 @@ find_dependency(glm)
 find_dependency(Vulkan)
 include("${CMAKE_CURRENT_LIST_DIR}/csmTargets.cmake")
 set_and_check(CSM_SHADER_INCLUDE_DIR "@PACKAGE_csm_shader_dest@")
+set(CSM_SHADER_INCLUDE_DIRS "${CSM_SHADER_INCLUDE_DIR}")
 set(CSM_SPIRV_DIR "${CSM_SHADER_INCLUDE_DIR}/spirv")
 check_required_components(csm)
 ]=])

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Builds tests/consumer as a separate project against the module and checks its image.
+#   run_consumer_test.sh installed  MAIN_BUILD_DIR WORK_DIR   (cmake --install into a temp prefix)
+#   run_consumer_test.sh subdir     REPO_DIR       WORK_DIR   (add_subdirectory of the repo)
+set -euo pipefail
+mode=$1 from=$2 work=$3
+here=$(cd "$(dirname "$0")" && pwd)
+rm -rf "$work" && mkdir -p "$work"
+
+# The integration (everything the consumer does with the module) stays under 150 lines of code.
+lines=$(cat "$here/shadows_integration.hpp" "$here/shadows_integration.cpp" |
+        grep -vE '^\s*$|^\s*//' | wc -l)
+echo "integration: $lines lines of code"
+[[ $lines -lt 150 ]] || { echo "FAIL: integration has $lines lines (limit 150)"; exit 1; }
+
+if [[ $mode == installed ]]; then
+  cmake --install "$from" --prefix "$work/prefix" >/dev/null
+  cmake -S "$here" -B "$work/build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+        -Dcsm_DIR="$work/prefix/lib/cmake/csm" >/dev/null
+else
+  cmake -S "$here" -B "$work/build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+        -DCSM_SOURCE_DIR="$from" >/dev/null
+  # Only the module's targets were configured: no engine, sample world, tests or tools.
+  for t in csm_engine csm_sample_world csm_unit_tests csm_bench; do
+    if ninja -C "$work/build" -t targets all | grep -q "^$t:"; then
+      echo "FAIL: add_subdirectory configured $t"; exit 1
+    fi
+  done
+fi
+cmake --build "$work/build" -j 2 >/dev/null
+"$work/build/csm_consumer" "$work/consumer.png"
+"$work/build/csm_consumer_check" "$work/consumer.png"
