@@ -268,6 +268,8 @@ void Context::createDevice(const ContextDesc& desc) {
       VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_3_FEATURES);
   e13.dynamicRendering = VK_TRUE;
   e13.synchronization2 = VK_TRUE;
+  // glslang's SPIR-V 1.6 declares compute workgroup sizes with LocalSizeId, which needs it.
+  e13.maintenance4 = s13.maintenance4;
   auto e12 = detail::vkStruct<VkPhysicalDeviceVulkan12Features>(
       VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES, &e13);
   e12.shaderOutputLayer = s12.shaderOutputLayer;
