@@ -24,6 +24,10 @@ install(TARGETS csm_core csm_vulkan csm_shadows EXPORT csmTargets
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 install(DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/include/csm
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/include/csm/version.hpp
+        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/csm)
+install(FILES ${CMAKE_CURRENT_SOURCE_DIR}/README.md ${CMAKE_CURRENT_SOURCE_DIR}/CHANGELOG.md
+        DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/csm)
 
 # GLSL: csm.glsl and the depth pass as sources, with the shared constants beside them so that
 # `-I ${CSM_SHADER_INCLUDE_DIR}` resolves every include; the depth pass also as SPIR-V.

@@ -9,3 +9,4 @@
 #include "csm/selection.hpp"
 #include "csm/splits.hpp"
 #include "csm/types.hpp"
+#include "csm/version.hpp"
