@@ -1,0 +1,37 @@
+#version 450
+// Measurement probe: evaluates csm.glsl's shadow function and cascade selection at fixed receiver
+// points (camera-relative positions computed in double on the CPU), one invocation per point.
+// Used by the shimmer tests (tests/stability) and csm_tradeoff; the same code path as a lighting
+// shader, with the point's index as the Poisson rotation seed so a point's kernel never rotates.
+#extension GL_GOOGLE_include_directive : require
+
+#define CSM_SET 1
+#include "csm.glsl"
+
+layout(local_size_x = 64) in;
+
+struct ProbePoint {
+  vec4 posCr;     // xyz: receiver position relative to the camera (m)
+  vec4 normalWs;  // xyz: unit world normal
+};
+
+layout(std430, set = 0, binding = 0) readonly buffer Points {
+  ProbePoint points[];
+};
+// x: shadow factor (1 lit), y: cascade index (-1 none), z: blended cascade (-1 none), w: weight.
+layout(std430, set = 0, binding = 1) writeonly buffer Results {
+  vec4 results[];
+};
+layout(push_constant) uniform ProbePush {
+  uint count;
+} pc;
+
+void main() {
+  const uint i = gl_GlobalInvocationID.x;
+  if (i >= pc.count) return;
+  const vec3 posCr = points[i].posCr.xyz;
+  const vec3 normalWs = points[i].normalWs.xyz;
+  const float s = csmShadow(posCr, normalWs, vec2(float(i % 4096u), float(i / 4096u)));
+  const CsmSelection sel = csmSelectCascade(csmViewDepth(posCr));
+  results[i] = vec4(s, float(sel.index), float(sel.blendIndex), sel.blendWeight);
+}

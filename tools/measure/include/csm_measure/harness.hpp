@@ -1,0 +1,156 @@
+// The GPU side of the measurements: one engine::Context (validation on in tests), the shadow
+// renderer over a measurement Scene, and three ways to look at csm.glsl's answer:
+//   probe()          the shadow function at fixed receiver points (compute, stability_probe.comp)
+//   renderAccuracy() a rasterised frame whose every receiver pixel reports its position, normal,
+//                    shadow factor, cascade and footprint (stability_accuracy.vert/frag)
+//   timeFrame()      the shadow pass and the engine's lit pass with timestamp queries
+// Everything is blocking (one submission at a time): measurements, not a frame loop.
+#pragma once
+
+#include <csm/core.hpp>
+#include <csm/gpu_layout.hpp>
+#include <csm/vulkan/shadow_renderer.hpp>
+#include <engine/camera.hpp>
+#include <engine/context.hpp>
+#include <engine/image_io.hpp>
+#include <engine/mesh_store.hpp>
+
+#include <map>
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "csm_measure/scene.hpp"
+
+namespace engine {
+class HeadlessTarget;
+class GpuTimer;
+class LitPass;
+}  // namespace engine
+
+namespace csm_measure {
+
+/// What a Harness is created with.
+struct HarnessDesc {
+  /// Validation layers (with synchronization validation); tests keep it on.
+  bool validation = true;
+  const char* appName = "csm_measure";
+};
+
+/// csm.glsl's answer at one receiver point.
+struct ProbeResult {
+  float shadow = 1.0f;    ///< 1 lit, 0 shadowed
+  int cascade = -1;       ///< selected cascade, -1 outside every cascade
+  int blendCascade = -1;  ///< cascade blended in across the band, -1 none
+  float blendWeight = 0.0f;
+};
+
+/// One receiver pixel of an accuracy frame.
+struct PixelSample {
+  uint32_t x = 0, y = 0;
+  glm::dvec3 posWs{0.0};  ///< camera position + the pixel's camera-relative position
+  glm::vec3 normalWs{0.0f};
+  float shadow = 1.0f;
+  int cascade = -1;
+  int blendCascade = -1;
+  float blendWeight = 0.0f;
+  float footprintM = 0.0f;  ///< square root of the pixel's area on the surface
+};
+
+/// GPU and CPU time of one frame.
+struct FrameTimings {
+  double shadowGpuMs = 0.0;  ///< the shadow pass (every cascade)
+  double litGpuMs = 0.0;     ///< the engine's lit pass (shading + shadow sampling)
+  double cpuMs = 0.0;        ///< computeCascades + cullCasters + recording the shadow pass
+};
+
+/// The engine camera that renders what a csm::Camera describes.
+engine::Camera toEngineCamera(const csm::Camera& camera);
+
+class Harness {
+ public:
+  /// Creates the context and the renderer. Throws engine::NoDeviceError without a device.
+  explicit Harness(const HarnessDesc& desc = {});
+  /// Waits for the device, destroys everything and shuts the context down (validation messages
+  /// raised during destruction are counted by then).
+  ~Harness();
+  Harness(const Harness&) = delete;
+  Harness& operator=(const Harness&) = delete;
+
+  engine::Context& context() { return *ctx_; }
+  csm::vk::ShadowRenderer& renderer() { return *renderer_; }
+
+  /// Uploads the scene's meshes and builds its caster list (replacing any previous scene).
+  void setScene(const Scene& scene);
+  /// Applies shadow settings and renderer options.
+  csm::vk::Status configure(const csm::ShadowSettings& settings,
+                            const csm::vk::RendererOptions& options = {});
+  const csm::ShadowSettings& settings() const { return settings_; }
+
+  /// computeCascades (scene bounds, `history`) and culling; throws std::runtime_error naming the
+  /// refused field on invalid input.
+  csm::CascadeFrame computeFrame(const csm::Camera& camera, const csm::DirectionalLight& light,
+                                 csm::CascadeHistory& history);
+
+  /// Renders the shadow pass of `frame` and evaluates csm.glsl at the receivers (positions made
+  /// camera-relative in double against the frame's camera).
+  std::vector<ProbeResult> probe(const csm::CascadeFrame& frame,
+                                 std::span<const Receiver> receivers, csm::PcfKernel kernel,
+                                 bool blend = true);
+
+  /// Renders the shadow pass and an accuracy frame of `extent` pixels for `camera`; returns
+  /// every pixel a surface covers. `shadowImage` (optional) receives the shadow factor as grey
+  /// (background dark blue) for people to look at.
+  std::vector<PixelSample> renderAccuracy(const csm::Camera& camera, const csm::CascadeFrame& frame,
+                                          VkExtent2D extent, csm::PcfKernel kernel,
+                                          bool blend = true,
+                                          engine::CpuImage* shadowImage = nullptr);
+
+  /// One timed frame at `extent`: computes cascades, culls, records the shadow pass and the lit
+  /// pass, waits, and returns GPU (timestamp queries) and CPU (steady_clock) times. Empty GPU
+  /// times (0) on devices without timestamps.
+  FrameTimings timeFrame(const csm::Camera& camera, const csm::DirectionalLight& light,
+                         csm::CascadeHistory& history, VkExtent2D extent, csm::PcfKernel kernel,
+                         bool blend = true);
+
+  /// Bytes of the shadow map at the current settings and format.
+  uint64_t shadowMapBytes() const;
+
+ private:
+  struct ProbePipeline;
+  struct AccuracyPipeline;
+  struct AccuracyTargets;
+  void recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame);
+  ProbePipeline& probePipeline(csm::PcfKernel kernel, bool blend);
+  AccuracyPipeline& accuracyPipeline(csm::PcfKernel kernel, bool blend);
+  void ensureProbeBuffers(uint32_t count);
+  void ensureAccuracyTargets(VkExtent2D extent);
+  void ensureTimingTarget(VkExtent2D extent);
+
+  std::unique_ptr<engine::Context> ctx_;
+  std::unique_ptr<engine::MeshStore> meshes_;
+  std::unique_ptr<csm::vk::ShadowRenderer> renderer_;
+  csm::ShadowSettings settings_{};
+  csm::vk::RendererOptions options_{};
+
+  // Scene on the GPU.
+  std::vector<csm::vk::MeshDraw> meshDraws_;
+  std::vector<engine::MeshRange> meshRanges_;
+  std::vector<csm::vk::CasterInstance> casters_;
+  std::vector<Instance> instances_;
+  csm::CasterSet casterSet_;
+  csm::CullResult cull_;
+  csm::AabbWs sceneBounds_{};
+
+  struct Probe;
+  std::unique_ptr<Probe> probe_;
+  std::map<std::pair<uint32_t, bool>, std::unique_ptr<ProbePipeline>> probePipelines_;
+  std::unique_ptr<AccuracyTargets> accuracy_;
+  std::map<std::pair<uint32_t, bool>, std::unique_ptr<AccuracyPipeline>> accuracyPipelines_;
+
+  std::unique_ptr<engine::HeadlessTarget> timingTarget_;
+  std::unique_ptr<engine::GpuTimer> timer_;
+  std::map<std::pair<uint32_t, bool>, std::unique_ptr<engine::LitPass>> litPasses_;
+};
+
+}  // namespace csm_measure

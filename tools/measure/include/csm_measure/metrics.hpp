@@ -1,0 +1,119 @@
+// The numbers: frame-to-frame shimmer at fixed receivers, and accuracy of a rendered frame
+// against a ray-traced truth. Plus the report helpers (JSON values, gnuplot PNGs).
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "csm_measure/harness.hpp"
+#include "csm_measure/raytracer.hpp"
+#include "csm_measure/scene.hpp"
+
+namespace csm_measure {
+
+/// A change of a shadow factor that 8-bit output can show.
+inline constexpr double kVisibleStep = 1.0 / 255.0;
+
+/// |s(t) - s(t-1)| over a set of (point, frame) pairs.
+struct ShimmerStats {
+  uint64_t pairs = 0;
+  uint64_t visible = 0;  ///< pairs that changed by more than kVisibleStep
+  double sum = 0.0;
+  double max = 0.0;
+  void add(double delta) noexcept;
+  void merge(const ShimmerStats& other) noexcept;
+  [[nodiscard]] double mean() const noexcept { return pairs ? sum / double(pairs) : 0.0; }
+  [[nodiscard]] double visibleFraction() const noexcept {
+    return pairs ? double(visible) / double(pairs) : 0.0;
+  }
+  [[nodiscard]] nlohmann::json toJson() const;
+};
+
+/// Shimmer of one frame (or of a run), by what the point's cascade selection did.
+struct ShimmerClasses {
+  /// Same cascade in both frames and outside every blend band: only texel crawl can move it.
+  ShimmerStats stayed;
+  /// Same cascade, but inside the blend band toward the next one in either frame (the blend
+  /// weight follows the view depth, so the value moves smoothly with the camera).
+  ShimmerStats band;
+  /// Another cascade (or none) than in the previous frame.
+  ShimmerStats crossed;
+  void merge(const ShimmerClasses& other) noexcept;
+  [[nodiscard]] nlohmann::json toJson() const;
+};
+
+/// A camera motion: the camera of frame f.
+using CameraPath = std::function<csm::Camera(int frame)>;
+
+/// The shimmer of a run over `frames` frames.
+struct ShimmerRun {
+  std::vector<ShimmerClasses> perFrame;  ///< frame f (from 1) against frame f - 1
+  ShimmerClasses total;
+  uint64_t nonFinite = 0;      ///< NaN / inf in shader outputs or cascade matrices
+  uint64_t pointsTracked = 0;  ///< receivers inside the view in the first frame
+  [[nodiscard]] nlohmann::json toJson(bool perFrameSeries) const;
+};
+
+/// Renders `frames` frames along `path` (cascade history carried over) and compares csm.glsl's
+/// shadow factor at each receiver with the previous frame's. Pairs count only where the point
+/// lies inside the view frustum in both frames.
+ShimmerRun measureShimmer(Harness& harness, std::span<const Receiver> receivers,
+                          const csm::DirectionalLight& light, const CameraPath& path, int frames,
+                          csm::PcfKernel kernel, bool blend = true);
+
+/// Misclassification and error against the ray-traced truth, per cascade.
+struct AccuracyBucket {
+  uint64_t pixels = 0;
+  uint64_t misclassified = 0;  ///< |s - v| > 0.5
+  double absErrorSum = 0.0;
+  [[nodiscard]] double rate() const noexcept {
+    return pixels ? double(misclassified) / double(pixels) : 0.0;
+  }
+  [[nodiscard]] double meanAbsError() const noexcept {
+    return pixels ? absErrorSum / double(pixels) : 0.0;
+  }
+  void add(double s, double v) noexcept;
+  [[nodiscard]] nlohmann::json toJson() const;
+};
+
+/// Texel-to-pixel ratio histogram: bin k counts log2(ratio) in [kLo + k, kLo + k + 1).
+struct RatioHistogram {
+  static constexpr int kLo = -4;
+  static constexpr int kBins = 14;  ///< [-4, 10); values outside go to the end bins
+  std::array<uint64_t, kBins> counts{};
+  void add(double ratio) noexcept;
+  [[nodiscard]] nlohmann::json toJson() const;
+};
+
+struct AccuracyStats {
+  AccuracyBucket overall;  ///< every receiver pixel inside the shadow range (some cascade)
+  std::array<AccuracyBucket, csm::kMaxCascades> perCascade{};
+  AccuracyBucket outside;  ///< receiver pixels beyond every cascade (lit by design)
+  RatioHistogram texelToPixel;
+  uint64_t backFacing = 0;  ///< pixels facing away from the light, not counted
+  uint64_t nonFinite = 0;   ///< NaN / inf among the pass's outputs
+  void merge(const AccuracyStats& other) noexcept;
+  [[nodiscard]] nlohmann::json toJson(uint32_t cascadeCount) const;
+};
+
+/// Compares each receiver pixel's shadow factor s with the visibility v of a shadow ray toward
+/// the light (Embree, full-detail triangles). Pixels with dot(n, -lightDir) <= 0 are unlit by
+/// shading whatever the shadow says and are left out.
+AccuracyStats measureAccuracy(std::span<const PixelSample> pixels, const csm::CascadeFrame& frame,
+                              const RayTracer& tracer, const csm::DirectionalLight& light);
+
+/// Whether a frame's cascade data are all finite.
+bool frameIsFinite(const csm::CascadeFrame& frame) noexcept;
+
+/// Runs gnuplot on `script` (written next to `scriptPath`); false when gnuplot is missing or
+/// fails (the message is printed).
+bool runGnuplot(const std::string& scriptPath, const std::string& script);
+
+/// Writes `value` as pretty JSON.
+void writeJson(const std::string& path, const nlohmann::json& value);
+
+}  // namespace csm_measure

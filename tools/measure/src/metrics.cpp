@@ -1,0 +1,275 @@
+// The numbers (see metrics.hpp).
+#include "csm_measure/metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <stdexcept>
+
+namespace csm_measure {
+namespace {
+
+bool finite(const glm::mat4& m) noexcept {
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r)
+      if (!std::isfinite(m[c][r])) return false;
+  return true;
+}
+
+// Inside the view frustum of `camera` (clip-space test in double).
+struct FrustumTest {
+  glm::dmat4 viewProjCr;
+  glm::dvec3 cameraWs;
+  explicit FrustumTest(const csm::Camera& c)
+      : viewProjCr(glm::dmat4(toEngineCamera(c).viewProjectionCr())), cameraWs(c.positionWs) {}
+  bool inside(const glm::dvec3& posWs) const noexcept {
+    const glm::dvec4 p = viewProjCr * glm::dvec4(posWs - cameraWs, 1.0);
+    return p.w > 0.0 && std::abs(p.x) <= p.w && std::abs(p.y) <= p.w && p.z >= 0.0 && p.z <= p.w;
+  }
+};
+
+}  // namespace
+
+void ShimmerStats::add(double d) noexcept {
+  ++pairs;
+  sum += d;
+  max = std::max(max, d);
+  if (d > kVisibleStep) ++visible;
+}
+
+void ShimmerStats::merge(const ShimmerStats& o) noexcept {
+  pairs += o.pairs;
+  visible += o.visible;
+  sum += o.sum;
+  max = std::max(max, o.max);
+}
+
+nlohmann::json ShimmerStats::toJson() const {
+  return {{"pairs", pairs},
+          {"mean", mean()},
+          {"max", max},
+          {"fraction_above_1_255", visibleFraction()}};
+}
+
+void ShimmerClasses::merge(const ShimmerClasses& o) noexcept {
+  stayed.merge(o.stayed);
+  band.merge(o.band);
+  crossed.merge(o.crossed);
+}
+
+nlohmann::json ShimmerClasses::toJson() const {
+  return {{"stayed", stayed.toJson()}, {"band", band.toJson()}, {"crossed", crossed.toJson()}};
+}
+
+nlohmann::json ShimmerRun::toJson(bool perFrameSeries) const {
+  nlohmann::json j = total.toJson();
+  j["points_tracked"] = pointsTracked;
+  j["non_finite"] = nonFinite;
+  if (perFrameSeries) {
+    nlohmann::json mean = nlohmann::json::array(), max = nlohmann::json::array(),
+                   frac = nlohmann::json::array(), crossedMean = nlohmann::json::array();
+    for (const ShimmerClasses& f : perFrame) {
+      mean.push_back(f.stayed.mean());
+      max.push_back(f.stayed.max);
+      frac.push_back(f.stayed.visibleFraction());
+      crossedMean.push_back(f.crossed.mean());
+    }
+    j["per_frame"] = {{"stayed_mean", mean},
+                      {"stayed_max", max},
+                      {"stayed_fraction_above_1_255", frac},
+                      {"crossed_mean", crossedMean}};
+  }
+  return j;
+}
+
+ShimmerRun measureShimmer(Harness& harness, std::span<const Receiver> receivers,
+                          const csm::DirectionalLight& light, const CameraPath& path, int frames,
+                          csm::PcfKernel kernel, bool blend) {
+  ShimmerRun run;
+  csm::CascadeHistory history;
+  std::vector<ProbeResult> previous;
+  std::vector<uint8_t> previousInside;
+  for (int f = 0; f < frames; ++f) {
+    const csm::Camera camera = path(f);
+    const csm::CascadeFrame frame = harness.computeFrame(camera, light, history);
+    if (!frameIsFinite(frame)) ++run.nonFinite;
+    std::vector<ProbeResult> now = harness.probe(frame, receivers, kernel, blend);
+    const FrustumTest frustum(camera);
+    std::vector<uint8_t> inside(receivers.size());
+    for (size_t i = 0; i < receivers.size(); ++i) {
+      inside[i] = frustum.inside(receivers[i].posWs) ? 1 : 0;
+      if (!std::isfinite(now[i].shadow) || !std::isfinite(now[i].blendWeight)) ++run.nonFinite;
+    }
+    if (f == 0) {
+      for (uint8_t v : inside) run.pointsTracked += v;
+    } else {
+      ShimmerClasses cls;
+      for (size_t i = 0; i < receivers.size(); ++i) {
+        if (!inside[i] || !previousInside[i]) continue;
+        const ProbeResult& a = previous[i];
+        const ProbeResult& b = now[i];
+        if (a.cascade < 0 && b.cascade < 0) continue;  // beyond the shadows in both frames
+        const double d = std::abs(double(b.shadow) - double(a.shadow));
+        if (a.cascade != b.cascade) {
+          cls.crossed.add(d);
+        } else if (a.blendCascade >= 0 || b.blendCascade >= 0) {
+          cls.band.add(d);
+        } else {
+          cls.stayed.add(d);
+        }
+      }
+      run.total.merge(cls);
+      run.perFrame.push_back(cls);
+    }
+    previous = std::move(now);
+    previousInside = std::move(inside);
+  }
+  return run;
+}
+
+void AccuracyBucket::add(double s, double v) noexcept {
+  ++pixels;
+  const double e = std::abs(s - v);
+  absErrorSum += e;
+  if (e > 0.5) ++misclassified;
+}
+
+nlohmann::json AccuracyBucket::toJson() const {
+  return {{"pixels", pixels},
+          {"misclassified", misclassified},
+          {"misclassification_rate", rate()},
+          {"mean_abs_error", meanAbsError()}};
+}
+
+void RatioHistogram::add(double ratio) noexcept {
+  if (!(ratio > 0.0) || !std::isfinite(ratio)) return;
+  const int k = std::clamp(int(std::floor(std::log2(ratio))) - kLo, 0, kBins - 1);
+  ++counts[size_t(k)];
+}
+
+nlohmann::json RatioHistogram::toJson() const {
+  nlohmann::json bins = nlohmann::json::array();
+  for (int k = 0; k < kBins; ++k) {
+    bins.push_back(
+        {{"log2_from", kLo + k}, {"log2_to", kLo + k + 1}, {"count", counts[size_t(k)]}});
+  }
+  return bins;
+}
+
+void AccuracyStats::merge(const AccuracyStats& o) noexcept {
+  auto m = [](AccuracyBucket& a, const AccuracyBucket& b) {
+    a.pixels += b.pixels;
+    a.misclassified += b.misclassified;
+    a.absErrorSum += b.absErrorSum;
+  };
+  m(overall, o.overall);
+  for (size_t i = 0; i < perCascade.size(); ++i) m(perCascade[i], o.perCascade[i]);
+  m(outside, o.outside);
+  for (size_t k = 0; k < texelToPixel.counts.size(); ++k)
+    texelToPixel.counts[k] += o.texelToPixel.counts[k];
+  backFacing += o.backFacing;
+  nonFinite += o.nonFinite;
+}
+
+nlohmann::json AccuracyStats::toJson(uint32_t cascadeCount) const {
+  nlohmann::json per = nlohmann::json::array();
+  for (uint32_t i = 0; i < cascadeCount && i < perCascade.size(); ++i)
+    per.push_back(perCascade[i].toJson());
+  return {{"overall", overall.toJson()},
+          {"per_cascade", per},
+          {"beyond_shadow_range", outside.toJson()},
+          {"back_facing_pixels", backFacing},
+          {"non_finite", nonFinite},
+          {"texel_to_pixel_log2_histogram", texelToPixel.toJson()}};
+}
+
+AccuracyStats measureAccuracy(std::span<const PixelSample> pixels, const csm::CascadeFrame& frame,
+                              const RayTracer& tracer, const csm::DirectionalLight& light) {
+  AccuracyStats st;
+  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
+  std::vector<glm::dvec3> pos;
+  std::vector<glm::vec3> nrm;
+  std::vector<size_t> index;
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    const PixelSample& p = pixels[i];
+    const bool ok = std::isfinite(p.shadow) && std::isfinite(p.footprintM) &&
+                    std::isfinite(p.blendWeight) && std::isfinite(p.posWs.x) &&
+                    std::isfinite(p.posWs.y) && std::isfinite(p.posWs.z) &&
+                    std::isfinite(p.normalWs.x) && std::isfinite(p.normalWs.y) &&
+                    std::isfinite(p.normalWs.z) && p.cascade >= -1;
+    if (!ok) {
+      ++st.nonFinite;
+      continue;
+    }
+    if (!(glm::dot(glm::dvec3(p.normalWs), toLight) > 0.0)) {
+      ++st.backFacing;
+      continue;
+    }
+    pos.push_back(p.posWs);
+    nrm.push_back(p.normalWs);
+    index.push_back(i);
+  }
+  std::vector<float> vis(pos.size());
+  tracer.visibility(pos, nrm, light.directionWs, vis);
+  for (size_t k = 0; k < index.size(); ++k) {
+    const PixelSample& p = pixels[index[k]];
+    const double s = std::clamp(double(p.shadow), 0.0, 1.0);
+    if (p.cascade < 0 || p.cascade >= int(frame.cascadeCount)) {
+      st.outside.add(s, vis[k]);
+      continue;
+    }
+    st.overall.add(s, vis[k]);
+    st.perCascade[size_t(p.cascade)].add(s, vis[k]);
+    if (p.footprintM > 0.0f) {
+      st.texelToPixel.add(frame.cascades[size_t(p.cascade)].texelSizeM() / double(p.footprintM));
+    }
+  }
+  return st;
+}
+
+bool frameIsFinite(const csm::CascadeFrame& frame) noexcept {
+  for (uint32_t i = 0; i < frame.cascadeCount; ++i) {
+    const csm::Cascade& c = frame.cascades[i];
+    if (!finite(c.viewProjCr)) return false;
+    const double v[] = {c.splitNearM,     c.splitFarM,     c.sphereRadiusM, c.halfExtentLs.x,
+                        c.halfExtentLs.y, c.texelSizeLs.x, c.depthNearLs,   c.depthFarLs,
+                        c.boxCenterWs.x,  c.boxCenterWs.y, c.boxCenterWs.z};
+    for (double x : v)
+      if (!std::isfinite(x)) return false;
+  }
+  return std::isfinite(frame.shadowFarM);
+}
+
+bool runGnuplot(const std::string& scriptPath, const std::string& script) {
+  {
+    std::ofstream out(scriptPath);
+    out << script;
+    if (!out) {
+      std::fprintf(stderr, "cannot write %s\n", scriptPath.c_str());
+      return false;
+    }
+  }
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
+    std::fprintf(stderr, "gnuplot not found (tools/setup.sh installs gnuplot-nox); no plot\n");
+    return false;
+  }
+  const std::string cmd = "gnuplot '" + scriptPath + "'";
+  if (std::system(cmd.c_str()) != 0) {
+    std::fprintf(stderr, "gnuplot failed on %s\n", scriptPath.c_str());
+    return false;
+  }
+  return true;
+}
+
+void writeJson(const std::string& path, const nlohmann::json& value) {
+  const std::filesystem::path p(path);
+  if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
+  std::ofstream out(path);
+  out << value.dump(2) << "\n";
+  if (!out) throw std::runtime_error("cannot write " + path);
+}
+
+}  // namespace csm_measure

@@ -1,0 +1,277 @@
+// The measurement scene (see scene.hpp).
+#include "csm_measure/scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace csm_measure {
+namespace {
+
+// splitmix64: a small deterministic generator (identical on every standard library).
+struct Rng {
+  uint64_t state;
+  uint64_t next() noexcept {
+    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  /// Uniform in [0, 1).
+  double uniform() noexcept { return double(next() >> 11) * (1.0 / 9007199254740992.0); }
+  double range(double lo, double hi) noexcept { return lo + (hi - lo) * uniform(); }
+};
+
+glm::mat3 scaleMatrix(const glm::dvec3& s) {
+  return glm::mat3(glm::vec3(float(s.x), 0, 0), glm::vec3(0, float(s.y), 0),
+                   glm::vec3(0, 0, float(s.z)));
+}
+
+}  // namespace
+
+double terrainHeight(double x, double z) noexcept {
+  return 0.9 * std::sin(0.061 * x + 0.3) * std::cos(0.047 * z) +
+         0.45 * std::sin(0.17 * x + 1.1) * std::sin(0.13 * z + 0.4) +
+         0.12 * std::cos(0.41 * x - 0.37 * z);
+}
+
+MeshData makeCubeMesh() {
+  MeshData m;
+  m.name = "cube";
+  engine::makeCube(m.vertices, m.indices);
+  return m;
+}
+
+MeshData makeSphereMesh(int segments, int rings) {
+  MeshData m;
+  m.name = "sphere";
+  for (int r = 0; r <= rings; ++r) {
+    const double phi = glm::pi<double>() * r / rings;
+    for (int s = 0; s <= segments; ++s) {
+      const double theta = 2.0 * glm::pi<double>() * s / segments;
+      const glm::vec3 n(float(std::sin(phi) * std::cos(theta)), float(std::cos(phi)),
+                        float(std::sin(phi) * std::sin(theta)));
+      m.vertices.push_back({n, n});
+    }
+  }
+  const uint32_t row = uint32_t(segments + 1);
+  for (uint32_t r = 0; r < uint32_t(rings); ++r) {
+    for (uint32_t s = 0; s < uint32_t(segments); ++s) {
+      const uint32_t a = r * row + s, b = a + row;
+      m.indices.insert(m.indices.end(), {a, b, a + 1, a + 1, b, b + 1});
+    }
+  }
+  return m;
+}
+
+MeshData makeGroundMesh(bool terrain, double sideM, uint32_t cells, double cx, double cz) {
+  MeshData m;
+  m.name = terrain ? "terrain" : "ground";
+  if (!terrain) cells = 1;
+  const double step = sideM / cells;
+  const double e = 0.01;  // finite-difference step of the terrain normal (m)
+  for (uint32_t j = 0; j <= cells; ++j) {
+    for (uint32_t i = 0; i <= cells; ++i) {
+      const double x = cx - 0.5 * sideM + step * i;
+      const double z = cz - 0.5 * sideM + step * j;
+      const double y = terrain ? terrainHeight(x, z) : 0.0;
+      glm::dvec3 n(0.0, 1.0, 0.0);
+      if (terrain) {
+        const double dx = (terrainHeight(x + e, z) - terrainHeight(x - e, z)) / (2.0 * e);
+        const double dz = (terrainHeight(x, z + e) - terrainHeight(x, z - e)) / (2.0 * e);
+        n = glm::normalize(glm::dvec3(-dx, 1.0, -dz));
+      }
+      m.vertices.push_back({glm::vec3(float(x), float(y), float(z)), glm::vec3(n)});
+    }
+  }
+  const uint32_t row = cells + 1;
+  for (uint32_t j = 0; j < cells; ++j) {
+    for (uint32_t i = 0; i < cells; ++i) {
+      const uint32_t a = j * row + i, b = a + row;
+      // Counter-clockwise seen from above (+y).
+      m.indices.insert(m.indices.end(), {a, b, a + 1, a + 1, b, b + 1});
+    }
+  }
+  return m;
+}
+
+uint32_t Scene::addMesh(MeshData mesh) {
+  meshes_.push_back(std::move(mesh));
+  return uint32_t(meshes_.size() - 1);
+}
+
+void Scene::addInstance(const Instance& instance) {
+  if (instance.mesh >= meshes_.size()) throw std::out_of_range("Scene::addInstance: mesh index");
+  instances_.push_back(instance);
+  const MeshData& m = meshes_[instance.mesh];
+  csm::AabbWs b{glm::dvec3(1e300), glm::dvec3(-1e300)};
+  for (const engine::Vertex& v : m.vertices) {
+    const glm::dvec3 p = instance.translationWs + glm::dvec3(instance.linearWs * v.position);
+    b.minWs = glm::min(b.minWs, p);
+    b.maxWs = glm::max(b.maxWs, p);
+  }
+  bounds_.push_back(b);
+  if (instances_.size() == 1) {
+    sceneBounds_ = b;
+  } else {
+    sceneBounds_.minWs = glm::min(sceneBounds_.minWs, b.minWs);
+    sceneBounds_.maxWs = glm::max(sceneBounds_.maxWs, b.maxWs);
+  }
+}
+
+uint64_t Scene::triangleCount() const {
+  uint64_t n = 0;
+  for (const Instance& i : instances_) n += meshes_[i.mesh].indices.size() / 3;
+  return n;
+}
+
+glm::dvec3 Scene::vertexWs(size_t instance, uint32_t index) const {
+  const Instance& in = instances_[instance];
+  return in.translationWs + glm::dvec3(in.linearWs * meshes_[in.mesh].vertices[index].position);
+}
+
+Scene Scene::makeTestScene(const TestSceneDesc& desc) {
+  Scene scene;
+  scene.originWs_ = desc.originWs;
+  const double groundCz = -0.3 * desc.groundSideM;
+  const uint32_t ground = scene.addMesh(
+      makeGroundMesh(desc.terrain, desc.groundSideM, desc.terrainCells, 0.0, groundCz));
+  const uint32_t cube = scene.addMesh(makeCubeMesh());
+  const uint32_t sphere = scene.addMesh(makeSphereMesh(32, 16));
+  auto height = [&](double x, double z) { return desc.terrain ? terrainHeight(x, z) : 0.0; };
+  auto groundMin = [&](double x0, double z0, double x1, double z1) {
+    double h = 1e300;
+    for (int j = 0; j <= 8; ++j)
+      for (int i = 0; i <= 8; ++i)
+        h = std::min(h, height(x0 + (x1 - x0) * i / 8.0, z0 + (z1 - z0) * j / 8.0));
+    return h;
+  };
+
+  scene.addInstance(
+      {ground, desc.originWs, glm::mat3(1.0f), {0.55f, 0.65f, 0.45f, 1.0f}, InstanceKind::kGround});
+  Rng rng{0x5EED1234ull};
+  // Buildings on a jittered grid ahead of the camera (which sits near local z = +25).
+  for (int row = 0; row < 5; ++row) {
+    for (int col = 0; col < 5; ++col) {
+      if ((row * 5 + col) % 3 == 1) continue;
+      const double x = -40.0 + 20.0 * col + rng.range(-4.0, 4.0);
+      const double z = -8.0 - 22.0 * row + rng.range(-4.0, 4.0);
+      const glm::dvec3 size(rng.range(4.0, 9.0), rng.range(5.0, 16.0), rng.range(4.0, 9.0));
+      const double base =
+          groundMin(x - 0.5 * size.x, z - 0.5 * size.z, x + 0.5 * size.x, z + 0.5 * size.z) - 0.3;
+      const glm::dvec3 c(x, base + 0.5 * size.y, z);
+      scene.addInstance({cube,
+                         desc.originWs + c,
+                         scaleMatrix(size),
+                         {0.75f, 0.6f, 0.5f, 1.0f},
+                         InstanceKind::kBuilding});
+    }
+  }
+  // Thin poles (they test small casters) and floating spheres (curved shadow edges).
+  for (int k = 0; k < 10; ++k) {
+    const double x = -35.0 + 7.5 * k + rng.range(-1.0, 1.0);
+    const double z = 6.0 - 9.0 * k;
+    const double h = rng.range(5.0, 9.0);
+    const double base = height(x, z) - 0.3;
+    const glm::dvec3 size(0.3, h, 0.3);
+    scene.addInstance({cube,
+                       desc.originWs + glm::dvec3(x, base + 0.5 * h, z),
+                       scaleMatrix(size),
+                       {0.3f, 0.3f, 0.35f, 1.0f},
+                       InstanceKind::kPole});
+  }
+  for (int k = 0; k < 7; ++k) {
+    const double x = 30.0 - 10.0 * k + rng.range(-2.0, 2.0);
+    const double z = 2.0 - 14.0 * k + rng.range(-2.0, 2.0);
+    const double r = rng.range(1.2, 2.5);
+    const double y = height(x, z) + r + rng.range(2.0, 5.0);
+    scene.addInstance({sphere,
+                       desc.originWs + glm::dvec3(x, y, z),
+                       scaleMatrix(glm::dvec3(r)),
+                       {0.3f, 0.6f, 0.3f, 1.0f},
+                       InstanceKind::kSphere});
+  }
+  return scene;
+}
+
+std::vector<Receiver> Scene::sampleReceivers(uint32_t count, double wallFraction,
+                                             const glm::dvec3& regionMin,
+                                             const glm::dvec3& regionMax, uint32_t seed) const {
+  struct Tri {
+    size_t instance;
+    uint32_t i0, i1, i2;
+    double area;
+  };
+  std::vector<Tri> groundTris, wallTris;
+  const glm::dvec3 lo = originWs_ + regionMin, hi = originWs_ + regionMax;
+  auto inside = [&](const glm::dvec3& p) {
+    return p.x >= lo.x && p.y >= lo.y && p.z >= lo.z && p.x <= hi.x && p.y <= hi.y && p.z <= hi.z;
+  };
+  for (size_t k = 0; k < instances_.size(); ++k) {
+    const Instance& in = instances_[k];
+    if (in.kind != InstanceKind::kGround && in.kind != InstanceKind::kBuilding) continue;
+    const MeshData& m = meshes_[in.mesh];
+    for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+      const uint32_t i0 = m.indices[t], i1 = m.indices[t + 1], i2 = m.indices[t + 2];
+      const glm::dvec3 a = vertexWs(k, i0), b = vertexWs(k, i1), c = vertexWs(k, i2);
+      if (!inside((a + b + c) / 3.0)) continue;
+      const glm::dvec3 cr = glm::cross(b - a, c - a);
+      const double area = 0.5 * glm::length(cr);
+      if (!(area > 0.0)) continue;
+      if (in.kind == InstanceKind::kGround) {
+        groundTris.push_back({k, i0, i1, i2, area});
+      } else if (std::abs(cr.y) < 0.1 * glm::length(cr)) {
+        wallTris.push_back({k, i0, i1, i2, area});
+      }
+    }
+  }
+  Rng rng{0xC0FFEEull ^ (uint64_t(seed) << 17)};
+  std::vector<Receiver> out;
+  out.reserve(count);
+  auto pick = [&](const std::vector<Tri>& tris, uint32_t n) {
+    if (tris.empty()) return;
+    std::vector<double> cdf(tris.size());
+    double sum = 0.0;
+    for (size_t i = 0; i < tris.size(); ++i) cdf[i] = (sum += tris[i].area);
+    for (uint32_t j = 0; j < n; ++j) {
+      const double u = rng.uniform() * sum;
+      const size_t ti = size_t(std::lower_bound(cdf.begin(), cdf.end(), u) - cdf.begin());
+      const Tri& t = tris[std::min(ti, tris.size() - 1)];
+      double r1 = rng.uniform(), r2 = rng.uniform();
+      if (r1 + r2 > 1.0) {
+        r1 = 1.0 - r1;
+        r2 = 1.0 - r2;
+      }
+      const Instance& in = instances_[t.instance];
+      const MeshData& m = meshes_[in.mesh];
+      const glm::dvec3 a = vertexWs(t.instance, t.i0), b = vertexWs(t.instance, t.i1),
+                       c = vertexWs(t.instance, t.i2);
+      const glm::vec3 nMs = m.vertices[t.i0].normal * float(1.0 - r1 - r2) +
+                            m.vertices[t.i1].normal * float(r1) +
+                            m.vertices[t.i2].normal * float(r2);
+      const glm::mat3 normalMatrix = glm::transpose(glm::inverse(in.linearWs));
+      Receiver rcv;
+      rcv.posWs = a + r1 * (b - a) + r2 * (c - a);
+      rcv.normalWs = glm::normalize(normalMatrix * nMs);
+      rcv.kind = in.kind;
+      out.push_back(rcv);
+    }
+  };
+  const uint32_t walls = wallTris.empty() ? 0u : uint32_t(std::lround(count * wallFraction));
+  pick(groundTris, count - walls);
+  pick(wallTris, walls);
+  return out;
+}
+
+csm::CasterSet Scene::casterSet() const {
+  csm::CasterSet set;
+  set.reserve(instances_.size());
+  for (const csm::AabbWs& b : bounds_) {
+    const csm::Result<uint32_t> r = set.addBox(b.minWs, b.maxWs);
+    if (!r.ok()) throw std::runtime_error("CasterSet: " + r.error().message());
+  }
+  set.build();
+  return set;
+}
+
+}  // namespace csm_measure
