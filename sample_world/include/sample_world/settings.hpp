@@ -1,0 +1,77 @@
+// Everything the fly-through lets a user change (the ImGui panel, --set key=value, --config
+// FILE), with its validation: an invalid value is refused with a message that lists what is
+// allowed, never clamped.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "csm/gpu_layout.hpp"
+#include "csm/types.hpp"
+#include "sample_world/world.hpp"
+
+namespace world {
+
+/// How the split distances are chosen: lambda 0 (uniform), 1 (logarithmic) or the user's.
+enum class SplitScheme : std::uint32_t { kPractical, kUniform, kLogarithmic };
+
+struct AppSettings {
+  csm::ShadowSettings shadow{};
+  SplitScheme scheme = SplitScheme::kPractical;
+  csm::PcfKernel kernel = csm::PcfKernel::kTent3;
+  /// true: D16_UNORM shadow maps, false: D32_SFLOAT.
+  bool depth16 = false;
+  /// PCF kernel of constant size in metres across cascades.
+  bool worldSpaceKernel = false;
+  /// Sun direction: azimuth from +x toward +z, elevation above the horizon, degrees.
+  double lightAzimuthDeg = 140.0;
+  double lightElevationDeg = 32.0;
+  float ambient = 0.3f;
+  /// Far cascades draw simplified caster meshes: cascade c draws LOD cascadeLod[c].
+  bool casterLods = true;
+  std::array<std::uint32_t, csm::kMaxCascades> cascadeLod{};
+  csm::DebugMode debug = csm::DebugMode::kNone;
+  /// The cascade-visualisation overlay and its parts.
+  bool overlay = false;
+  bool overlayTint = true;
+  bool overlayChecker = true;
+  bool overlayThumbnails = true;
+  bool overlayMap = true;
+  /// View (window size at start, or the headless image).
+  std::uint32_t width = 1280;
+  std::uint32_t height = 720;
+  double fovDeg = 60.0;
+  double farM = 6000.0;
+  WorldDesc world{};
+
+  AppSettings();
+};
+
+/// Sets `key` from its text form; returns the error (naming key, value and what is allowed).
+[[nodiscard]] std::optional<std::string> setSetting(AppSettings& s, const std::string& key,
+                                                    const std::string& value);
+/// Applies a JSON config file: an object whose members are setting keys (values as JSON
+/// numbers, strings, booleans or, for lod.cascades, an array).
+[[nodiscard]] std::optional<std::string> loadConfig(AppSettings& s, const std::string& path);
+/// The checks that involve more than one field (and csm::validate of the shadow settings).
+[[nodiscard]] std::optional<std::string> validateSettings(const AppSettings& s);
+/// Every setting as JSON (key -> value), the form report.json records.
+[[nodiscard]] nlohmann::json settingsJson(const AppSettings& s);
+/// "key: allowed values" lines for usage messages.
+[[nodiscard]] std::string settingsHelp();
+
+/// The light's direction of travel from azimuth and elevation.
+[[nodiscard]] glm::dvec3 lightDirection(const AppSettings& s) noexcept;
+/// The ShadowSettings with the split scheme applied to lambda.
+[[nodiscard]] csm::ShadowSettings effectiveShadow(const AppSettings& s) noexcept;
+
+const char* kernelKey(csm::PcfKernel k) noexcept;
+const char* debugKey(csm::DebugMode m) noexcept;
+const char* schemeKey(SplitScheme s) noexcept;
+
+}  // namespace world

@@ -1,0 +1,149 @@
+// The procedural open world: terrain chunks, forests, rocks, buildings, a tower and thin casters
+// (poles, fences, power lines), deterministic from a seed. Pure CPU: meshes are built and
+// simplified with OpenMesh (normals from OpenMesh, caster LODs from its Decimater); nothing here
+// touches Vulkan.
+#pragma once
+
+#include <glm/glm.hpp>
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "csm/types.hpp"
+
+namespace world {
+
+/// Levels of detail every mesh has: 0 full, 1 and 2 simplified by OpenMesh's Decimater.
+inline constexpr std::uint32_t kLodCount = 3;
+
+/// An indexed triangle mesh in its own object space (positions and unit normals).
+struct MeshData {
+  std::vector<glm::vec3> positions;
+  std::vector<glm::vec3> normals;
+  std::vector<std::uint32_t> indices;  ///< three per triangle
+
+  [[nodiscard]] std::uint32_t triangleCount() const noexcept {
+    return static_cast<std::uint32_t>(indices.size() / 3);
+  }
+};
+
+/// A mesh with its levels of detail (lods[0] full; lods[1], lods[2] simplified).
+struct MeshAsset {
+  std::string name;
+  std::array<MeshData, kLodCount> lods;
+};
+
+/// What kind of thing an object is (colour, report statistics).
+enum class Kind : std::uint8_t {
+  kTerrain,
+  kTree,
+  kRock,
+  kBuilding,
+  kTower,
+  kPole,
+  kFence,
+  kCable,
+  kUser
+};
+[[nodiscard]] const char* kindName(Kind kind) noexcept;
+inline constexpr std::uint32_t kKindCount = 9;
+
+/// One object placed in the world: model = translate(translationWs) * linear.
+struct Object {
+  std::uint32_t mesh = 0;  ///< index into World::meshes
+  glm::dvec3 translationWs{0.0};
+  glm::mat3 linear{1.0f};  ///< rotation times a uniform scale (normals transform with it)
+  glm::vec3 color{0.7f};
+  Kind kind = Kind::kTree;
+  /// Drawn into the shadow maps.
+  bool casts = true;
+  /// Darkened by shadows in the lit pass (false: always lit, e.g. cables, a glowing marker).
+  bool receives = true;
+  /// World-space bounds of the placed mesh (LOD 0).
+  csm::AabbWs boundsWs{};
+  /// Index of the terrain chunk the object stands in.
+  std::uint32_t chunk = 0;
+};
+
+/// A batch of casting objects of one chunk merged into one mesh per LOD (the shadow pass draws
+/// one caster per cluster instead of one per tree: a draw costs far more than its triangles on a
+/// CPU rasteriser). Vertices are relative to `originWs`.
+struct CasterCluster {
+  std::string name;
+  glm::dvec3 originWs{0.0};
+  /// When >= 0 the cluster draws that mesh asset (a terrain chunk) and `lods` is empty.
+  std::int32_t asset = -1;
+  std::array<MeshData, kLodCount> lods;
+  csm::AabbWs boundsWs{};
+  std::uint32_t objectCount = 0;
+};
+
+/// How to generate a world.
+struct WorldDesc {
+  std::uint64_t seed = 1;
+  /// Side of the square terrain, metres (>= 4096).
+  double sizeM = 4096.0;
+  /// Side of a terrain chunk, metres (a divisor of sizeM).
+  double chunkM = 256.0;
+  /// Terrain grid cells per chunk side (16: 16 m cells; OpenMesh's Decimater makes the chunk
+  /// LODs at about 25 us per collapse, so finer grids cost seconds of start-up).
+  std::uint32_t chunkCells = 16;
+  std::uint32_t treeCount = 30000;
+  std::uint32_t rockCount = 1500;
+  std::uint32_t buildingCount = 120;
+  /// Where the world's south-west corner at height 0 lies: the same world anywhere (10^7 m).
+  glm::dvec3 originWs{-2048.0, 0.0, -2048.0};
+  /// Optional user mesh (OBJ, PLY, OFF) placed near the centre, scaled to `userMeshSizeM`.
+  std::string userMeshPath;
+  double userMeshSizeM = 30.0;
+};
+
+/// The generated world.
+struct World {
+  WorldDesc desc;
+  std::vector<MeshAsset> meshes;
+  std::vector<Object> objects;
+  std::vector<CasterCluster> clusters;
+  /// Bounds of everything (receivers and casters).
+  csm::AabbWs boundsWs{};
+  std::uint32_t chunksPerSide = 0;
+  /// Objects per kind.
+  std::array<std::uint32_t, kKindCount> kindCounts{};
+
+  /// Terrain height (world y) at world (x, z); clamps to the terrain's edge.
+  [[nodiscard]] double heightAt(double xWs, double zWs) const noexcept;
+  /// Centre of the world at ground level.
+  [[nodiscard]] glm::dvec3 centerWs() const noexcept;
+};
+
+/// A load or generation error (the message names the file and the reason).
+struct WorldError {
+  std::string message;
+};
+
+/// Generates the world (or refuses an invalid description / unreadable user mesh).
+[[nodiscard]] std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error);
+
+/// Loads a mesh file through OpenMesh IO (OBJ, PLY, OFF), triangulated, normals from OpenMesh,
+/// centred on its base and scaled so that its largest side is `sizeM`. Returns nothing and fills
+/// `error` for a missing, empty, truncated or unparsable file, or one without triangles.
+[[nodiscard]] std::optional<MeshData> loadMeshFile(const std::string& path, double sizeM,
+                                                   WorldError* error);
+
+/// Simplifies `mesh` with OpenMesh's Decimater (quadric error, no normal flips, boundary
+/// locked) toward `targetFraction` of its vertices; normals recomputed by OpenMesh.
+[[nodiscard]] MeshData decimate(const MeshData& mesh, double targetFraction);
+
+/// 64-bit FNV-1a hash of a mesh's positions, normals and indices (bit patterns).
+[[nodiscard]] std::uint64_t meshHash(const MeshData& mesh) noexcept;
+/// Hash of a whole world: every mesh LOD, cluster LOD and object placement.
+[[nodiscard]] std::uint64_t worldHash(const World& world) noexcept;
+
+/// The world's terrain height field (noise in world-relative coordinates, so it does not depend
+/// on originWs): height in metres at (u, v) metres from the world's south-west corner.
+[[nodiscard]] double terrainHeight(std::uint64_t seed, double uM, double vM) noexcept;
+
+}  // namespace world

@@ -1,0 +1,134 @@
+// Draws the sample world: the cascades (csm::core), the shadow pass (csm::vk::ShadowRenderer,
+// far cascades drawing simplified caster clusters), the instanced lit pass through csm.glsl and
+// the cascade-visualisation overlay (tint and texel checker in the lit pass; shadow-map
+// thumbnails and the top-down map as 2D geometry). Composes engine/ and shadows/.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "csm/cascades.hpp"
+#include "csm/culling.hpp"
+#include "csm/vulkan/shadow_renderer.hpp"
+#include "engine/camera.hpp"
+#include "engine/context.hpp"
+#include "engine/gpu_timer.hpp"
+#include "engine/memory.hpp"
+#include "engine/mesh_store.hpp"
+#include "engine/pipeline.hpp"
+#include "engine/render_target.hpp"
+#include "sample_world/settings.hpp"
+#include "sample_world/world.hpp"
+
+namespace world {
+
+/// What one frame cost and drew.
+struct FrameStats {
+  double cpuSetupMs = 0.0;   ///< computeCascades
+  double cpuCullMs = 0.0;    ///< caster culling (all cascades) + view culling of the lit pass
+  double cpuRecordMs = 0.0;  ///< recording the command buffer
+  std::uint32_t cascadeCount = 0;
+  std::array<std::uint32_t, csm::kMaxCascades> casters{};
+  std::array<std::uint64_t, csm::kMaxCascades> triangles{};
+  std::array<std::uint32_t, csm::kMaxCascades> lod{};
+  std::uint32_t litInstances = 0;
+  std::uint64_t litTriangles = 0;
+  csm::CascadeFrame cascades{};
+};
+
+class WorldRenderer {
+ public:
+  /// Uploads the world's meshes, creates the shadow renderer and the pipelines for targets of
+  /// `colorFormat` / `depthFormat`. Throws std::runtime_error on failure.
+  WorldRenderer(engine::Context& ctx, const World& world, VkFormat colorFormat,
+                VkFormat depthFormat);
+  ~WorldRenderer();
+  WorldRenderer(const WorldRenderer&) = delete;
+  WorldRenderer& operator=(const WorldRenderer&) = delete;
+
+  /// Applies settings (shadow resources are recreated only when needed). Returns the error and
+  /// keeps the previous settings when they are refused.
+  std::optional<std::string> apply(const AppSettings& settings);
+
+  /// CPU side of a frame: cascades, caster culling, lit-pass culling and instance lists.
+  /// Returns the error of computeCascades (invalid camera) instead of throwing.
+  std::optional<std::string> prepare(const engine::Camera& camera, FrameStats& stats);
+
+  /// Records the frame prepared last into `frame`: shadow pass, lit pass, overlay 2D geometry
+  /// when `overlay`. GPU scopes: "shadow", "shadow c<i>", "lit", "overlay".
+  void record(const engine::Frame& frame, engine::GpuTimer& timer, bool overlay, FrameStats& stats);
+
+  const csm::CascadeFrame& cascades() const { return frame_; }
+  const csm::CullResult& cull() const { return cull_; }
+  const World& world() const { return *world_; }
+  const AppSettings& settings() const { return settings_; }
+  csm::vk::ShadowRenderer& shadowRenderer() { return *shadow_; }
+  /// Total triangles of the clusters' LOD l (for statistics).
+  std::uint64_t clusterTriangles(std::uint32_t lod) const;
+
+ private:
+  struct Bucket {
+    std::uint32_t mesh = 0, lod = 0;
+    std::uint32_t first = 0, count = 0;
+  };
+  struct Instance {
+    glm::vec4 rows[3];
+    glm::vec4 color;
+  };
+  struct OverlayVertex {
+    glm::vec2 pixel;
+    glm::vec2 uv;
+    glm::vec4 color;
+    glm::vec4 depth;
+  };
+  struct Slot {
+    engine::Buffer frameUniforms;
+    engine::Buffer instances;
+    engine::Buffer overlay;
+    VkDescriptorSet frameSet = VK_NULL_HANDLE;
+  };
+  void buildLitPipeline();
+  void buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& tris,
+                    std::vector<OverlayVertex>& lines) const;
+
+  engine::Context* ctx_;
+  const World* world_;
+  VkFormat colorFormat_, depthFormat_;
+  AppSettings settings_{};
+  bool applied_ = false;
+
+  std::unique_ptr<engine::MeshStore> meshes_;
+  std::vector<std::array<engine::MeshRange, kLodCount>> assetRanges_;
+  std::vector<std::array<engine::MeshRange, kLodCount>> clusterRanges_;
+  std::unique_ptr<csm::vk::ShadowRenderer> shadow_;
+  csm::CasterSet casterSet_;
+  csm::CullResult cull_;
+  csm::CascadeHistory history_{};
+  csm::CascadeFrame frame_{};
+  engine::Camera camera_{};
+
+  // Per chunk: the bounds of everything in it (view culling of the lit pass).
+  std::vector<csm::AabbWs> chunkBounds_;
+  std::vector<std::vector<std::uint32_t>> chunkObjects_;
+
+  engine::DeviceHandle<VkDescriptorSetLayout> frameLayout_;
+  engine::DeviceHandle<VkDescriptorPool> pool_;
+  std::array<Slot, engine::kFramesInFlight> slots_;
+  engine::DeviceHandle<VkShaderModule> worldVert_, worldFrag_, overlayVert_, overlayFrag_;
+  std::map<std::uint32_t, engine::GraphicsPipeline> litPipelines_;  // by kernel
+  engine::GraphicsPipeline overlayTris_, overlayLines_;
+
+  std::vector<Instance> instances_;
+  std::vector<Bucket> buckets_;
+  std::vector<std::uint32_t> bucketOrder_;
+  std::vector<std::vector<std::uint32_t>> bucketObjects_;  // per mesh * kLodCount + lod
+  std::uint32_t maxInstances_ = 0;
+  static constexpr std::uint32_t kMaxOverlayVertices = 1u << 16;
+};
+
+}  // namespace world

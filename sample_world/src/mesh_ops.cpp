@@ -1,0 +1,281 @@
+// OpenMesh side of the sample world: normals, Decimater LODs, mesh file loading, hashes.
+#include <OpenMesh/Core/IO/MeshIO.hh>
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Core/System/omstream.hh>
+#include <OpenMesh/Tools/Decimater/DecimaterT.hh>
+#include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
+#include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "mesh_ops.hpp"
+
+namespace world {
+
+namespace {
+
+using OmMesh = OpenMesh::TriMesh_ArrayKernelT<>;
+
+// Fills an OpenMesh mesh from positions and triangles. A triangle OpenMesh refuses (it would
+// make an edge or vertex non-manifold) gets vertices of its own instead of being dropped.
+void toOpenMesh(const std::vector<glm::vec3>& positions, const std::vector<std::uint32_t>& indices,
+                OmMesh& mesh) {
+  std::vector<OmMesh::VertexHandle> handles;
+  handles.reserve(positions.size());
+  for (const glm::vec3& p : positions) handles.push_back(mesh.add_vertex({p.x, p.y, p.z}));
+  for (std::size_t t = 0; t + 2 < indices.size(); t += 3) {
+    const auto a = handles[indices[t]], b = handles[indices[t + 1]], c = handles[indices[t + 2]];
+    if (a == b || b == c || a == c) continue;
+    if (!mesh.add_face(a, b, c).is_valid()) {
+      const auto pa = mesh.point(a), pb = mesh.point(b), pc = mesh.point(c);
+      mesh.add_face(mesh.add_vertex(pa), mesh.add_vertex(pb), mesh.add_vertex(pc));
+    }
+  }
+}
+
+// Extracts positions, OpenMesh vertex normals and triangles (unreferenced vertices dropped).
+MeshData fromOpenMesh(OmMesh& mesh) {
+  mesh.request_face_normals();
+  mesh.request_vertex_normals();
+  mesh.update_normals();
+  MeshData out;
+  std::vector<std::int64_t> remap(mesh.n_vertices(), -1);
+  for (const auto fh : mesh.faces()) {
+    if (mesh.status(fh).deleted()) continue;
+    for (const auto vh : mesh.fv_range(fh)) {
+      std::int64_t& r = remap[static_cast<std::size_t>(vh.idx())];
+      if (r < 0) {
+        r = static_cast<std::int64_t>(out.positions.size());
+        const auto p = mesh.point(vh);
+        auto n = mesh.normal(vh);
+        const float len = n.length();
+        if (!(len > 1e-20f)) n = mesh.normal(fh);
+        out.positions.emplace_back(p[0], p[1], p[2]);
+        out.normals.push_back(glm::normalize(glm::vec3(n[0], n[1], n[2])));
+      }
+      out.indices.push_back(static_cast<std::uint32_t>(r));
+    }
+  }
+  for (glm::vec3& n : out.normals) {
+    if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) n = {0.0f, 1.0f, 0.0f};
+  }
+  return out;
+}
+
+}  // namespace
+
+MeshData finishMesh(const std::vector<glm::vec3>& positions,
+                    const std::vector<std::uint32_t>& indices) {
+  OmMesh mesh;
+  mesh.request_face_status();
+  toOpenMesh(positions, indices, mesh);
+  return fromOpenMesh(mesh);
+}
+
+MeshData decimate(const MeshData& in, double targetFraction) {
+  OmMesh mesh;
+  mesh.request_vertex_status();
+  mesh.request_edge_status();
+  mesh.request_halfedge_status();
+  mesh.request_face_status();
+  toOpenMesh(in.positions, in.indices, mesh);
+  // Boundary vertices stay: terrain chunks keep matching edges (no cracks between LODs of
+  // neighbours), open pieces keep their outline.
+  for (const auto vh : mesh.vertices()) {
+    if (mesh.is_boundary(vh)) mesh.status(vh).set_locked(true);
+  }
+  mesh.request_face_normals();
+  mesh.update_face_normals();
+  using Decimater = OpenMesh::Decimater::DecimaterT<OmMesh>;
+  Decimater decimater(mesh);
+  OpenMesh::Decimater::ModQuadricT<OmMesh>::Handle quadric;
+  OpenMesh::Decimater::ModNormalFlippingT<OmMesh>::Handle flipping;
+  decimater.add(quadric);
+  decimater.add(flipping);
+  decimater.module(quadric).unset_max_err();
+  decimater.module(flipping).set_max_normal_deviation(75.0);
+  if (!decimater.initialize()) return in;
+  const auto target = static_cast<std::size_t>(
+      std::max(4.0, std::floor(static_cast<double>(mesh.n_vertices()) * targetFraction)));
+  decimater.decimate_to(target);
+  mesh.garbage_collection();
+  MeshData out = fromOpenMesh(mesh);
+  if (out.indices.empty()) return in;
+  return out;
+}
+
+namespace {
+
+std::string lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+// Element counts a PLY or OFF header declares (nothing when the header cannot be read), so
+// that a file cut short is reported as truncated rather than silently read in part.
+struct DeclaredCounts {
+  std::size_t vertices = 0;
+  std::size_t faces = 0;
+};
+
+std::optional<DeclaredCounts> declaredCounts(const std::string& path, const std::string& ext) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  if (ext == "off") {
+    std::string token;
+    if (!(in >> token)) return std::nullopt;
+    if (token.find("OFF") == std::string::npos) return std::nullopt;
+    // Counts may follow on the same line as "OFF" or on the next non-comment line.
+    DeclaredCounts c;
+    std::string rest;
+    while (in >> rest) {
+      if (rest[0] == '#') {
+        std::getline(in, line);
+        continue;
+      }
+      try {
+        c.vertices = std::stoul(rest);
+        if (!(in >> c.faces)) return std::nullopt;
+      } catch (...) {
+        return std::nullopt;
+      }
+      return c;
+    }
+    return std::nullopt;
+  }
+  if (ext == "ply") {
+    if (!std::getline(in, line) || line.rfind("ply", 0) != 0) return std::nullopt;
+    DeclaredCounts c;
+    for (int n = 0; n < 200 && std::getline(in, line); ++n) {
+      std::istringstream ls(line);
+      std::string word, element;
+      std::size_t count = 0;
+      ls >> word;
+      if (word == "element" && (ls >> element >> count)) {
+        if (element == "vertex") c.vertices = count;
+        if (element == "face") c.faces = count;
+      }
+      if (word == "end_header") return c;
+    }
+    return std::nullopt;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<MeshData> loadMeshFile(const std::string& path, double sizeM, WorldError* error) {
+  auto fail = [&](const std::string& reason) -> std::optional<MeshData> {
+    if (error) error->message = "--mesh " + path + ": " + reason;
+    return std::nullopt;
+  };
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::exists(path, ec)) return fail("file not found");
+  if (!fs::is_regular_file(path, ec)) return fail("not a regular file");
+  const auto size = fs::file_size(path, ec);
+  if (ec) return fail("cannot read its size (" + ec.message() + ")");
+  if (size == 0) return fail("file is empty (0 bytes)");
+  const std::string ext = lower(fs::path(path).extension().string().substr(
+      fs::path(path).extension().string().empty() ? 0 : 1));
+  if (ext != "obj" && ext != "ply" && ext != "off") {
+    return fail("unsupported extension '." + ext + "' (allowed: .obj, .ply, .off)");
+  }
+  {
+    std::ifstream probe(path, std::ios::binary);
+    if (!probe) return fail("cannot be opened for reading");
+  }
+  const std::optional<DeclaredCounts> declared = declaredCounts(path, ext);
+  if ((ext == "ply" || ext == "off") && !declared) {
+    return fail(std::string("not a valid ") + (ext == "ply" ? "PLY" : "OFF") +
+                " file (its header cannot be read)");
+  }
+  // OBJ has no header: count its face lines, so that a file cut inside a face is caught.
+  std::size_t objFaceLines = 0;
+  if (ext == "obj") {
+    std::ifstream in(path, std::ios::binary);
+    std::string line;
+    while (std::getline(in, line)) {
+      if (line.size() > 2 && line[0] == 'f' && (line[1] == ' ' || line[1] == '\t')) ++objFaceLines;
+    }
+  }
+
+  OmMesh mesh;
+  mesh.request_face_status();
+  OpenMesh::IO::Options options;
+  // OpenMesh reports parse problems on its own streams; our message says what matters.
+  omerr().disable();
+  omout().disable();
+  omlog().disable();
+  bool ok = false;
+  try {
+    ok = OpenMesh::IO::read_mesh(mesh, path, options);
+  } catch (const std::exception& e) {
+    omerr().enable();
+    return fail(std::string("OpenMesh failed to read it: ") + e.what());
+  }
+  omerr().enable();
+  if (!ok) return fail("not a readable " + ext + " mesh (OpenMesh could not parse it)");
+  if (declared) {
+    if (mesh.n_vertices() < declared->vertices) {
+      return fail("truncated: the header declares " + std::to_string(declared->vertices) +
+                  " vertices, the file holds " + std::to_string(mesh.n_vertices()));
+    }
+    // Polygons are triangulated, so a complete file has at least as many faces as declared.
+    if (mesh.n_faces() < declared->faces) {
+      return fail("truncated: the header declares " + std::to_string(declared->faces) +
+                  " faces, the file holds " + std::to_string(mesh.n_faces()));
+    }
+  }
+  if (ext == "obj" && mesh.n_faces() < objFaceLines) {
+    return fail("truncated or invalid: " + std::to_string(objFaceLines) + " face lines, only " +
+                std::to_string(mesh.n_faces()) + " faces could be read");
+  }
+  if (mesh.n_faces() == 0) return fail("contains no triangles (no readable face data)");
+  for (const auto vh : mesh.vertices()) {
+    const auto p = mesh.point(vh);
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
+      return fail("vertex " + std::to_string(vh.idx()) + " is not finite");
+    }
+  }
+  MeshData data = fromOpenMesh(mesh);
+  if (data.indices.empty()) return fail("contains no triangles");
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (const glm::vec3& p : data.positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  const glm::vec3 ext3 = hi - lo;
+  const float largest = std::max({ext3.x, ext3.y, ext3.z});
+  if (!(largest > 0.0f)) return fail("all vertices coincide (zero size)");
+  const float scale = static_cast<float>(sizeM) / largest;
+  const glm::vec3 base(0.5f * (lo.x + hi.x), lo.y, 0.5f * (lo.z + hi.z));
+  for (glm::vec3& p : data.positions) p = (p - base) * scale;
+  return data;
+}
+
+std::uint64_t hashBytes(std::uint64_t h, const void* data, std::size_t size) noexcept {
+  const auto* b = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < size; ++i) {
+    h ^= b[i];
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+std::uint64_t meshHash(const MeshData& mesh) noexcept {
+  std::uint64_t h = 14695981039346656037ull;
+  h = hashBytes(h, mesh.positions.data(), mesh.positions.size() * sizeof(glm::vec3));
+  h = hashBytes(h, mesh.normals.data(), mesh.normals.size() * sizeof(glm::vec3));
+  h = hashBytes(h, mesh.indices.data(), mesh.indices.size() * sizeof(std::uint32_t));
+  return h;
+}
+
+}  // namespace world

@@ -1,0 +1,105 @@
+// Named flight paths (see paths.hpp).
+#include "sample_world/paths.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace world {
+
+namespace {
+
+glm::dvec2 catmullRom(const std::vector<glm::dvec2>& p, double t) {
+  const double segs = static_cast<double>(p.size() - 1);
+  const double x = std::clamp(t, 0.0, 1.0) * segs;
+  const auto i = static_cast<std::size_t>(std::min(std::floor(x), segs - 1.0));
+  const double f = x - static_cast<double>(i);
+  const glm::dvec2 p0 = p[i == 0 ? 0 : i - 1], p1 = p[i], p2 = p[i + 1];
+  const glm::dvec2 p3 = p[std::min(i + 2, p.size() - 1)];
+  const double f2 = f * f, f3 = f2 * f;
+  return 0.5 * ((2.0 * p1) + (-p0 + p2) * f + (2.0 * p0 - 5.0 * p1 + 4.0 * p2 - p3) * f2 +
+                (-p0 + 3.0 * p1 - 3.0 * p2 + p3) * f3);
+}
+
+}  // namespace
+
+const std::vector<std::string>& pathNames() {
+  static const std::vector<std::string> names = {"forest", "fast", "rotate", "zoom", "far"};
+  return names;
+}
+
+glm::dvec3 pathWorldOrigin(const std::string& name, double worldSizeM) {
+  const double h = 0.5 * worldSizeM;
+  if (name == "far") return {1.0e7 - h, 0.0, 1.0e7 - h};
+  return {-h, 0.0, -h};
+}
+
+std::optional<FlightPath> FlightPath::make(const std::string& name, const World& world,
+                                           double baseFovDeg) {
+  FlightPath p;
+  p.name_ = name;
+  p.world_ = &world;
+  p.fov0_ = p.fov1_ = baseFovDeg;
+  const double c = 0.5 * world.desc.sizeM;
+  if (name == "forest" || name == "far") {
+    p.pointsUv_ = {{c - 1300, c + 900}, {c - 900, c + 650}, {c - 520, c + 380},
+                   {c - 150, c + 330},  {c + 250, c + 80},  {c + 650, c - 300}};
+    p.altitudeM_ = 28.0;
+    p.pitchRad_ = -0.22;
+  } else if (name == "fast") {
+    p.pointsUv_ = {{c - 1700, c - 250}, {c + 1700, c - 250}};
+    p.altitudeM_ = 70.0;
+    p.pitchRad_ = -0.15;
+  } else if (name == "rotate") {
+    p.pointsUv_ = {{c - 260, c + 220}, {c - 260, c + 220}};
+    p.altitudeM_ = 35.0;
+    p.pitchRad_ = -0.25;
+    p.followTangent_ = false;
+    p.yaw0_ = 0.0;
+    p.yaw1_ = glm::radians(120.0);
+  } else if (name == "zoom") {
+    p.pointsUv_ = {{c + 20 - 650, c - 30 + 420}, {c + 20 - 650, c - 30 + 420}};
+    p.altitudeM_ = 40.0;
+    p.followTangent_ = false;
+    p.lookAt_ = true;
+    p.lookAtUv_ = {c + 20, c - 30};
+    p.fov0_ = 70.0;
+    p.fov1_ = 8.0;
+  } else {
+    return std::nullopt;
+  }
+  return p;
+}
+
+CameraPose FlightPath::at(double t) const {
+  t = std::clamp(t, 0.0, 1.0);
+  const glm::dvec3 o = world_->desc.originWs;
+  const glm::dvec2 uv = catmullRom(pointsUv_, t);
+  // Altitude above the highest ground near this stretch of the path (smooth, never below it).
+  double ground = -1e30;
+  for (int k = -4; k <= 4; ++k) {
+    const glm::dvec2 q = catmullRom(pointsUv_, std::clamp(t + k * 0.01, 0.0, 1.0));
+    ground = std::max(ground, world_->heightAt(o.x + q.x, o.z + q.y));
+  }
+  CameraPose pose;
+  pose.positionWs = {o.x + uv.x, ground + altitudeM_, o.z + uv.y};
+  pose.pitchRad = pitchRad_;
+  pose.fovDeg = fov0_ + (fov1_ - fov0_) * t;
+  if (followTangent_) {
+    const glm::dvec2 a = catmullRom(pointsUv_, std::max(0.0, t - 0.01));
+    const glm::dvec2 b = catmullRom(pointsUv_, std::min(1.0, t + 0.01));
+    const glm::dvec2 d = b - a;
+    pose.yawRad = std::atan2(-d.x, -d.y);  // yaw 0 looks down -z, positive turns left
+  } else if (lookAt_) {
+    const glm::dvec3 target(o.x + lookAtUv_.x,
+                            world_->heightAt(o.x + lookAtUv_.x, o.z + lookAtUv_.y) + 70.0,
+                            o.z + lookAtUv_.y);
+    const glm::dvec3 d = target - pose.positionWs;
+    pose.yawRad = std::atan2(-d.x, -d.z);
+    pose.pitchRad = std::atan2(d.y, std::sqrt(d.x * d.x + d.z * d.z));
+  } else {
+    pose.yawRad = yaw0_ + (yaw1_ - yaw0_) * t;
+  }
+  return pose;
+}
+
+}  // namespace world

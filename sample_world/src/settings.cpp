@@ -1,0 +1,308 @@
+// Settings of the fly-through: one table of keys, their parsers and their JSON form.
+#include "sample_world/settings.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <sstream>
+
+namespace world {
+
+namespace {
+
+using Setter = std::function<std::optional<std::string>(AppSettings&, const std::string&)>;
+using Getter = std::function<nlohmann::json(const AppSettings&)>;
+
+struct Entry {
+  const char* key;
+  const char* allowed;
+  Setter set;
+  Getter get;
+};
+
+std::optional<double> parseNumber(const std::string& v) {
+  if (v.empty()) return std::nullopt;
+  std::size_t used = 0;
+  double d = 0.0;
+  try {
+    d = std::stod(v, &used);
+  } catch (...) {
+    return std::nullopt;
+  }
+  if (used != v.size() || !std::isfinite(d)) return std::nullopt;
+  return d;
+}
+
+std::optional<bool> parseBool(const std::string& v) {
+  if (v == "1" || v == "true" || v == "on" || v == "yes") return true;
+  if (v == "0" || v == "false" || v == "off" || v == "no") return false;
+  return std::nullopt;
+}
+
+std::string bad(const char* key, const std::string& value, const char* allowed) {
+  std::string out(key);
+  out.append(" = '").append(value).append("' is invalid: allowed ").append(allowed);
+  return out;
+}
+
+// Numeric setting in [lo, hi] (integers when `integer`).
+template <class T, class F>
+Entry number(const char* key, const char* allowed, double lo, double hi, bool integer, F field) {
+  return {key, allowed,
+          [=](AppSettings& s, const std::string& v) -> std::optional<std::string> {
+            const std::optional<double> d = parseNumber(v);
+            if (!d || !(*d >= lo && *d <= hi) || (integer && std::floor(*d) != *d)) {
+              return bad(key, v, allowed);
+            }
+            field(s) = static_cast<T>(*d);
+            return std::nullopt;
+          },
+          [=](const AppSettings& s) { return nlohmann::json(field(const_cast<AppSettings&>(s))); }};
+}
+
+template <class F>
+Entry boolean(const char* key, F field) {
+  return {key, "true/false (also 1/0, on/off, yes/no)",
+          [=](AppSettings& s, const std::string& v) -> std::optional<std::string> {
+            const std::optional<bool> b = parseBool(v);
+            if (!b) return bad(key, v, "true/false (also 1/0, on/off, yes/no)");
+            field(s) = *b;
+            return std::nullopt;
+          },
+          [=](const AppSettings& s) {
+            return nlohmann::json(static_cast<bool>(field(const_cast<AppSettings&>(s))));
+          }};
+}
+
+// A choice among names.
+template <class T, std::size_t N, class F>
+Entry choice(const char* key, const char* allowed,
+             const std::array<std::pair<const char*, T>, N>& names, F field) {
+  return {key, allowed,
+          [=](AppSettings& s, const std::string& v) -> std::optional<std::string> {
+            for (const auto& [name, value] : names) {
+              if (v == name) {
+                field(s) = value;
+                return std::nullopt;
+              }
+            }
+            return bad(key, v, allowed);
+          },
+          [=](const AppSettings& s) -> nlohmann::json {
+            for (const auto& [name, value] : names) {
+              if (field(const_cast<AppSettings&>(s)) == value) return name;
+            }
+            return "?";
+          }};
+}
+
+constexpr std::array<std::pair<const char*, csm::PcfKernel>, 5> kKernels{{
+    {"1tap", csm::PcfKernel::k1Tap},
+    {"tent3", csm::PcfKernel::kTent3},
+    {"tent5", csm::PcfKernel::kTent5},
+    {"tent7", csm::PcfKernel::kTent7},
+    {"poisson16", csm::PcfKernel::kPoisson16},
+}};
+constexpr std::array<std::pair<const char*, csm::DebugMode>, 7> kDebugModes{{
+    {"none", csm::DebugMode::kNone},
+    {"normal", csm::DebugMode::kNormal},
+    {"shadow", csm::DebugMode::kShadowFactor},
+    {"lightcoords", csm::DebugMode::kLightCoords},
+    {"depth", csm::DebugMode::kSampledDepth},
+    {"depthdiff", csm::DebugMode::kDepthDifference},
+    {"cascade", csm::DebugMode::kCascadeTint},
+}};
+constexpr std::array<std::pair<const char*, SplitScheme>, 3> kSchemes{{
+    {"practical", SplitScheme::kPractical},
+    {"uniform", SplitScheme::kUniform},
+    {"log", SplitScheme::kLogarithmic},
+}};
+constexpr std::array<std::pair<const char*, bool>, 2> kDepthFormats{
+    {{"d32", false}, {"d16", true}}};
+
+const std::vector<Entry>& table() {
+  static const std::vector<Entry> entries = {
+      number<double>("light.azimuth", "a number of degrees in [0, 360]", 0, 360, false,
+                     [](AppSettings& s) -> double& { return s.lightAzimuthDeg; }),
+      number<double>("light.elevation", "a number of degrees in [1, 90]", 1, 90, false,
+                     [](AppSettings& s) -> double& { return s.lightElevationDeg; }),
+      number<std::uint32_t>("shadow.cascades", "an integer in [1, 8]", 1, csm::kMaxCascades, true,
+                            [](AppSettings& s) -> std::uint32_t& { return s.shadow.cascadeCount; }),
+      number<std::uint32_t>("shadow.resolution", "a power of two in [256, 16384]", 256, 16384, true,
+                            [](AppSettings& s) -> std::uint32_t& { return s.shadow.resolution; }),
+      choice("shadow.scheme", "one of practical, uniform, log", kSchemes,
+             [](AppSettings& s) -> SplitScheme& { return s.scheme; }),
+      number<double>("shadow.lambda", "a number in [0, 1]", 0, 1, false,
+                     [](AppSettings& s) -> double& { return s.shadow.splitLambda; }),
+      number<double>("shadow.distance", "metres in [1, 100000]", 1, 1e5, false,
+                     [](AppSettings& s) -> double& { return s.shadow.shadowDistanceM; }),
+      number<double>("shadow.blend", "a fraction in [0, 0.5]", 0, 0.5, false,
+                     [](AppSettings& s) -> double& { return s.shadow.blendBand; }),
+      choice("shadow.kernel", "one of 1tap, tent3, tent5, tent7, poisson16", kKernels,
+             [](AppSettings& s) -> csm::PcfKernel& { return s.kernel; }),
+      boolean("shadow.worldKernel", [](AppSettings& s) -> bool& { return s.worldSpaceKernel; }),
+      number<float>("shadow.biasConstant", "a number in [0, 1000]", 0, 1000, false,
+                    [](AppSettings& s) -> float& { return s.shadow.depthBiasConstant; }),
+      number<float>("shadow.biasSlope", "a number in [0, 100]", 0, 100, false,
+                    [](AppSettings& s) -> float& { return s.shadow.depthBiasSlope; }),
+      number<float>("shadow.normalOffset", "texels in [0, 16]", 0, 16, false,
+                    [](AppSettings& s) -> float& { return s.shadow.normalOffsetTexels; }),
+      boolean("shadow.stabilize", [](AppSettings& s) -> bool& { return s.shadow.stabilize; }),
+      number<float>("shadow.minCasterTexels", "texels in [0, 1e6]", 0, 1e6, false,
+                    [](AppSettings& s) -> float& { return s.shadow.minCasterTexels; }),
+      choice("shadow.depthFormat", "one of d32, d16", kDepthFormats,
+             [](AppSettings& s) -> bool& { return s.depth16; }),
+      boolean("lod.enabled", [](AppSettings& s) -> bool& { return s.casterLods; }),
+      {"lod.cascades", "comma-separated LOD indices in [0, 2], one per cascade (e.g. 0,1,2,2)",
+       [](AppSettings& s, const std::string& v) -> std::optional<std::string> {
+         std::array<std::uint32_t, csm::kMaxCascades> lod{};
+         std::stringstream ss(v);
+         std::string item;
+         std::size_t k = 0;
+         std::uint32_t last = 0;
+         while (std::getline(ss, item, ',')) {
+           if (k >= lod.size() || (item != "0" && item != "1" && item != "2")) {
+             return bad("lod.cascades", v,
+                        "comma-separated LOD indices in [0, 2], at most 8 (e.g. 0,1,2,2)");
+           }
+           lod[k++] = last = static_cast<std::uint32_t>(item[0] - '0');
+         }
+         if (k == 0) return bad("lod.cascades", v, "comma-separated LOD indices in [0, 2]");
+         for (; k < lod.size(); ++k) lod[k] = last;  // later cascades keep the last LOD
+         s.cascadeLod = lod;
+         return std::nullopt;
+       },
+       [](const AppSettings& s) {
+         return nlohmann::json(
+             std::vector<std::uint32_t>(s.cascadeLod.begin(), s.cascadeLod.end()));
+       }},
+      number<float>("ambient", "a number in [0, 1]", 0, 1, false,
+                    [](AppSettings& s) -> float& { return s.ambient; }),
+      choice("debug", "one of none, normal, shadow, lightcoords, depth, depthdiff, cascade",
+             kDebugModes, [](AppSettings& s) -> csm::DebugMode& { return s.debug; }),
+      boolean("overlay", [](AppSettings& s) -> bool& { return s.overlay; }),
+      boolean("overlay.tint", [](AppSettings& s) -> bool& { return s.overlayTint; }),
+      boolean("overlay.checker", [](AppSettings& s) -> bool& { return s.overlayChecker; }),
+      boolean("overlay.thumbnails", [](AppSettings& s) -> bool& { return s.overlayThumbnails; }),
+      boolean("overlay.map", [](AppSettings& s) -> bool& { return s.overlayMap; }),
+      number<std::uint32_t>("view.width", "an integer in [64, 7680]", 64, 7680, true,
+                            [](AppSettings& s) -> std::uint32_t& { return s.width; }),
+      number<std::uint32_t>("view.height", "an integer in [64, 4320]", 64, 4320, true,
+                            [](AppSettings& s) -> std::uint32_t& { return s.height; }),
+      number<double>("camera.fov", "degrees in [1, 170]", 1, 170, false,
+                     [](AppSettings& s) -> double& { return s.fovDeg; }),
+      number<double>("camera.far", "metres in [10, 1000000]", 10, 1e6, false,
+                     [](AppSettings& s) -> double& { return s.farM; }),
+      number<std::uint64_t>("world.seed", "an integer in [0, 2^53]", 0, 9007199254740992.0, true,
+                            [](AppSettings& s) -> std::uint64_t& { return s.world.seed; }),
+      number<std::uint32_t>("world.trees", "an integer in [0, 500000]", 0, 500000, true,
+                            [](AppSettings& s) -> std::uint32_t& { return s.world.treeCount; }),
+      number<std::uint32_t>("world.rocks", "an integer in [0, 100000]", 0, 100000, true,
+                            [](AppSettings& s) -> std::uint32_t& { return s.world.rockCount; }),
+      number<std::uint32_t>("world.buildings", "an integer in [0, 5000]", 0, 5000, true,
+                            [](AppSettings& s) -> std::uint32_t& { return s.world.buildingCount; }),
+  };
+  return entries;
+}
+
+}  // namespace
+
+AppSettings::AppSettings() {
+  shadow.cascadeCount = 4;
+  shadow.resolution = 2048;
+  shadow.shadowDistanceM = 1500.0;
+  shadow.splitLambda = 0.8;
+  cascadeLod = {0, 1, 2, 2, 2, 2, 2, 2};
+}
+
+std::optional<std::string> setSetting(AppSettings& s, const std::string& key,
+                                      const std::string& value) {
+  for (const Entry& e : table()) {
+    if (key == e.key) return e.set(s, value);
+  }
+  std::string keys;
+  for (const Entry& e : table()) {
+    if (!keys.empty()) keys.append(", ");
+    keys.append(e.key);
+  }
+  return "unknown setting '" + key + "': allowed keys are " + keys;
+}
+
+std::optional<std::string> loadConfig(AppSettings& s, const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return "--config " + path + ": cannot open the file";
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const std::exception& e) {
+    return "--config " + path + ": not valid JSON (" + e.what() + ")";
+  }
+  if (!j.is_object()) return "--config " + path + ": must hold a JSON object of key: value";
+  for (const auto& [key, value] : j.items()) {
+    std::string text;
+    if (value.is_string()) {
+      text = value.get<std::string>();
+    } else if (value.is_array()) {
+      for (const auto& v : value) {
+        if (!text.empty()) text.push_back(',');
+        text.append(v.dump());
+      }
+    } else {
+      text = value.dump();
+    }
+    if (auto err = setSetting(s, key, text)) return "--config " + path + ": " + *err;
+  }
+  return std::nullopt;
+}
+
+std::optional<std::string> validateSettings(const AppSettings& s) {
+  if (auto e = csm::validate(effectiveShadow(s))) return e->message();
+  if (s.farM <= 1.0) return "camera.far must exceed the near plane (0.5 m)";
+  return std::nullopt;
+}
+
+nlohmann::json settingsJson(const AppSettings& s) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const Entry& e : table()) j[e.key] = e.get(s);
+  return j;
+}
+
+std::string settingsHelp() {
+  std::string out;
+  for (const Entry& e : table()) out += std::string("  ") + e.key + ": " + e.allowed + "\n";
+  return out;
+}
+
+glm::dvec3 lightDirection(const AppSettings& s) noexcept {
+  const double az = glm::radians(s.lightAzimuthDeg), el = glm::radians(s.lightElevationDeg);
+  // Direction of travel: from the sun toward the ground.
+  return -glm::dvec3(std::cos(el) * std::cos(az), std::sin(el), std::cos(el) * std::sin(az));
+}
+
+csm::ShadowSettings effectiveShadow(const AppSettings& s) noexcept {
+  csm::ShadowSettings out = s.shadow;
+  if (s.scheme == SplitScheme::kUniform) out.splitLambda = 0.0;
+  if (s.scheme == SplitScheme::kLogarithmic) out.splitLambda = 1.0;
+  return out;
+}
+
+const char* kernelKey(csm::PcfKernel k) noexcept {
+  for (const auto& [name, v] : kKernels) {
+    if (v == k) return name;
+  }
+  return "?";
+}
+const char* debugKey(csm::DebugMode m) noexcept {
+  for (const auto& [name, v] : kDebugModes) {
+    if (v == m) return name;
+  }
+  return "?";
+}
+const char* schemeKey(SplitScheme m) noexcept {
+  for (const auto& [name, v] : kSchemes) {
+    if (v == m) return name;
+  }
+  return "?";
+}
+
+}  // namespace world

@@ -1,0 +1,680 @@
+// Procedural world generation (see world.hpp). Every random choice comes from a hash of the seed
+// and integer coordinates (no std:: distributions, whose output differs between libraries), so
+// one seed gives the same world on every build and machine.
+#include "sample_world/world.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <thread>
+
+#include "mesh_ops.hpp"
+
+namespace world {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+std::uint64_t mix64(std::uint64_t x) noexcept {
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+std::uint64_t hash3(std::uint64_t seed, std::int64_t a, std::int64_t b, std::uint64_t salt) {
+  return mix64(seed ^ mix64(static_cast<std::uint64_t>(a) * 0x632be59bd9b4e019ull ^
+                            mix64(static_cast<std::uint64_t>(b) ^ (salt << 40))));
+}
+
+double unit(std::uint64_t h) noexcept {
+  return static_cast<double>(h >> 11) * 0x1.0p-53;
+}
+
+/// A small deterministic generator (splitmix64 stream).
+class Rng {
+ public:
+  explicit Rng(std::uint64_t seed) : state_(seed) {}
+  double next() noexcept {
+    state_ = mix64(state_);
+    return unit(state_);
+  }
+  double range(double lo, double hi) noexcept { return lo + (hi - lo) * next(); }
+  std::uint32_t below(std::uint32_t n) noexcept {
+    return static_cast<std::uint32_t>(next() * n) % std::max(n, 1u);
+  }
+
+ private:
+  std::uint64_t state_;
+};
+
+double smooth(double t) noexcept {
+  return t * t * (3.0 - 2.0 * t);
+}
+
+double valueNoise(std::uint64_t seed, double x, double z, std::uint64_t salt) noexcept {
+  const double fx = std::floor(x), fz = std::floor(z);
+  const auto ix = static_cast<std::int64_t>(fx), iz = static_cast<std::int64_t>(fz);
+  const double tx = smooth(x - fx), tz = smooth(z - fz);
+  const double a = unit(hash3(seed, ix, iz, salt)), b = unit(hash3(seed, ix + 1, iz, salt));
+  const double c = unit(hash3(seed, ix, iz + 1, salt)), d = unit(hash3(seed, ix + 1, iz + 1, salt));
+  return (a + (b - a) * tx) + ((c + (d - c) * tx) - (a + (b - a) * tx)) * tz;
+}
+
+double fbm(std::uint64_t seed, double x, double z, int octaves, std::uint64_t salt) noexcept {
+  double sum = 0.0, amp = 0.5, norm = 0.0;
+  for (int o = 0; o < octaves; ++o) {
+    sum += amp * valueNoise(seed, x, z, salt + static_cast<std::uint64_t>(o));
+    norm += amp;
+    amp *= 0.5;
+    x = x * 2.03 + 17.1;
+    z = z * 2.03 - 9.7;
+  }
+  return sum / norm;
+}
+
+// ---- Mesh prototypes (built in object space, finished by OpenMesh) --------------------------
+
+struct Shape {
+  std::vector<glm::vec3> p;
+  std::vector<std::uint32_t> i;
+
+  std::uint32_t vertex(const glm::vec3& v) {
+    p.push_back(v);
+    return static_cast<std::uint32_t>(p.size() - 1);
+  }
+  void tri(std::uint32_t a, std::uint32_t b, std::uint32_t c) { i.insert(i.end(), {a, b, c}); }
+  // A flat quad of its own 4 vertices (a, b, c, d counter-clockwise seen from outside).
+  void quad(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c, const glm::vec3& d) {
+    const std::uint32_t base = static_cast<std::uint32_t>(p.size());
+    p.insert(p.end(), {a, b, c, d});
+    tri(base, base + 1, base + 2);
+    tri(base, base + 2, base + 3);
+  }
+  // An axis-aligned box with flat faces.
+  void box(const glm::vec3& lo, const glm::vec3& hi) {
+    const glm::vec3 c[8] = {{lo.x, lo.y, lo.z}, {hi.x, lo.y, lo.z}, {hi.x, hi.y, lo.z},
+                            {lo.x, hi.y, lo.z}, {lo.x, lo.y, hi.z}, {hi.x, lo.y, hi.z},
+                            {hi.x, hi.y, hi.z}, {lo.x, hi.y, hi.z}};
+    quad(c[4], c[5], c[6], c[7]);  // +z
+    quad(c[1], c[0], c[3], c[2]);  // -z
+    quad(c[5], c[1], c[2], c[6]);  // +x
+    quad(c[0], c[4], c[7], c[3]);  // -x
+    quad(c[7], c[6], c[2], c[3]);  // +y
+    quad(c[0], c[1], c[5], c[4]);  // -y
+  }
+  // A closed frustum of a cone along +y (radius r0 at y0, r1 at y1; r1 = 0 gives a cone).
+  void cone(float y0, float y1, float r0, float r1, int sides, float twist = 0.0f) {
+    const std::uint32_t bottom = vertex({0.0f, y0, 0.0f});
+    std::vector<std::uint32_t> ring0, ring1;
+    for (int s = 0; s < sides; ++s) {
+      const double a = 2.0 * kPi * s / sides + twist;
+      ring0.push_back(
+          vertex({r0 * static_cast<float>(std::cos(a)), y0, r0 * static_cast<float>(std::sin(a))}));
+    }
+    if (r1 > 0.0f) {
+      for (int s = 0; s < sides; ++s) {
+        const double a = 2.0 * kPi * s / sides + twist;
+        ring1.push_back(vertex(
+            {r1 * static_cast<float>(std::cos(a)), y1, r1 * static_cast<float>(std::sin(a))}));
+      }
+    }
+    const std::uint32_t top = vertex({0.0f, y1, 0.0f});
+    for (int s = 0; s < sides; ++s) {
+      const int n = (s + 1) % sides;
+      tri(bottom, ring0[s], ring0[n]);
+      if (r1 > 0.0f) {
+        tri(ring0[n], ring0[s], ring1[s]);
+        tri(ring0[n], ring1[s], ring1[n]);
+        tri(top, ring1[n], ring1[s]);
+      } else {
+        tri(ring0[n], ring0[s], top);
+      }
+    }
+  }
+  // A unit icosphere (subdivided once), each vertex pushed out by `jitter(v)`, centred at c.
+  template <class F>
+  void blob(const glm::vec3& c, const glm::vec3& radius, F jitter) {
+    const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
+    std::vector<glm::vec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0},
+                                {0, -1, t}, {0, 1, t}, {0, -1, -t}, {0, 1, -t},
+                                {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+    std::vector<std::uint32_t> f = {0, 11, 5, 0, 5,  1,  0,  1,  7,  0,  7, 10, 0, 10, 11,
+                                    1, 5,  9, 5, 11, 4,  11, 10, 2,  10, 7, 6,  7, 1,  8,
+                                    3, 9,  4, 3, 4,  2,  3,  2,  6,  3,  6, 8,  3, 8,  9,
+                                    4, 9,  5, 2, 4,  11, 6,  2,  10, 8,  6, 7,  9, 8,  1};
+    for (auto& x : v) x = glm::normalize(x);
+    std::vector<std::uint32_t> g;
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> mids;
+    auto mid = [&](std::uint32_t a, std::uint32_t b) {
+      const std::uint64_t key = (std::uint64_t(std::min(a, b)) << 32) | std::max(a, b);
+      for (const auto& m : mids) {
+        if (m.first == key) return m.second;
+      }
+      v.push_back(glm::normalize(v[a] + v[b]));
+      mids.emplace_back(key, static_cast<std::uint32_t>(v.size() - 1));
+      return static_cast<std::uint32_t>(v.size() - 1);
+    };
+    for (std::size_t k = 0; k < f.size(); k += 3) {
+      const std::uint32_t a = f[k], b = f[k + 1], cc = f[k + 2];
+      const std::uint32_t ab = mid(a, b), bc = mid(b, cc), ca = mid(cc, a);
+      g.insert(g.end(), {a, ab, ca, b, bc, ab, cc, ca, bc, ab, bc, ca});
+    }
+    const std::uint32_t base = static_cast<std::uint32_t>(p.size());
+    for (const auto& x : v) p.push_back(c + x * radius * jitter(x));
+    for (std::uint32_t idx : g) i.push_back(base + idx);
+  }
+};
+
+MeshAsset makeAsset(std::string name, const Shape& shape, double lod1, double lod2) {
+  MeshAsset asset;
+  asset.name = std::move(name);
+  asset.lods[0] = finishMesh(shape.p, shape.i);
+  asset.lods[1] = lod1 < 1.0 ? decimate(asset.lods[0], lod1) : asset.lods[0];
+  asset.lods[2] = lod2 < 1.0 ? decimate(asset.lods[1], lod2 / lod1) : asset.lods[1];
+  return asset;
+}
+
+glm::mat3 yawScale(double yaw, double scale) {
+  const float c = static_cast<float>(std::cos(yaw) * scale);
+  const float s = static_cast<float>(std::sin(yaw) * scale);
+  const float k = static_cast<float>(scale);
+  // Columns: rotation about +y, uniform scale.
+  return glm::mat3(glm::vec3(c, 0.0f, -s), glm::vec3(0.0f, k, 0.0f), glm::vec3(s, 0.0f, c));
+}
+
+csm::AabbWs placedBounds(const MeshData& mesh, const glm::dvec3& t, const glm::mat3& linear) {
+  glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  for (const glm::vec3& p : mesh.positions) {
+    const glm::dvec3 q = t + glm::dvec3(linear * p);
+    lo = glm::min(lo, q);
+    hi = glm::max(hi, q);
+  }
+  return {lo, hi};
+}
+
+void appendTransformed(MeshData& dst, const MeshData& src, const glm::vec3& offset,
+                       const glm::mat3& linear) {
+  const auto base = static_cast<std::uint32_t>(dst.positions.size());
+  const glm::mat3 normalMatrix = glm::transpose(glm::inverse(linear));
+  for (std::size_t k = 0; k < src.positions.size(); ++k) {
+    dst.positions.push_back(offset + linear * src.positions[k]);
+    dst.normals.push_back(glm::normalize(normalMatrix * src.normals[k]));
+  }
+  for (std::uint32_t idx : src.indices) dst.indices.push_back(base + idx);
+}
+
+}  // namespace
+
+const char* kindName(Kind kind) noexcept {
+  switch (kind) {
+    case Kind::kTerrain:
+      return "terrain";
+    case Kind::kTree:
+      return "tree";
+    case Kind::kRock:
+      return "rock";
+    case Kind::kBuilding:
+      return "building";
+    case Kind::kTower:
+      return "tower";
+    case Kind::kPole:
+      return "pole";
+    case Kind::kFence:
+      return "fence";
+    case Kind::kCable:
+      return "cable";
+    case Kind::kUser:
+      return "user mesh";
+  }
+  return "?";
+}
+
+double terrainHeight(std::uint64_t seed, double uM, double vM) noexcept {
+  // Rolling hills (fBm over ~1 km), a few sharper ridges, a valley running north-south, and a
+  // plateau at the centre for the town.
+  const double hills = fbm(seed, uM / 1100.0, vM / 1100.0, 5, 11) * 170.0;
+  const double ridge = 1.0 - std::abs(2.0 * fbm(seed, uM / 600.0, vM / 600.0, 4, 31) - 1.0);
+  const double valleyX = 2048.0 + 500.0 * std::sin(vM / 700.0);
+  const double valley = std::exp(-std::pow((uM - valleyX) / 260.0, 2.0));
+  double h = 30.0 + hills + 60.0 * ridge * ridge - 70.0 * valley;
+  const double du = uM - 2048.0, dv = vM - 2048.0;
+  const double town = std::clamp((std::sqrt(du * du + dv * dv) - 380.0) / 250.0, 0.0, 1.0);
+  const double townH = 30.0 + fbm(seed, 2048.0 / 1100.0, 2048.0 / 1100.0, 5, 11) * 170.0;
+  h = townH + (h - townH) * smooth(town);
+  return h;
+}
+
+double World::heightAt(double xWs, double zWs) const noexcept {
+  const double u = std::clamp(xWs - desc.originWs.x, 0.0, desc.sizeM);
+  const double v = std::clamp(zWs - desc.originWs.z, 0.0, desc.sizeM);
+  return desc.originWs.y + terrainHeight(desc.seed, u, v);
+}
+
+glm::dvec3 World::centerWs() const noexcept {
+  const double x = desc.originWs.x + 0.5 * desc.sizeM, z = desc.originWs.z + 0.5 * desc.sizeM;
+  return {x, heightAt(x, z), z};
+}
+
+std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
+  auto fail = [&](const std::string& m) -> std::optional<World> {
+    if (error) error->message = m;
+    return std::nullopt;
+  };
+  if (!(desc.sizeM >= 4096.0 && desc.sizeM <= 65536.0)) {
+    return fail("world.size = " + std::to_string(desc.sizeM) + ": allowed [4096, 65536] m");
+  }
+  const double chunksD = desc.sizeM / desc.chunkM;
+  if (!(desc.chunkM >= 64.0) || std::abs(chunksD - std::round(chunksD)) > 1e-9) {
+    return fail("world.chunk = " + std::to_string(desc.chunkM) +
+                ": must be >= 64 m and divide world.size");
+  }
+  if (desc.chunkCells < 4 || desc.chunkCells > 256) {
+    return fail("world.chunkCells = " + std::to_string(desc.chunkCells) + ": allowed [4, 256]");
+  }
+  if (desc.treeCount > 500000 || desc.rockCount > 100000 || desc.buildingCount > 5000) {
+    return fail("world.trees/rocks/buildings: allowed at most 500000 / 100000 / 5000");
+  }
+  for (int a = 0; a < 3; ++a) {
+    if (!std::isfinite(desc.originWs[a]) || std::abs(desc.originWs[a]) > 1e8) {
+      return fail("world.origin: every coordinate must be finite and within 1e8 m");
+    }
+  }
+
+  World w;
+  w.desc = desc;
+  const auto n = static_cast<std::uint32_t>(std::lround(chunksD));
+  w.chunksPerSide = n;
+  const std::uint64_t seed = desc.seed;
+  const glm::dvec3 o = desc.originWs;
+  auto ground = [&](double u, double v) { return terrainHeight(seed, u, v); };
+
+  // ---- Terrain chunks: one mesh asset each (LODs keep their boundary: no cracks) ------------
+  w.meshes.resize(static_cast<std::size_t>(n) * n);
+  {
+    auto buildChunk = [&](std::uint32_t c) {
+      const std::uint32_t cx = c % n, cz = c / n;
+      const std::uint32_t cells = desc.chunkCells;
+      const double step = desc.chunkM / cells;
+      Shape s;
+      for (std::uint32_t j = 0; j <= cells; ++j) {
+        for (std::uint32_t i = 0; i <= cells; ++i) {
+          const double u = cx * desc.chunkM + i * step, v = cz * desc.chunkM + j * step;
+          s.vertex({static_cast<float>(i * step), static_cast<float>(ground(u, v)),
+                    static_cast<float>(j * step)});
+        }
+      }
+      for (std::uint32_t j = 0; j < cells; ++j) {
+        for (std::uint32_t i = 0; i < cells; ++i) {
+          const std::uint32_t a = j * (cells + 1) + i, b = a + 1, d = a + cells + 1, e = d + 1;
+          s.tri(a, d, e);
+          s.tri(a, e, b);
+        }
+      }
+      w.meshes[c] = makeAsset("terrain chunk " + std::to_string(cx) + "," + std::to_string(cz), s,
+                              0.25, 0.08);
+    };
+    // Chunks are independent: build them on every core (results do not depend on the order).
+    const unsigned threads = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
+    std::vector<std::thread> pool;
+    for (unsigned t = 0; t < threads; ++t) {
+      pool.emplace_back([&, t] {
+        for (std::uint32_t c = t; c < n * n; c += threads) buildChunk(c);
+      });
+    }
+    for (auto& th : pool) th.join();
+  }
+  double minH = std::numeric_limits<double>::max(), maxH = -minH;
+  for (std::uint32_t c = 0; c < n * n; ++c) {
+    Object t;
+    t.mesh = c;
+    t.kind = Kind::kTerrain;
+    t.translationWs = o + glm::dvec3((c % n) * desc.chunkM, 0.0, (c / n) * desc.chunkM);
+    t.color = {0.42f, 0.55f, 0.28f};
+    t.boundsWs = placedBounds(w.meshes[c].lods[0], t.translationWs, t.linear);
+    t.chunk = c;
+    minH = std::min(minH, t.boundsWs.minWs.y);
+    maxH = std::max(maxH, t.boundsWs.maxWs.y);
+    w.objects.push_back(t);
+  }
+
+  // ---- Prototypes ----------------------------------------------------------------------------
+  auto addAsset = [&](MeshAsset a) {
+    w.meshes.push_back(std::move(a));
+    return static_cast<std::uint32_t>(w.meshes.size() - 1);
+  };
+  std::vector<std::uint32_t> trees, rocks;
+  {
+    Shape conifer;  // trunk + three stacked cones, ~14 m
+    conifer.cone(-0.5f, 3.0f, 0.35f, 0.25f, 8);
+    conifer.cone(2.5f, 8.0f, 3.2f, 0.0f, 12);
+    conifer.cone(6.0f, 11.5f, 2.4f, 0.0f, 12, 0.2f);
+    conifer.cone(9.5f, 14.0f, 1.5f, 0.0f, 10, 0.4f);
+    trees.push_back(addAsset(makeAsset("conifer", conifer, 0.4, 0.15)));
+    Shape broad;  // trunk + lumpy crown, ~11 m
+    broad.cone(-0.5f, 4.5f, 0.45f, 0.3f, 8);
+    Rng r(mix64(seed ^ 0xb10b));
+    broad.blob({0.0f, 7.5f, 0.0f}, {4.0f, 3.6f, 4.0f}, [&](const glm::vec3& v) {
+      return static_cast<float>(0.85 + 0.3 * valueNoise(seed, v.x * 2.0 + 5, v.z * 2.0 + v.y, 77));
+    });
+    trees.push_back(addAsset(makeAsset("broadleaf", broad, 0.35, 0.12)));
+    Shape pine;  // tall thin pine, ~22 m
+    pine.cone(-0.5f, 12.0f, 0.4f, 0.2f, 8);
+    pine.cone(8.0f, 22.0f, 2.2f, 0.0f, 10);
+    trees.push_back(addAsset(makeAsset("pine", pine, 0.4, 0.15)));
+    for (int k = 0; k < 4; ++k) {
+      Shape rock;
+      rock.blob({0.0f, 0.3f, 0.0f}, {1.0f, 0.7f, 1.1f}, [&](const glm::vec3& v) {
+        return static_cast<float>(
+            0.7 + 0.6 * valueNoise(seed, v.x * 2.5 + 10 * k, v.z * 2.5 + v.y * 1.7, 91));
+      });
+      rocks.push_back(addAsset(makeAsset("rock " + std::to_string(k), rock, 0.4, 0.15)));
+    }
+  }
+  const std::uint32_t unitBox = [&] {
+    Shape b;
+    b.box({-0.5f, 0.0f, -0.5f}, {0.5f, 1.0f, 0.5f});
+    return addAsset(makeAsset("box", b, 1.0, 1.0));
+  }();
+  (void)unitBox;
+
+  const double half = 0.5 * desc.sizeM;
+  const glm::dvec3 centre = o + glm::dvec3(half, 0.0, half);
+  auto chunkOf = [&](const glm::dvec3& p) {
+    const auto cx = static_cast<std::uint32_t>(
+        std::clamp(std::floor((p.x - o.x) / desc.chunkM), 0.0, double(n - 1)));
+    const auto cz = static_cast<std::uint32_t>(
+        std::clamp(std::floor((p.z - o.z) / desc.chunkM), 0.0, double(n - 1)));
+    return cz * n + cx;
+  };
+  auto heightWs = [&](double x, double z) { return w.heightAt(x, z); };
+  auto place = [&](std::uint32_t mesh, Kind kind, const glm::dvec3& t, const glm::mat3& linear,
+                   const glm::vec3& color, bool casts = true, bool receives = true) {
+    Object ob;
+    ob.mesh = mesh;
+    ob.kind = kind;
+    ob.translationWs = t;
+    ob.linear = linear;
+    ob.color = color;
+    ob.casts = casts;
+    ob.receives = receives;
+    ob.boundsWs = placedBounds(w.meshes[mesh].lods[0], t, linear);
+    ob.chunk = chunkOf(t);
+    w.objects.push_back(ob);
+  };
+  auto inTown = [&](double x, double z, double r) {
+    const double dx = x - centre.x, dz = z - centre.z;
+    return dx * dx + dz * dz < r * r;
+  };
+
+  // ---- The town: buildings on a grid around a tall tower --------------------------------------
+  {
+    Shape tower;  // 160 m tapering lattice-like tower: stacked boxes with balconies
+    float y = 0.0f, side = 12.0f;
+    for (int k = 0; k < 8; ++k) {
+      const float hseg = 18.0f;
+      tower.box({-side / 2, y, -side / 2}, {side / 2, y + hseg, side / 2});
+      tower.box({-side / 2 - 1.5f, y + hseg - 1.0f, -side / 2 - 1.5f},
+                {side / 2 + 1.5f, y + hseg, side / 2 + 1.5f});
+      y += hseg;
+      side *= 0.88f;
+    }
+    tower.box({-0.4f, y, -0.4f}, {0.4f, y + 16.0f, 0.4f});  // antenna: a thin caster
+    const std::uint32_t towerMesh = addAsset(makeAsset("tower", tower, 1.0, 1.0));
+    const glm::dvec3 at(centre.x + 20.0, 0.0, centre.z - 30.0);
+    place(towerMesh, Kind::kTower, {at.x, heightWs(at.x, at.z) - 0.5, at.z}, yawScale(0.3, 1.0),
+          {0.75f, 0.72f, 0.68f});
+  }
+  {
+    Rng r(mix64(seed ^ 0x70f0));
+    std::vector<std::uint32_t> houseMeshes;
+    for (int k = 0; k < 6; ++k) {  // a few building shapes, flat roofs and pitched roofs
+      Shape b;
+      const float wx = static_cast<float>(r.range(8.0, 22.0));
+      const float wz = static_cast<float>(r.range(8.0, 18.0));
+      const float hgt = static_cast<float>(k < 3 ? r.range(18.0, 40.0) : r.range(6.0, 10.0));
+      b.box({-wx / 2, -1.0f, -wz / 2}, {wx / 2, hgt, wz / 2});
+      if (k >= 3) {  // pitched roof
+        const float rh = 0.4f * wz;
+        b.quad({-wx / 2, hgt, wz / 2}, {wx / 2, hgt, wz / 2}, {wx / 2, hgt + rh, 0.0f},
+               {-wx / 2, hgt + rh, 0.0f});
+        b.quad({wx / 2, hgt, -wz / 2}, {-wx / 2, hgt, -wz / 2}, {-wx / 2, hgt + rh, 0.0f},
+               {wx / 2, hgt + rh, 0.0f});
+        const std::uint32_t a0 = b.vertex({-wx / 2, hgt, -wz / 2});
+        const std::uint32_t a1 = b.vertex({-wx / 2, hgt, wz / 2});
+        const std::uint32_t a2 = b.vertex({-wx / 2, hgt + rh, 0.0f});
+        b.tri(a0, a1, a2);
+        const std::uint32_t b0 = b.vertex({wx / 2, hgt, wz / 2});
+        const std::uint32_t b1 = b.vertex({wx / 2, hgt, -wz / 2});
+        const std::uint32_t b2 = b.vertex({wx / 2, hgt + rh, 0.0f});
+        b.tri(b0, b1, b2);
+      }
+      houseMeshes.push_back(addAsset(makeAsset("building " + std::to_string(k), b, 1.0, 1.0)));
+    }
+    std::uint32_t placed = 0;
+    for (int gz = -7; gz <= 7 && placed < desc.buildingCount; ++gz) {
+      for (int gx = -7; gx <= 7 && placed < desc.buildingCount; ++gx) {
+        if (std::abs(gx) <= 1 && std::abs(gz) <= 1) continue;  // the tower's square
+        const std::uint64_t h = hash3(seed, gx, gz, 0x40);
+        if (unit(h) < 0.3) continue;
+        const double x = centre.x + gx * 42.0 + (unit(mix64(h)) - 0.5) * 8.0;
+        const double z = centre.z + gz * 42.0 + (unit(mix64(h + 1)) - 0.5) * 8.0;
+        const std::uint32_t mesh = houseMeshes[(std::abs(gx) + std::abs(gz) > 5 ? 3 : 0) +
+                                               static_cast<std::uint32_t>(h >> 60) % 3];
+        const double yaw = (h >> 58 & 1) ? 0.0 : kPi / 2;
+        const float shade = static_cast<float>(0.6 + 0.3 * unit(mix64(h + 2)));
+        place(mesh, Kind::kBuilding, {x, heightWs(x, z), z}, yawScale(yaw, 1.0),
+              {shade, shade * 0.9f, shade * 0.8f});
+        ++placed;
+      }
+    }
+  }
+
+  // ---- Thin casters: a power line east of the town, fences around fields ---------------------
+  {
+    Shape pole;
+    pole.cone(-1.0f, 12.0f, 0.18f, 0.14f, 8);
+    pole.box({-1.6f, 11.0f, -0.1f}, {1.6f, 11.3f, 0.1f});  // cross arm
+    const std::uint32_t poleMesh = addAsset(makeAsset("pole", pole, 0.5, 0.3));
+    Shape cable;  // a unit-length cable along +x, 3 cm thick
+    cable.box({0.0f, -0.015f, -0.015f}, {1.0f, 0.015f, 0.015f});
+    const std::uint32_t cableMesh = addAsset(makeAsset("cable", cable, 1.0, 1.0));
+    const double spacing = 45.0;
+    glm::dvec3 prev{};
+    for (int k = 0; k < 36; ++k) {
+      const double x = centre.x + 330.0 + k * spacing;
+      const double z = centre.z + 60.0 + 40.0 * std::sin(k * 0.15);
+      const glm::dvec3 base{x, heightWs(x, z), z};
+      place(poleMesh, Kind::kPole, base, yawScale(0.0, 1.0), {0.35f, 0.27f, 0.2f});
+      if (k > 0) {
+        for (int c = -1; c <= 1; ++c) {
+          const glm::dvec3 a = prev + glm::dvec3(0.0, 11.35, 1.4 * c);
+          const glm::dvec3 b = base + glm::dvec3(0.0, 11.35, 1.4 * c);
+          const glm::dvec3 d = b - a;
+          const double len = glm::length(d);
+          // Rotation taking +x to d, scaled along x only is non-uniform: build the cable at its
+          // length instead (x axis -> d, y and z kept unit).
+          const glm::vec3 ax = glm::vec3(d / len);
+          const glm::vec3 az = glm::normalize(glm::cross(ax, glm::vec3(0, 1, 0)));
+          const glm::vec3 ay = glm::cross(az, ax);
+          const glm::mat3 lin(ax * static_cast<float>(len), ay, az);
+          // Cables: cast, but are never darkened themselves (receives = false).
+          Object ob;
+          ob.mesh = cableMesh;
+          ob.kind = Kind::kCable;
+          ob.translationWs = a;
+          ob.linear = lin;
+          ob.color = {0.1f, 0.1f, 0.1f};
+          ob.receives = false;
+          ob.boundsWs = placedBounds(w.meshes[cableMesh].lods[0], a, lin);
+          ob.chunk = chunkOf(a);
+          w.objects.push_back(ob);
+        }
+      }
+      prev = base;
+    }
+    Shape post;
+    post.box({-0.06f, -0.5f, -0.06f}, {0.06f, 1.4f, 0.06f});
+    post.box({-0.03f, 0.5f, 0.0f}, {0.03f, 0.6f, 3.0f});  // rails toward the next post
+    post.box({-0.03f, 1.1f, 0.0f}, {0.03f, 1.2f, 3.0f});
+    const std::uint32_t postMesh = addAsset(makeAsset("fence segment", post, 1.0, 1.0));
+    for (int field = 0; field < 6; ++field) {
+      const double fx = centre.x - 520.0 + 110.0 * (field % 3);
+      const double fz = centre.z + 200.0 + 120.0 * (field / 3);
+      for (int side = 0; side < 4; ++side) {
+        for (int k = 0; k < 27; ++k) {
+          const double t = k * 3.0;
+          glm::dvec3 p;
+          double yaw = 0.0;
+          if (side == 0) p = {fx, 0, fz + t}, yaw = 0.0;
+          if (side == 1) p = {fx + t, 0, fz + 81.0}, yaw = kPi / 2;
+          if (side == 2) p = {fx + 81.0, 0, fz + 81.0 - t}, yaw = kPi;
+          if (side == 3) p = {fx + 81.0 - t, 0, fz}, yaw = -kPi / 2;
+          p.y = heightWs(p.x, p.z);
+          place(postMesh, Kind::kFence, p, yawScale(yaw, 1.0), {0.55f, 0.45f, 0.3f});
+        }
+      }
+    }
+  }
+
+  // ---- Forests: jittered grid, kept where a low-frequency density field is high ---------------
+  {
+    const double cell = std::max(
+        6.0, std::sqrt(desc.sizeM * desc.sizeM * 0.35 / std::max(1.0, double(desc.treeCount))));
+    const auto cellsPerSide = static_cast<std::int64_t>(desc.sizeM / cell);
+    // Candidates sorted by a hash so that the first treeCount kept are spread over the world.
+    std::uint32_t placed = 0;
+    for (std::int64_t j = 0; j < cellsPerSide && placed < desc.treeCount; ++j) {
+      for (std::int64_t i = 0; i < cellsPerSide && placed < desc.treeCount; ++i) {
+        const std::uint64_t h = hash3(seed, i, j, 0x7ee);
+        const double u = (i + 0.1 + 0.8 * unit(mix64(h))) * cell;
+        const double v = (j + 0.1 + 0.8 * unit(mix64(h + 1))) * cell;
+        const double density = fbm(seed, u / 500.0, v / 500.0, 3, 51);
+        if (density < 0.47 || unit(mix64(h + 2)) > (density - 0.4) * 4.0) continue;
+        const double x = o.x + u, z = o.z + v;
+        if (inTown(x, z, 420.0)) continue;
+        const std::uint32_t kind = static_cast<std::uint32_t>(mix64(h + 3) >> 61) % 3;
+        const double scale = 0.7 + 0.6 * unit(mix64(h + 4));
+        const float g = static_cast<float>(0.8 + 0.4 * unit(mix64(h + 5)));
+        const glm::vec3 color =
+            kind == 1 ? glm::vec3(0.30f, 0.50f, 0.18f) * g : glm::vec3(0.16f, 0.36f, 0.17f) * g;
+        place(trees[kind], Kind::kTree, {x, heightWs(x, z) - 0.3, z},
+              yawScale(unit(mix64(h + 6)) * 2.0 * kPi, scale), color);
+        ++placed;
+      }
+    }
+    Rng r(mix64(seed ^ 0x50c));
+    for (std::uint32_t k = 0; k < desc.rockCount; ++k) {
+      const double x = o.x + r.range(20.0, desc.sizeM - 20.0);
+      const double z = o.z + r.range(20.0, desc.sizeM - 20.0);
+      const double scale = 0.5 + 3.5 * std::pow(r.next(), 3.0);
+      const std::uint32_t mesh = rocks[r.below(4)];
+      const float g = static_cast<float>(r.range(0.4, 0.6));
+      place(mesh, Kind::kRock, {x, heightWs(x, z) - 0.2 * scale, z},
+            yawScale(r.range(0.0, 2.0 * kPi), scale), {g, g * 0.97f, g * 0.92f});
+    }
+  }
+
+  // ---- The user's mesh ------------------------------------------------------------------------
+  if (!desc.userMeshPath.empty()) {
+    std::optional<MeshData> mesh = loadMeshFile(desc.userMeshPath, desc.userMeshSizeM, error);
+    if (!mesh) return std::nullopt;
+    MeshAsset a;
+    a.name = "user mesh";
+    a.lods[0] = std::move(*mesh);
+    a.lods[1] = decimate(a.lods[0], 0.3);
+    a.lods[2] = decimate(a.lods[1], 0.3);
+    const std::uint32_t m = addAsset(std::move(a));
+    const double x = centre.x - 60.0, z = centre.z - 80.0;
+    place(m, Kind::kUser, {x, heightWs(x, z), z}, yawScale(0.0, 1.0), {0.85f, 0.55f, 0.3f});
+  }
+
+  // ---- Statistics, bounds and caster clusters -------------------------------------------------
+  w.boundsWs.minWs = glm::dvec3(std::numeric_limits<double>::max());
+  w.boundsWs.maxWs = -w.boundsWs.minWs;
+  for (const Object& ob : w.objects) {
+    ++w.kindCounts[static_cast<std::size_t>(ob.kind)];
+    w.boundsWs.minWs = glm::min(w.boundsWs.minWs, ob.boundsWs.minWs);
+    w.boundsWs.maxWs = glm::max(w.boundsWs.maxWs, ob.boundsWs.maxWs);
+  }
+  (void)minH;
+  (void)maxH;
+
+  // Per chunk: the terrain chunk itself, then one cluster per group of casting objects.
+  const int kGroups = 3;  // 0 vegetation + rocks, 1 buildings + tower + user mesh, 2 thin casters
+  auto groupOf = [](Kind k) {
+    switch (k) {
+      case Kind::kTree:
+      case Kind::kRock:
+        return 0;
+      case Kind::kBuilding:
+      case Kind::kTower:
+      case Kind::kUser:
+        return 1;
+      default:
+        return 2;
+    }
+  };
+  static const char* kGroupNames[] = {"vegetation", "buildings", "thin"};
+  std::vector<std::vector<std::uint32_t>> members(static_cast<std::size_t>(n) * n * kGroups);
+  for (std::uint32_t k = 0; k < w.objects.size(); ++k) {
+    const Object& ob = w.objects[k];
+    if (!ob.casts) continue;
+    if (ob.kind == Kind::kTerrain) {
+      CasterCluster c;
+      c.name = w.meshes[ob.mesh].name;
+      c.originWs = ob.translationWs;
+      c.asset = static_cast<std::int32_t>(ob.mesh);
+      c.boundsWs = ob.boundsWs;
+      c.objectCount = 1;
+      w.clusters.push_back(std::move(c));
+      continue;
+    }
+    members[ob.chunk * kGroups + groupOf(ob.kind)].push_back(k);
+  }
+  for (std::size_t m = 0; m < members.size(); ++m) {
+    if (members[m].empty()) continue;
+    const auto chunk = static_cast<std::uint32_t>(m / kGroups);
+    CasterCluster c;
+    c.name = std::string(kGroupNames[m % kGroups]) + " " + std::to_string(chunk % n) + "," +
+             std::to_string(chunk / n);
+    c.originWs = o + glm::dvec3((chunk % n) * desc.chunkM, 0.0, (chunk / n) * desc.chunkM);
+    c.boundsWs = {glm::dvec3(std::numeric_limits<double>::max()),
+                  glm::dvec3(-std::numeric_limits<double>::max())};
+    for (std::uint32_t k : members[m]) {
+      const Object& ob = w.objects[k];
+      const glm::vec3 offset(ob.translationWs - c.originWs);
+      for (std::uint32_t l = 0; l < kLodCount; ++l) {
+        appendTransformed(c.lods[l], w.meshes[ob.mesh].lods[l], offset, ob.linear);
+      }
+      c.boundsWs.minWs = glm::min(c.boundsWs.minWs, ob.boundsWs.minWs);
+      c.boundsWs.maxWs = glm::max(c.boundsWs.maxWs, ob.boundsWs.maxWs);
+      ++c.objectCount;
+    }
+    w.clusters.push_back(std::move(c));
+  }
+  return w;
+}
+
+std::uint64_t worldHash(const World& world) noexcept {
+  std::uint64_t h = 14695981039346656037ull;
+  auto mix = [&](std::uint64_t v) { h = hashBytes(h, &v, sizeof(v)); };
+  for (const MeshAsset& a : world.meshes) {
+    for (const MeshData& m : a.lods) mix(meshHash(m));
+  }
+  for (const CasterCluster& c : world.clusters) {
+    for (const MeshData& m : c.lods) mix(meshHash(m));
+    h = hashBytes(h, &c.originWs, sizeof(c.originWs));
+  }
+  for (const Object& ob : world.objects) {
+    h = hashBytes(h, &ob.translationWs, sizeof(ob.translationWs));
+    h = hashBytes(h, &ob.linear, sizeof(ob.linear));
+    h = hashBytes(h, &ob.color, sizeof(ob.color));
+    mix(ob.mesh);
+    mix((ob.casts ? 1u : 0u) | (ob.receives ? 2u : 0u));
+  }
+  return h;
+}
+
+}  // namespace world

@@ -1,0 +1,570 @@
+// The sample world's renderer (see world_renderer.hpp).
+#include "sample_world/world_renderer.hpp"
+
+#include <csm_shaders/overlay_2d.frag.spv.h>
+#include <csm_shaders/overlay_2d.vert.spv.h>
+#include <csm_shaders/world.frag.spv.h>
+#include <csm_shaders/world.vert.spv.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+#include "csm/gpu_layout.hpp"
+#include "engine/debug.hpp"
+#include "engine/errors.hpp"
+
+namespace world {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+// std140 block WorldFrame of world.vert / world.frag.
+struct WorldFrameGpu {
+  glm::mat4 viewProjCr;
+  glm::vec4 lightDirection;
+  glm::vec4 lightColor;
+  glm::vec4 ambientColor;
+  glm::uvec4 overlay;
+};
+static_assert(sizeof(WorldFrameGpu) == 128);
+
+engine::MeshRange upload(engine::MeshStore& store, const MeshData& m) {
+  std::vector<engine::Vertex> v(m.positions.size());
+  for (std::size_t i = 0; i < v.size(); ++i) v[i] = {m.positions[i], m.normals[i]};
+  return store.upload(v, m.indices);
+}
+
+// The 6 planes (inward normals, camera-relative) of a camera's frustum.
+std::array<glm::dvec4, 6> frustumPlanes(const engine::Camera& cam) {
+  const glm::dmat4 vp = glm::dmat4(cam.viewProjectionCr());
+  const glm::dvec4 r0(vp[0][0], vp[1][0], vp[2][0], vp[3][0]);
+  const glm::dvec4 r1(vp[0][1], vp[1][1], vp[2][1], vp[3][1]);
+  const glm::dvec4 r2(vp[0][2], vp[1][2], vp[2][2], vp[3][2]);
+  const glm::dvec4 r3(vp[0][3], vp[1][3], vp[2][3], vp[3][3]);
+  // Vulkan clip: -w <= x, y <= w and 0 <= z <= w.
+  return {r3 + r0, r3 - r0, r3 + r1, r3 - r1, r2, r3 - r2};
+}
+
+bool boxVisible(const std::array<glm::dvec4, 6>& planes, const csm::AabbWs& b,
+                const glm::dvec3& cameraWs) {
+  const glm::dvec3 lo = b.minWs - cameraWs, hi = b.maxWs - cameraWs;
+  for (const glm::dvec4& p : planes) {
+    const glm::dvec3 v(p.x > 0 ? hi.x : lo.x, p.y > 0 ? hi.y : lo.y, p.z > 0 ? hi.z : lo.z);
+    if (glm::dot(glm::dvec3(p), v) + p.w < 0.0) return false;
+  }
+  return true;
+}
+
+double boxDistance(const csm::AabbWs& b, const glm::dvec3& p) {
+  const glm::dvec3 d = glm::max(glm::max(b.minWs - p, p - b.maxWs), glm::dvec3(0.0));
+  return glm::length(d);
+}
+
+}  // namespace
+
+WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat colorFormat,
+                             VkFormat depthFormat)
+    : ctx_(&ctx), world_(&world), colorFormat_(colorFormat), depthFormat_(depthFormat) {
+  // ---- Meshes: every asset LOD and every caster-cluster LOD in one store -------------------
+  std::uint64_t vertices = 0, indices = 0;
+  for (const MeshAsset& a : world.meshes) {
+    for (const MeshData& m : a.lods) vertices += m.positions.size(), indices += m.indices.size();
+  }
+  for (const CasterCluster& c : world.clusters) {
+    for (const MeshData& m : c.lods) vertices += m.positions.size(), indices += m.indices.size();
+  }
+  if (vertices > 0xffffffffull || indices > 0xffffffffull) {
+    throw std::runtime_error("world too large for 32-bit mesh indices");
+  }
+  meshes_ =
+      std::make_unique<engine::MeshStore>(ctx, static_cast<std::uint32_t>(vertices + 16),
+                                          static_cast<std::uint32_t>(indices + 16), "world.meshes");
+  for (const MeshAsset& a : world.meshes) {
+    std::array<engine::MeshRange, kLodCount> r{};
+    for (std::uint32_t l = 0; l < kLodCount; ++l) r[l] = upload(*meshes_, a.lods[l]);
+    assetRanges_.push_back(r);
+  }
+  for (const CasterCluster& c : world.clusters) {
+    std::array<engine::MeshRange, kLodCount> r{};
+    if (c.asset >= 0) {
+      r = assetRanges_[static_cast<std::size_t>(c.asset)];
+    } else {
+      for (std::uint32_t l = 0; l < kLodCount; ++l) r[l] = upload(*meshes_, c.lods[l]);
+    }
+    clusterRanges_.push_back(r);
+    (void)casterSet_.addBox(c.boundsWs.minWs, c.boundsWs.maxWs);
+  }
+  casterSet_.build();
+
+  // ---- View culling groups ------------------------------------------------------------------
+  const std::uint32_t chunks = world.chunksPerSide * world.chunksPerSide;
+  chunkBounds_.assign(chunks, {glm::dvec3(1e300), glm::dvec3(-1e300)});
+  chunkObjects_.resize(chunks);
+  for (std::uint32_t k = 0; k < world.objects.size(); ++k) {
+    const Object& ob = world.objects[k];
+    chunkObjects_[ob.chunk].push_back(k);
+    chunkBounds_[ob.chunk].minWs = glm::min(chunkBounds_[ob.chunk].minWs, ob.boundsWs.minWs);
+    chunkBounds_[ob.chunk].maxWs = glm::max(chunkBounds_[ob.chunk].maxWs, ob.boundsWs.maxWs);
+  }
+  maxInstances_ = static_cast<std::uint32_t>(world.objects.size());
+  bucketObjects_.resize(world.meshes.size() * kLodCount);
+
+  // ---- Shadow renderer ----------------------------------------------------------------------
+  csm::vk::DeviceInfo info;
+  info.physicalDevice = ctx.physicalDevice();
+  info.device = ctx.device();
+  info.queueFamily = ctx.queueFamily();
+  info.depthClampEnabled = ctx.features().depthClamp;
+  info.shaderOutputLayerEnabled = ctx.features().shaderOutputLayer;
+  info.debugUtilsEnabled = ctx.debugUtilsEnabled();
+  csm::vk::VertexLayout layout;
+  layout.stride = sizeof(engine::Vertex);
+  layout.positionOffset = 0;
+  csm::vk::Status status;
+  shadow_ = csm::vk::ShadowRenderer::create(info, layout, &status);
+  if (!shadow_) throw std::runtime_error("ShadowRenderer::create: " + status.message());
+
+  // ---- Per-frame resources --------------------------------------------------------------------
+  VkDevice dev = ctx.device();
+  const VkDescriptorSetLayoutBinding binding{
+      0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1,
+      VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
+  frameLayout_ =
+      engine::createDescriptorSetLayout(dev, std::span(&binding, 1), "world.frameLayout");
+  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, engine::kFramesInFlight};
+  VkDescriptorPoolCreateInfo poolInfo{};
+  poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+  poolInfo.maxSets = engine::kFramesInFlight;
+  poolInfo.poolSizeCount = 1;
+  poolInfo.pPoolSizes = &size;
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  ENGINE_VK_CHECK(vkCreateDescriptorPool(dev, &poolInfo, nullptr, &pool));
+  pool_ = engine::DeviceHandle<VkDescriptorPool>(dev, pool, vkDestroyDescriptorPool);
+  engine::setDebugName(dev, pool, "world.pool");
+  for (std::uint32_t s = 0; s < engine::kFramesInFlight; ++s) {
+    Slot& slot = slots_[s];
+    const std::string n = "world.slot" + std::to_string(s);
+    slot.frameUniforms =
+        engine::Buffer(ctx, sizeof(WorldFrameGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+                       engine::MemoryUsage::Upload, n + ".uniforms");
+    slot.instances = engine::Buffer(ctx, sizeof(Instance) * std::max(1u, maxInstances_),
+                                    VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, engine::MemoryUsage::Upload,
+                                    n + ".instances");
+    slot.overlay = engine::Buffer(ctx, sizeof(OverlayVertex) * kMaxOverlayVertices,
+                                  VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, engine::MemoryUsage::Upload,
+                                  n + ".overlay");
+    VkDescriptorSetLayout l = frameLayout_.get();
+    VkDescriptorSetAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    alloc.descriptorPool = pool;
+    alloc.descriptorSetCount = 1;
+    alloc.pSetLayouts = &l;
+    ENGINE_VK_CHECK(vkAllocateDescriptorSets(dev, &alloc, &slot.frameSet));
+    engine::setDebugName(dev, slot.frameSet, n + ".frameSet");
+    VkDescriptorBufferInfo bi{slot.frameUniforms.handle(), 0, sizeof(WorldFrameGpu)};
+    VkWriteDescriptorSet w{};
+    w.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    w.dstSet = slot.frameSet;
+    w.descriptorCount = 1;
+    w.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    w.pBufferInfo = &bi;
+    vkUpdateDescriptorSets(dev, 1, &w, 0, nullptr);
+  }
+  worldVert_ = engine::createShaderModule(dev, world_vert_spv, "world.vert");
+  worldFrag_ = engine::createShaderModule(dev, world_frag_spv, "world.frag");
+  overlayVert_ = engine::createShaderModule(dev, overlay_2d_vert_spv, "overlay_2d.vert");
+  overlayFrag_ = engine::createShaderModule(dev, overlay_2d_frag_spv, "overlay_2d.frag");
+
+  const VkVertexInputBindingDescription ob{0, sizeof(OverlayVertex), VK_VERTEX_INPUT_RATE_VERTEX};
+  const VkVertexInputAttributeDescription oa[] = {
+      {0, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(OverlayVertex, pixel)},
+      {1, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(OverlayVertex, uv)},
+      {2, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(OverlayVertex, color)},
+      {3, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(OverlayVertex, depth)},
+  };
+  for (int k = 0; k < 2; ++k) {
+    engine::GraphicsPipelineBuilder b;
+    b.vertexShader(overlayVert_)
+        .fragmentShader(overlayFrag_)
+        .vertexInput(std::span(&ob, 1), oa)
+        .topology(k == 0 ? VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST : VK_PRIMITIVE_TOPOLOGY_LINE_LIST)
+        .colorFormat(colorFormat_)
+        .depthFormat(depthFormat_)
+        .depthTest(false, false)
+        .alphaBlend(true)
+        .pushConstants(VK_SHADER_STAGE_VERTEX_BIT, sizeof(glm::vec2))
+        .descriptorSetLayout(shadow_->lightingSetLayout());
+    (k == 0 ? overlayTris_ : overlayLines_) =
+        b.build(ctx, k == 0 ? "overlay.tris" : "overlay.lines");
+  }
+}
+
+WorldRenderer::~WorldRenderer() {
+  if (ctx_) ctx_->waitIdle();
+}
+
+std::uint64_t WorldRenderer::clusterTriangles(std::uint32_t lod) const {
+  std::uint64_t t = 0;
+  for (const auto& r : clusterRanges_) t += r[lod].indexCount / 3;
+  return t;
+}
+
+void WorldRenderer::buildLitPipeline() {
+  const auto kernel = static_cast<std::uint32_t>(settings_.kernel);
+  if (litPipelines_.count(kernel)) return;
+  const VkVertexInputBindingDescription bindings[] = {
+      engine::MeshStore::bindingDescription(),
+      {1, sizeof(Instance), VK_VERTEX_INPUT_RATE_INSTANCE}};
+  std::vector<VkVertexInputAttributeDescription> attrs(
+      engine::MeshStore::attributeDescriptions().begin(),
+      engine::MeshStore::attributeDescriptions().end());
+  for (std::uint32_t k = 0; k < 4; ++k) {
+    attrs.push_back({2 + k, 1, VK_FORMAT_R32G32B32A32_SFLOAT,
+                     static_cast<std::uint32_t>(k * sizeof(glm::vec4))});
+  }
+  engine::GraphicsPipelineBuilder b;
+  b.vertexShader(worldVert_)
+      .fragmentShader(worldFrag_)
+      .vertexInput(bindings, attrs)
+      .colorFormat(colorFormat_)
+      .depthFormat(depthFormat_)
+      .depthTest(true, true, VK_COMPARE_OP_LESS)
+      .descriptorSetLayout(frameLayout_.get())
+      .descriptorSetLayout(shadow_->lightingSetLayout())
+      .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_KERNEL, kernel)
+      .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, 1u);
+  litPipelines_[kernel] = b.build(*ctx_, std::string("world.lit.") + kernelKey(settings_.kernel));
+}
+
+std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
+  if (auto e = validateSettings(settings)) return e;
+  csm::vk::RendererOptions options;
+  options.depthFormat = settings.depth16 ? VK_FORMAT_D16_UNORM : VK_FORMAT_D32_SFLOAT;
+  options.consumerStages = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  const csm::vk::Status s = shadow_->update(effectiveShadow(settings), options);
+  if (!s.ok()) return s.message();
+  const bool resetHistory = !applied_ ||
+                            settings.shadow.cascadeCount != settings_.shadow.cascadeCount ||
+                            settings.shadow.stabilize != settings_.shadow.stabilize;
+  settings_ = settings;
+  applied_ = true;
+  if (resetHistory) history_ = {};
+  buildLitPipeline();
+  return std::nullopt;
+}
+
+std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, FrameStats& stats) {
+  camera_ = camera;
+  csm::Camera c;
+  c.positionWs = camera.positionWs;
+  c.orientationWs = camera.orientation;
+  c.fovYRad = camera.fovYRad;
+  c.aspect = camera.aspect;
+  c.nearM = camera.nearM;
+  c.farM = camera.farM;
+  const csm::DirectionalLight light{lightDirection(settings_)};
+  const csm::ShadowSettings shadow = effectiveShadow(settings_);
+
+  auto t0 = Clock::now();
+  csm::Result<csm::CascadeFrame> r =
+      csm::computeCascades(shadow, c, light, &world_->boundsWs, &history_);
+  stats.cpuSetupMs = msSince(t0);
+  if (!r.ok()) return r.error().message();
+  frame_ = r.value();
+
+  t0 = Clock::now();
+  csm::cullCasters(casterSet_, frame_, shadow.minCasterTexels, cull_);
+  // Lit pass: chunks in the view frustum, then objects; LOD by distance.
+  const auto planes = frustumPlanes(camera);
+  for (auto& b : bucketObjects_) b.clear();
+  stats.litTriangles = 0;
+  for (std::uint32_t ch = 0; ch < chunkObjects_.size(); ++ch) {
+    if (chunkObjects_[ch].empty() || !boxVisible(planes, chunkBounds_[ch], camera.positionWs)) {
+      continue;
+    }
+    for (std::uint32_t k : chunkObjects_[ch]) {
+      const Object& ob = world_->objects[k];
+      if (ob.kind != Kind::kTerrain && !boxVisible(planes, ob.boundsWs, camera.positionWs)) {
+        continue;
+      }
+      const double d = boxDistance(ob.boundsWs, camera.positionWs);
+      if (d > camera.farM) continue;
+      // Distances where a LOD's simplification drops below about a pixel at 1080p / 60 deg.
+      const double scale = ob.kind == Kind::kTerrain ? 4.0 : 1.0;
+      const std::uint32_t lod = d < 150.0 * scale ? 0 : (d < 500.0 * scale ? 1 : 2);
+      bucketObjects_[ob.mesh * kLodCount + lod].push_back(k);
+    }
+  }
+  instances_.clear();
+  buckets_.clear();
+  // Near LODs first and the terrain last: roughly front to back, so that the depth test rejects
+  // most hidden fragments before they are shaded.
+  bucketOrder_.clear();
+  for (std::uint32_t lod = 0; lod < kLodCount; ++lod) {
+    for (int terrain = 0; terrain < 2; ++terrain) {
+      for (std::uint32_t m = 0; m < world_->meshes.size(); ++m) {
+        const bool isTerrain = m < world_->chunksPerSide * world_->chunksPerSide;
+        if (isTerrain == (terrain == 1)) bucketOrder_.push_back(m * kLodCount + lod);
+      }
+    }
+  }
+  for (std::uint32_t b : bucketOrder_) {
+    if (bucketObjects_[b].empty()) continue;
+    Bucket bucket;
+    bucket.mesh = b / kLodCount;
+    bucket.lod = b % kLodCount;
+    bucket.first = static_cast<std::uint32_t>(instances_.size());
+    for (std::uint32_t k : bucketObjects_[b]) {
+      const Object& ob = world_->objects[k];
+      const glm::vec3 t(ob.translationWs - camera.positionWs);
+      Instance in;
+      for (int row = 0; row < 3; ++row) {
+        in.rows[row] = glm::vec4(ob.linear[0][row], ob.linear[1][row], ob.linear[2][row], t[row]);
+      }
+      in.color = glm::vec4(ob.color, ob.receives ? 1.0f : 0.0f);
+      instances_.push_back(in);
+    }
+    bucket.count = static_cast<std::uint32_t>(instances_.size()) - bucket.first;
+    stats.litTriangles +=
+        std::uint64_t(assetRanges_[bucket.mesh][bucket.lod].indexCount / 3) * bucket.count;
+    buckets_.push_back(bucket);
+  }
+  stats.litInstances = static_cast<std::uint32_t>(instances_.size());
+  stats.cpuCullMs = msSince(t0);
+  stats.cascades = frame_;
+  stats.cascadeCount = frame_.cascadeCount;
+  return std::nullopt;
+}
+
+void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool overlay,
+                           FrameStats& stats) {
+  const auto t0 = Clock::now();
+  VkCommandBuffer cmd = f.cmd;
+  Slot& slot = slots_[f.slot];
+
+  // ---- Shadow pass: each cascade draws its culled clusters at its LOD ------------------------
+  shadow_->setUniformOptions({settings_.debug, settings_.worldSpaceKernel});
+  stats.casters = {};
+  stats.triangles = {};
+  const VkBuffer vb = meshes_->vertexBuffer();
+  const VkDeviceSize zero = 0;
+  timer.begin(cmd, "shadow");
+  // Each cascade's scope runs from its callback to the next cascade's (or the pass's end), so it
+  // includes the end of its render pass: where a binning rasteriser (lavapipe) does the work.
+  std::string openScope;
+  const csm::vk::Status s = shadow_->recordShadowPass(
+      cmd, frame_,
+      [&](const csm::vk::CascadeDrawContext& c) {
+        if (!openScope.empty()) timer.end(cmd, openScope);
+        openScope = "shadow c" + std::to_string(c.cascade);
+        timer.begin(cmd, openScope);
+        const std::uint32_t lod = settings_.casterLods ? settings_.cascadeLod[c.cascade] : 0u;
+        stats.lod[c.cascade] = lod;
+        vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
+        vkCmdBindIndexBuffer(cmd, meshes_->indexBuffer(), 0, VK_INDEX_TYPE_UINT32);
+        for (std::uint32_t k : *c.visible) {
+          const engine::MeshRange& r = clusterRanges_[k][lod];
+          if (r.indexCount == 0) continue;
+          c.setTransform(world_->clusters[k].originWs, glm::mat3(1.0f));
+          vkCmdDrawIndexed(cmd, r.indexCount, 1, r.firstIndex, r.vertexOffset, 0);
+          ++stats.casters[c.cascade];
+          stats.triangles[c.cascade] += r.indexCount / 3;
+        }
+      },
+      &cull_);
+  if (!openScope.empty()) timer.end(cmd, openScope);
+  timer.end(cmd, "shadow");
+  if (!s.ok()) throw std::runtime_error("recordShadowPass: " + s.message());
+
+  // ---- Lit pass ---------------------------------------------------------------------------------
+  WorldFrameGpu gpu{};
+  gpu.viewProjCr = camera_.viewProjectionCr();
+  gpu.lightDirection = glm::vec4(glm::vec3(lightDirection(settings_)), 0.0f);
+  gpu.lightColor = glm::vec4(1.0f, 0.96f, 0.88f, 1.0f);
+  gpu.ambientColor = glm::vec4(glm::vec3(0.55f, 0.65f, 0.85f) * settings_.ambient * 1.6f, 1.0f);
+  gpu.overlay = glm::uvec4(overlay && settings_.overlayTint ? 1u : 0u,
+                           overlay && settings_.overlayChecker ? 1u : 0u, 0u, 0u);
+  std::memcpy(slot.frameUniforms.mapped(), &gpu, sizeof(gpu));
+  std::memcpy(slot.instances.mapped(), instances_.data(), instances_.size() * sizeof(Instance));
+
+  timer.begin(cmd, "lit");
+  engine::beginRendering(f, VkClearColorValue{{0.55f, 0.68f, 0.86f, 1.0f}});
+  {
+    engine::ScopedLabel label(cmd, "world lit pass", {0.9f, 0.8f, 0.3f, 1.0f});
+    const engine::GraphicsPipeline& p =
+        litPipelines_.at(static_cast<std::uint32_t>(settings_.kernel));
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.pipeline);
+    const VkDescriptorSet sets[2] = {slot.frameSet, shadow_->lightingSet()};
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 2, sets, 0, nullptr);
+    engine::setViewportAndScissor(cmd, f.extent);
+    const VkBuffer buffers[2] = {vb, slot.instances.handle()};
+    const VkDeviceSize offsets[2] = {0, 0};
+    vkCmdBindVertexBuffers(cmd, 0, 2, buffers, offsets);
+    vkCmdBindIndexBuffer(cmd, meshes_->indexBuffer(), 0, VK_INDEX_TYPE_UINT32);
+    for (const Bucket& b : buckets_) {
+      const engine::MeshRange& r = assetRanges_[b.mesh][b.lod];
+      vkCmdDrawIndexed(cmd, r.indexCount, b.count, r.firstIndex, r.vertexOffset, b.first);
+    }
+  }
+  timer.end(cmd, "lit");
+
+  if (overlay && (settings_.overlayThumbnails || settings_.overlayMap)) {
+    timer.begin(cmd, "overlay");
+    engine::ScopedLabel label(cmd, "overlay 2d", {0.3f, 0.9f, 0.9f, 1.0f});
+    std::vector<OverlayVertex> tris, lines;
+    buildOverlay(f.extent, tris, lines);
+    const std::size_t total =
+        std::min<std::size_t>(tris.size() + lines.size(), kMaxOverlayVertices);
+    tris.resize(std::min(tris.size(), total));
+    lines.resize(std::min(lines.size(), total - tris.size()) & ~std::size_t(1));
+    auto* dst = static_cast<OverlayVertex*>(slot.overlay.mapped());
+    std::memcpy(dst, tris.data(), tris.size() * sizeof(OverlayVertex));
+    std::memcpy(dst + tris.size(), lines.data(), lines.size() * sizeof(OverlayVertex));
+    const glm::vec2 inv(1.0f / f.extent.width, 1.0f / f.extent.height);
+    const VkBuffer ovb = slot.overlay.handle();
+    const VkDescriptorSet set = shadow_->lightingSet();
+    vkCmdBindVertexBuffers(cmd, 0, 1, &ovb, &zero);
+    for (int k = 0; k < 2; ++k) {
+      const engine::GraphicsPipeline& p = k == 0 ? overlayTris_ : overlayLines_;
+      const std::size_t count = k == 0 ? tris.size() : lines.size();
+      if (count == 0) continue;
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.pipeline);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 1, &set, 0,
+                              nullptr);
+      vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(inv), &inv);
+      vkCmdDraw(cmd, static_cast<std::uint32_t>(count), 1,
+                k == 0 ? 0u : static_cast<std::uint32_t>(tris.size()), 0);
+    }
+    timer.end(cmd, "overlay");
+  }
+  vkCmdEndRendering(cmd);
+  stats.cpuRecordMs = msSince(t0);
+}
+
+void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& tris,
+                                 std::vector<OverlayVertex>& lines) const {
+  const glm::vec4 solid(-1.0f, 0.0f, 1.0f, 0.0f);
+  auto quad = [&](glm::vec2 a, glm::vec2 b, glm::vec4 color, glm::vec4 depth) {
+    const OverlayVertex v00{a, {0, 0}, color, depth}, v10{{b.x, a.y}, {1, 0}, color, depth};
+    const OverlayVertex v01{{a.x, b.y}, {0, 1}, color, depth}, v11{b, {1, 1}, color, depth};
+    tris.insert(tris.end(), {v00, v10, v11, v00, v11, v01});
+  };
+  auto line = [&](glm::vec2 a, glm::vec2 b, glm::vec4 color) {
+    lines.push_back({a, {0, 0}, color, solid});
+    lines.push_back({b, {0, 0}, color, solid});
+  };
+  const auto W = static_cast<float>(extent.width), H = static_cast<float>(extent.height);
+  const std::uint32_t n = frame_.cascadeCount;
+  const float pad = std::max(4.0f, 0.01f * H);
+
+  // Shadow-map thumbnails along the bottom-left, each framed in its cascade's tint.
+  if (settings_.overlayThumbnails) {
+    const float size = std::min(0.2f * H, (0.55f * W - pad * (n + 1)) / std::max(1u, n));
+    for (std::uint32_t c = 0; c < n; ++c) {
+      const csm::Cascade& cs = frame_.cascades[c];
+      const glm::vec4 tint(csm::cascadeTint(static_cast<int>(c)), 1.0f);
+      const glm::vec2 a(pad + c * (size + pad), H - pad - size);
+      quad(a - glm::vec2(2.0f), a + glm::vec2(size + 2.0f), tint, solid);
+      if (cs.empty) {
+        quad(a, a + glm::vec2(size), {0.1f, 0.1f, 0.1f, 1.0f}, solid);
+        continue;
+      }
+      // The sphere spans the last 2r of the light-space depth range: stretch that to [0, 1].
+      const double range = cs.depthFarLs - cs.depthNearLs;
+      const float lo =
+          range > 0.0
+              ? static_cast<float>(std::clamp(1.0 - 2.0 * cs.sphereRadiusM / range, 0.0, 1.0))
+              : 0.0f;
+      quad(a, a + glm::vec2(size), glm::vec4(1.0f), {static_cast<float>(c), lo, 1.0f, 0.0f});
+    }
+  }
+
+  // Top-down map (north up: -z up, +x right) around the camera, covering the shadow distance.
+  if (settings_.overlayMap) {
+    const float size = std::min(0.42f * H, 0.3f * W);
+    const glm::vec2 origin(W - pad - size, H - pad - size);
+    quad(origin, origin + glm::vec2(size), {0.0f, 0.0f, 0.0f, 0.55f}, solid);
+    const double radius = std::max(50.0, 1.05 * frame_.shadowFarM);
+    const glm::dvec3 cam = frame_.cameraPositionWs;
+    auto toMap = [&](const glm::dvec3& p) {
+      const glm::dvec2 d((p.x - cam.x) / radius, (p.z - cam.z) / radius);
+      return origin +
+             glm::vec2(static_cast<float>(0.5 + 0.5 * d.x), static_cast<float>(0.5 + 0.5 * d.y)) *
+                 size;
+    };
+    auto clip = [&](glm::vec2 p) { return glm::clamp(p, origin, origin + glm::vec2(size)); };
+    auto mapLine = [&](const glm::dvec3& a, const glm::dvec3& b, glm::vec4 color) {
+      line(clip(toMap(a)), clip(toMap(b)), color);
+    };
+    // Casters drawn per cascade as dots (cascade 0 on top, smallest).
+    for (int c = static_cast<int>(n) - 1; c >= 0; --c) {
+      const glm::vec4 tint(csm::cascadeTint(c), 0.9f);
+      const float dot = 1.0f + 0.5f * static_cast<float>(c);
+      for (std::uint32_t k : cull_.visible[static_cast<std::size_t>(c)]) {
+        const csm::AabbWs& b = world_->clusters[k].boundsWs;
+        const glm::vec2 p = toMap(0.5 * (b.minWs + b.maxWs));
+        if (p.x < origin.x || p.y < origin.y || p.x > origin.x + size || p.y > origin.y + size) {
+          continue;
+        }
+        quad(p - glm::vec2(dot), p + glm::vec2(dot), tint, solid);
+      }
+    }
+    const glm::dvec3 fwd = camera_.forwardWs(), right = camera_.rightWs(), up = camera_.upWs();
+    const double ty = std::tan(0.5 * camera_.fovYRad), tx = ty * camera_.aspect;
+    for (std::uint32_t c = 0; c < n; ++c) {
+      const csm::Cascade& cs = frame_.cascades[c];
+      const glm::vec4 tint(csm::cascadeTint(static_cast<int>(c)), 1.0f);
+      // Frustum slice: its far rectangle and the edges back to its near rectangle.
+      glm::dvec3 nearC[4], farC[4];
+      const double sx[4] = {-1, 1, 1, -1}, sy[4] = {-1, -1, 1, 1};
+      for (int k = 0; k < 4; ++k) {
+        nearC[k] = cam + cs.splitNearM * (fwd + sx[k] * tx * right + sy[k] * ty * up);
+        farC[k] = cam + cs.splitFarM * (fwd + sx[k] * tx * right + sy[k] * ty * up);
+      }
+      for (int k = 0; k < 4; ++k) {
+        mapLine(farC[k], farC[(k + 1) % 4], tint * glm::vec4(1, 1, 1, 0.9f));
+        mapLine(nearC[k], farC[k], tint * glm::vec4(1, 1, 1, 0.5f));
+      }
+      // Bounding sphere.
+      const int segs = 48;
+      for (int k = 0; k < segs; ++k) {
+        const double a0 = 2.0 * 3.14159265358979 * k / segs,
+                     a1 = 2.0 * 3.14159265358979 * (k + 1) / segs;
+        const glm::dvec3 p0 =
+            cs.sphereCenterWs + cs.sphereRadiusM * glm::dvec3(std::cos(a0), 0, std::sin(a0));
+        const glm::dvec3 p1 =
+            cs.sphereCenterWs + cs.sphereRadiusM * glm::dvec3(std::cos(a1), 0, std::sin(a1));
+        mapLine(p0, p1, tint * glm::vec4(1, 1, 1, 0.6f));
+      }
+      if (cs.empty) continue;
+      // Light box: its 12 edges seen from above.
+      const glm::dvec3 lr = frame_.lightBasisWs[0], lu = frame_.lightBasisWs[1],
+                       lf = frame_.lightBasisWs[2];
+      glm::dvec3 corner[8];
+      for (int k = 0; k < 8; ++k) {
+        corner[k] = cs.boxCenterWs + ((k & 1) ? 1.0 : -1.0) * cs.halfExtentLs.x * lr +
+                    ((k & 2) ? 1.0 : -1.0) * cs.halfExtentLs.y * lu +
+                    ((k & 4) ? cs.depthFarLs : cs.depthNearLs) * lf;
+      }
+      const int edges[12][2] = {{0, 1}, {2, 3}, {4, 5}, {6, 7}, {0, 2}, {1, 3},
+                                {4, 6}, {5, 7}, {0, 4}, {1, 5}, {2, 6}, {3, 7}};
+      for (const auto& e : edges)
+        mapLine(corner[e[0]], corner[e[1]], tint * glm::vec4(0.8f, 0.8f, 0.8f, 1.0f));
+    }
+    // The camera: a white cross.
+    const glm::vec2 cp = toMap(cam);
+    line(cp - glm::vec2(5, 0), cp + glm::vec2(5, 0), glm::vec4(1));
+    line(cp - glm::vec2(0, 5), cp + glm::vec2(0, 5), glm::vec4(1));
+    quad(origin, origin + glm::vec2(size, 1), glm::vec4(1), solid);
+    quad(origin + glm::vec2(0, size - 1), origin + glm::vec2(size), glm::vec4(1), solid);
+  }
+}
+
+}  // namespace world

@@ -1,0 +1,34 @@
+#version 450
+// Sample world lit pass: instanced meshes, camera-relative. Per instance: the rows of the
+// object -> camera-relative world affine transform and the colour (alpha: receives shadows).
+
+layout(location = 0) in vec3 inPositionMs;
+layout(location = 1) in vec3 inNormalMs;
+layout(location = 2) in vec4 inModelRow0;
+layout(location = 3) in vec4 inModelRow1;
+layout(location = 4) in vec4 inModelRow2;
+layout(location = 5) in vec4 inColor;
+
+layout(std140, set = 0, binding = 0) uniform WorldFrame {
+  mat4 viewProjCr;      // camera-relative world -> clip
+  vec4 lightDirection;  // xyz direction the light travels
+  vec4 lightColor;      // rgb
+  vec4 ambientColor;    // rgb
+  uvec4 overlay;        // x cascade tint, y texel checker
+} frame;
+
+layout(location = 0) out vec3 outPositionCr;
+layout(location = 1) out vec3 outNormalWs;
+layout(location = 2) out vec4 outColor;
+
+void main() {
+  const mat4x3 model = transpose(mat3x4(inModelRow0, inModelRow1, inModelRow2));
+  const vec3 posCr = model * vec4(inPositionMs, 1.0);
+  // Rotation times a uniform scale (or a scale along one axis for cables): the inverse
+  // transpose of the linear part keeps normals perpendicular.
+  const mat3 linear = mat3(model);
+  outNormalWs = transpose(inverse(linear)) * inNormalMs;
+  outPositionCr = posCr;
+  outColor = inColor;
+  gl_Position = frame.viewProjCr * vec4(posCr, 1.0);
+}
