@@ -24,10 +24,11 @@ layout(location = 2) out vec4 outColor;
 void main() {
   const mat4x3 model = transpose(mat3x4(inModelRow0, inModelRow1, inModelRow2));
   const vec3 posCr = model * vec4(inPositionMs, 1.0);
-  // Rotation times a uniform scale (or a scale along one axis for cables): the inverse
-  // transpose of the linear part keeps normals perpendicular.
-  const mat3 linear = mat3(model);
-  outNormalWs = transpose(inverse(linear)) * inNormalMs;
+  // The linear part is a rotation times a uniform scale (cables also stretch along their own
+  // axis, which leaves their cross-section normals perpendicular): it maps normals as it maps
+  // directions, and the fragment shader normalises. No per-vertex inverse: on a CPU rasteriser
+  // vertex work runs on one thread.
+  outNormalWs = mat3(model) * inNormalMs;
   outPositionCr = posCr;
   outColor = inColor;
   gl_Position = frame.viewProjCr * vec4(posCr, 1.0);

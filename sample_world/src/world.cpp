@@ -282,6 +282,13 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
     }
   }
 
+  // The user's mesh first: a bad file is refused before seconds of generation.
+  std::optional<MeshData> userMesh;
+  if (!desc.userMeshPath.empty()) {
+    userMesh = loadMeshFile(desc.userMeshPath, desc.userMeshSizeM, error);
+    if (!userMesh) return std::nullopt;
+  }
+
   World w;
   w.desc = desc;
   const auto n = static_cast<std::uint32_t>(std::lround(chunksD));
@@ -351,25 +358,25 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
     conifer.cone(2.5f, 8.0f, 3.2f, 0.0f, 12);
     conifer.cone(6.0f, 11.5f, 2.4f, 0.0f, 12, 0.2f);
     conifer.cone(9.5f, 14.0f, 1.5f, 0.0f, 10, 0.4f);
-    trees.push_back(addAsset(makeAsset("conifer", conifer, 0.4, 0.15)));
+    trees.push_back(addAsset(makeAsset("conifer", conifer, 0.35, 0.06)));
     Shape broad;  // trunk + lumpy crown, ~11 m
     broad.cone(-0.5f, 4.5f, 0.45f, 0.3f, 8);
     Rng r(mix64(seed ^ 0xb10b));
     broad.blob({0.0f, 7.5f, 0.0f}, {4.0f, 3.6f, 4.0f}, [&](const glm::vec3& v) {
       return static_cast<float>(0.85 + 0.3 * valueNoise(seed, v.x * 2.0 + 5, v.z * 2.0 + v.y, 77));
     });
-    trees.push_back(addAsset(makeAsset("broadleaf", broad, 0.35, 0.12)));
+    trees.push_back(addAsset(makeAsset("broadleaf", broad, 0.3, 0.06)));
     Shape pine;  // tall thin pine, ~22 m
     pine.cone(-0.5f, 12.0f, 0.4f, 0.2f, 8);
     pine.cone(8.0f, 22.0f, 2.2f, 0.0f, 10);
-    trees.push_back(addAsset(makeAsset("pine", pine, 0.4, 0.15)));
+    trees.push_back(addAsset(makeAsset("pine", pine, 0.35, 0.08)));
     for (int k = 0; k < 4; ++k) {
       Shape rock;
       rock.blob({0.0f, 0.3f, 0.0f}, {1.0f, 0.7f, 1.1f}, [&](const glm::vec3& v) {
         return static_cast<float>(
             0.7 + 0.6 * valueNoise(seed, v.x * 2.5 + 10 * k, v.z * 2.5 + v.y * 1.7, 91));
       });
-      rocks.push_back(addAsset(makeAsset("rock " + std::to_string(k), rock, 0.4, 0.15)));
+      rocks.push_back(addAsset(makeAsset("rock " + std::to_string(k), rock, 0.3, 0.08)));
     }
   }
   const std::uint32_t unitBox = [&] {
@@ -577,12 +584,10 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
   }
 
   // ---- The user's mesh ------------------------------------------------------------------------
-  if (!desc.userMeshPath.empty()) {
-    std::optional<MeshData> mesh = loadMeshFile(desc.userMeshPath, desc.userMeshSizeM, error);
-    if (!mesh) return std::nullopt;
+  if (userMesh) {
     MeshAsset a;
     a.name = "user mesh";
-    a.lods[0] = std::move(*mesh);
+    a.lods[0] = std::move(*userMesh);
     a.lods[1] = decimate(a.lods[0], 0.3);
     a.lods[2] = decimate(a.lods[1], 0.3);
     const std::uint32_t m = addAsset(std::move(a));

@@ -1,0 +1,203 @@
+// The procedural world: determinism from the seed, OpenMesh normals and Decimater LODs, object
+// flags, mesh files (good and bad), settings validation.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "sample_world/paths.hpp"
+#include "sample_world/settings.hpp"
+#include "sample_world/world.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+const world::World& defaultWorld() {
+  static const world::World w = [] {
+    world::WorldError e;
+    auto r = world::generateWorld(world::WorldDesc{}, &e);
+    if (!r) throw std::runtime_error(e.message);
+    return std::move(*r);
+  }();
+  return w;
+}
+
+fs::path tempDir() {
+  const fs::path d = fs::temp_directory_path() / "csm_sample_world_test";
+  fs::create_directories(d);
+  return d;
+}
+
+std::string writeFile(const std::string& name, const std::string& bytes) {
+  const fs::path p = tempDir() / name;
+  std::ofstream(p, std::ios::binary) << bytes;
+  return p.string();
+}
+
+const char* kCubeOff =
+    "OFF\n8 6 0\n-1 -1 -1\n1 -1 -1\n1 1 -1\n-1 1 -1\n-1 -1 1\n1 -1 1\n1 1 1\n-1 1 1\n"
+    "4 0 3 2 1\n4 4 5 6 7\n4 0 1 5 4\n4 2 3 7 6\n4 1 2 6 5\n4 0 4 7 3\n";
+
+TEST(World, SameSeedGivesIdenticalMeshes) {
+  const world::World& a = defaultWorld();
+  world::WorldError e;
+  const auto b = world::generateWorld(world::WorldDesc{}, &e);
+  ASSERT_TRUE(b) << e.message;
+  ASSERT_EQ(a.meshes.size(), b->meshes.size());
+  for (std::size_t m = 0; m < a.meshes.size(); ++m) {
+    for (std::uint32_t l = 0; l < world::kLodCount; ++l) {
+      EXPECT_EQ(world::meshHash(a.meshes[m].lods[l]), world::meshHash(b->meshes[m].lods[l]))
+          << a.meshes[m].name << " lod " << l;
+    }
+  }
+  EXPECT_EQ(world::worldHash(a), world::worldHash(*b));
+}
+
+TEST(World, OtherSeedGivesOtherWorld) {
+  world::WorldDesc d;
+  d.seed = 2;
+  d.treeCount = 2000;
+  world::WorldError e;
+  const auto b = world::generateWorld(d, &e);
+  ASSERT_TRUE(b) << e.message;
+  EXPECT_NE(world::meshHash(defaultWorld().meshes[0].lods[0]),
+            world::meshHash(b->meshes[0].lods[0]));
+}
+
+TEST(World, HasTheRequiredContent) {
+  const world::World& w = defaultWorld();
+  const glm::dvec3 size = w.boundsWs.maxWs - w.boundsWs.minWs;
+  EXPECT_GE(size.x, 4096.0);
+  EXPECT_GE(size.z, 4096.0);
+  auto count = [&](world::Kind k) { return w.kindCounts[static_cast<std::size_t>(k)]; };
+  EXPECT_GE(count(world::Kind::kTree), 20000u);
+  EXPECT_GT(count(world::Kind::kRock), 0u);
+  EXPECT_GT(count(world::Kind::kBuilding), 0u);
+  EXPECT_EQ(count(world::Kind::kTower), 1u);
+  EXPECT_GT(count(world::Kind::kPole), 0u);
+  EXPECT_GT(count(world::Kind::kFence), 0u);
+  EXPECT_GT(count(world::Kind::kCable), 0u);
+  EXPECT_EQ(count(world::Kind::kTerrain), w.chunksPerSide * w.chunksPerSide);
+  for (const world::Object& ob : w.objects) {
+    // Cables cast but are not darkened; everything else casts and receives.
+    EXPECT_EQ(ob.receives, ob.kind != world::Kind::kCable);
+    EXPECT_TRUE(ob.casts);
+  }
+  // The tower is tall.
+  for (const world::Object& ob : w.objects) {
+    if (ob.kind == world::Kind::kTower) {
+      EXPECT_GT(ob.boundsWs.maxWs.y - ob.boundsWs.minWs.y, 150.0);
+    }
+  }
+}
+
+TEST(World, NormalsAreUnitAndLodsSimplify) {
+  const world::World& w = defaultWorld();
+  std::uint64_t tris[world::kLodCount] = {};
+  for (const world::CasterCluster& c : w.clusters) {
+    for (std::uint32_t l = 0; l < world::kLodCount; ++l) {
+      const world::MeshData& m =
+          c.asset >= 0 ? w.meshes[static_cast<std::size_t>(c.asset)].lods[l] : c.lods[l];
+      tris[l] += m.triangleCount();
+    }
+  }
+  EXPECT_LT(tris[1], tris[0] / 2);
+  EXPECT_LT(tris[2], tris[1]);
+  for (const world::MeshAsset& a : w.meshes) {
+    for (const world::MeshData& m : a.lods) {
+      ASSERT_EQ(m.positions.size(), m.normals.size());
+      ASSERT_GT(m.indices.size(), 0u) << a.name;
+      for (const glm::vec3& n : m.normals) ASSERT_NEAR(glm::length(n), 1.0f, 1e-3f) << a.name;
+    }
+  }
+}
+
+TEST(World, SameFlightAnywhere) {
+  // The "far" path is the forest pass with the world 10^7 m away: the same relative poses.
+  const world::World& w = defaultWorld();
+  world::WorldDesc d;
+  d.originWs = world::pathWorldOrigin("far", d.sizeM);
+  d.treeCount = 0;
+  world::WorldError e;
+  const auto far = world::generateWorld(d, &e);
+  ASSERT_TRUE(far) << e.message;
+  const auto p0 = world::FlightPath::make("forest", w, 60.0);
+  const auto p1 = world::FlightPath::make("far", *far, 60.0);
+  ASSERT_TRUE(p0 && p1);
+  for (double t : {0.0, 0.5, 1.0}) {
+    const glm::dvec3 a = p0->at(t).positionWs - w.desc.originWs;
+    const glm::dvec3 b = p1->at(t).positionWs - far->desc.originWs;
+    EXPECT_NEAR(glm::length(a - b), 0.0, 1e-6);
+  }
+  EXPECT_GT(p1->at(0.5).positionWs.x, 9.0e6);
+}
+
+TEST(MeshFile, LoadsObjPlyOff) {
+  world::WorldError e;
+  const auto off = world::loadMeshFile(writeFile("cube.off", kCubeOff), 10.0, &e);
+  ASSERT_TRUE(off) << e.message;
+  EXPECT_EQ(off->triangleCount(), 12u);
+  const auto obj = world::loadMeshFile(
+      writeFile("tri.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\n"), 10.0, &e);
+  ASSERT_TRUE(obj) << e.message;
+  EXPECT_EQ(obj->triangleCount(), 2u);
+  const auto ply = world::loadMeshFile(
+      writeFile("tri.ply",
+                "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"),
+      10.0, &e);
+  ASSERT_TRUE(ply) << e.message;
+  EXPECT_EQ(ply->triangleCount(), 1u);
+  for (const glm::vec3& n : off->normals) EXPECT_NEAR(glm::length(n), 1.0f, 1e-4f);
+}
+
+TEST(MeshFile, BadFilesAreRefusedWithTheirReason) {
+  struct Case {
+    std::string path, reason;
+  };
+  const std::string cube = kCubeOff;
+  std::string garbage(4096, '\0');
+  for (std::size_t i = 0; i < garbage.size(); ++i)
+    garbage[i] = static_cast<char>((i * 7919u + 13u) % 251u);
+  const std::vector<Case> cases = {
+      {(tempDir() / "missing.obj").string(), "not found"},
+      {writeFile("empty.obj", ""), "empty"},
+      {writeFile("truncated.off", cube.substr(0, cube.size() / 2)), "truncated"},
+      {writeFile("garbage.ply", garbage), "not a valid PLY"},
+      {writeFile("garbage.obj", garbage), "no triangles"},
+      {writeFile("mesh.stl", "solid x\n"), "unsupported extension"},
+  };
+  for (const Case& c : cases) {
+    world::WorldError e;
+    EXPECT_FALSE(world::loadMeshFile(c.path, 10.0, &e)) << c.path;
+    EXPECT_NE(e.message.find(c.path), std::string::npos) << e.message;
+    EXPECT_NE(e.message.find(c.reason), std::string::npos) << e.message;
+  }
+}
+
+TEST(Settings, InvalidValuesListWhatIsAllowed) {
+  world::AppSettings s;
+  EXPECT_FALSE(world::setSetting(s, "shadow.cascades", "3"));
+  EXPECT_EQ(s.shadow.cascadeCount, 3u);
+  auto err = world::setSetting(s, "shadow.kernel", "box9");
+  ASSERT_TRUE(err);
+  EXPECT_NE(err->find("tent3"), std::string::npos) << *err;
+  err = world::setSetting(s, "shadow.cascades", "9");
+  ASSERT_TRUE(err);
+  EXPECT_NE(err->find("[1, 8]"), std::string::npos) << *err;
+  err = world::setSetting(s, "no.such.key", "1");
+  ASSERT_TRUE(err);
+  EXPECT_NE(err->find("shadow.resolution"), std::string::npos) << *err;
+  ASSERT_FALSE(world::setSetting(s, "shadow.resolution", "1000"));
+  err = world::validateSettings(s);
+  ASSERT_TRUE(err);
+  EXPECT_NE(err->find("power of two"), std::string::npos) << *err;
+  EXPECT_FALSE(world::setSetting(s, "lod.cascades", "0,1,2"));
+  EXPECT_EQ(s.cascadeLod[5], 2u);
+  EXPECT_TRUE(world::setSetting(s, "lod.cascades", "0,3"));
+}
+
+}  // namespace
