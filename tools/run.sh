@@ -5,4 +5,4 @@ cd "$(dirname "$0")/.."
 bash tools/setup.sh
 cmake --preset release >/dev/null
 cmake --build --preset release -j "$(nproc)"
-exec build/bin/csm_cascades "$@"
+if [ -n "${DISPLAY:-}" ]; then exec build/bin/csm_flythrough "$@"; else exec build/bin/csm_flythrough --headless --frames 60 --shot-every 20 --out out "$@"; fi
