@@ -57,7 +57,7 @@ std::optional<FlightPath> FlightPath::make(const std::string& name, const World&
     p.yaw0_ = 0.0;
     p.yaw1_ = glm::radians(120.0);
   } else if (name == "zoom") {
-    p.pointsUv_ = {{c + 20 - 650, c - 30 + 420}, {c + 20 - 650, c - 30 + 420}};
+    p.pointsUv_ = {{c + 20 + 650, c - 30 - 420}, {c + 20 + 650, c - 30 - 420}};
     p.altitudeM_ = 40.0;
     p.followTangent_ = false;
     p.lookAt_ = true;
@@ -91,7 +91,7 @@ CameraPose FlightPath::at(double t) const {
     pose.yawRad = std::atan2(-d.x, -d.y);  // yaw 0 looks down -z, positive turns left
   } else if (lookAt_) {
     const glm::dvec3 target(o.x + lookAtUv_.x,
-                            world_->heightAt(o.x + lookAtUv_.x, o.z + lookAtUv_.y) + 70.0,
+                            world_->heightAt(o.x + lookAtUv_.x, o.z + lookAtUv_.y) + 30.0,
                             o.z + lookAtUv_.y);
     const glm::dvec3 d = target - pose.positionWs;
     pose.yawRad = std::atan2(-d.x, -d.z);
