@@ -18,7 +18,11 @@ struct ProbePoint {
 layout(std430, set = 0, binding = 0) readonly buffer Points {
   ProbePoint points[];
 };
-// x: shadow factor (1 lit), y: cascade index (-1 none), z: blended cascade (-1 none), w: weight.
+// Two vec4 per point. [2i]: x shadow factor (1 lit), y cascade index (-1 none), z blended
+// cascade (-1 none), w blend weight. [2i+1]: x the smallest |receiver depth - stored depth| (m)
+// over the 5x5 texels around the receiver in its cascade (1e30 outside every cascade): a
+// receiver within rounding noise of a stored depth sits on a depth tie (a diagnostic: reports
+// give the smallest gap of the points that changed).
 layout(std430, set = 0, binding = 1) writeonly buffer Results {
   vec4 results[];
 };
@@ -33,5 +37,19 @@ void main() {
   const vec3 normalWs = points[i].normalWs.xyz;
   const float s = csmShadow(posCr, normalWs, vec2(float(i % 4096u), float(i / 4096u)));
   const CsmSelection sel = csmSelectCascade(csmViewDepth(posCr));
-  results[i] = vec4(s, float(sel.index), float(sel.blendIndex), sel.blendWeight);
+  float gapM = 1e30;
+  if (sel.index >= 0) {
+    const vec3 c = csmShadowCoord(sel.index, posCr, normalWs);
+    const vec2 base = floor(c.xy);
+    const float metresPerDepth = csmU.cascades[sel.index].depthInfo.y;
+    for (int dy = -2; dy <= 2; ++dy) {
+      for (int dx = -2; dx <= 2; ++dx) {
+        const vec2 uv = (base + vec2(dx, dy) + 0.5) * csmU.params.w;
+        const float stored = textureLod(csmDepthMap, vec3(uv, float(sel.index)), 0.0).r;
+        gapM = min(gapM, abs(c.z - stored) * metresPerDepth);
+      }
+    }
+  }
+  results[2u * i] = vec4(s, float(sel.index), float(sel.blendIndex), sel.blendWeight);
+  results[2u * i + 1u] = vec4(gapM, 0.0, 0.0, 0.0);
 }

@@ -33,15 +33,15 @@ inline glm::dvec3 originAt(double distanceM) {
 /// The light of every test unless a test says otherwise: it never moves.
 inline csm::DirectionalLight testLight() {
   csm::DirectionalLight l;
-  l.directionWs = glm::normalize(glm::dvec3(0.45, -1.0, -0.6));
+  l.directionWs = glm::normalize(glm::dvec3(0.75, -0.6, 0.3));
   return l;
 }
 
-/// The base camera: local (0, 14, 28) looking at local (0, 0, -30).
+/// The base camera: local (0, 7, 28) looking at local (0, 0, -25).
 inline csm::Camera baseCamera(const glm::dvec3& originWs, double aspect = 16.0 / 9.0) {
   engine::Camera e;
-  e.positionWs = originWs + glm::dvec3(0.0, 14.0, 28.0);
-  e.lookAt(originWs + glm::dvec3(0.0, 0.0, -30.0));
+  e.positionWs = originWs + glm::dvec3(0.0, 7.0, 28.0);
+  e.lookAt(originWs + glm::dvec3(0.0, 0.0, -25.0));
   csm::Camera c;
   c.positionWs = e.positionWs;
   c.orientationWs = e.orientation;

@@ -255,7 +255,7 @@ void Harness::ensureProbeBuffers(uint32_t count) {
   probe_->points = engine::Buffer(*ctx_, VkDeviceSize(capacity) * sizeof(ProbePointGpu),
                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, engine::MemoryUsage::Upload,
                                   "measure.probe.points");
-  probe_->results = engine::Buffer(*ctx_, VkDeviceSize(capacity) * sizeof(glm::vec4),
+  probe_->results = engine::Buffer(*ctx_, VkDeviceSize(capacity) * 2 * sizeof(glm::vec4),
                                    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                    engine::MemoryUsage::Readback, "measure.probe.results");
   writeBuffer(dev, probe_->set, 0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, probe_->points.handle());
@@ -319,10 +319,12 @@ std::vector<ProbeResult> Harness::probe(const csm::CascadeFrame& frame,
   std::vector<ProbeResult> out(count);
   const auto* r = static_cast<const glm::vec4*>(probe_->results.mapped());
   for (uint32_t i = 0; i < count; ++i) {
-    out[i].shadow = r[i].x;
-    out[i].cascade = int(std::lround(r[i].y));
-    out[i].blendCascade = int(std::lround(r[i].z));
-    out[i].blendWeight = r[i].w;
+    const glm::vec4& a = r[2 * i];
+    out[i].shadow = a.x;
+    out[i].cascade = int(std::lround(a.y));
+    out[i].blendCascade = int(std::lround(a.z));
+    out[i].blendWeight = a.w;
+    out[i].depthGapM = r[2 * i + 1].x;
   }
   return out;
 }

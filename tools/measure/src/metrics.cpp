@@ -68,6 +68,14 @@ nlohmann::json ShimmerRun::toJson(bool perFrameSeries) const {
   nlohmann::json j = total.toJson();
   j["points_tracked"] = pointsTracked;
   j["non_finite"] = nonFinite;
+  nlohmann::json changes = nlohmann::json::array();
+  for (const Change& c : visibleChanges) {
+    changes.push_back({{"frame", c.frame},
+                       {"receiver", c.receiver},
+                       {"delta", c.delta},
+                       {"min_depth_gap_m", c.depthGapM}});
+  }
+  j["stayed_visible_changes"] = changes;
   if (perFrameSeries) {
     nlohmann::json mean = nlohmann::json::array(), max = nlohmann::json::array(),
                    frac = nlohmann::json::array(), crossedMean = nlohmann::json::array();
@@ -119,6 +127,9 @@ ShimmerRun measureShimmer(Harness& harness, std::span<const Receiver> receivers,
           cls.band.add(d);
         } else {
           cls.stayed.add(d);
+          if (d > kVisibleStep && run.visibleChanges.size() < 100) {
+            run.visibleChanges.push_back({f, i, d, std::min(a.depthGapM, b.depthGapM)});
+          }
         }
       }
       run.total.merge(cls);
@@ -135,11 +146,13 @@ void AccuracyBucket::add(double s, double v) noexcept {
   const double e = std::abs(s - v);
   absErrorSum += e;
   if (e > 0.5) ++misclassified;
+  if (v < 0.5) ++shadowedTruth;
 }
 
 nlohmann::json AccuracyBucket::toJson() const {
   return {{"pixels", pixels},
           {"misclassified", misclassified},
+          {"shadowed_by_truth", shadowedTruth},
           {"misclassification_rate", rate()},
           {"mean_abs_error", meanAbsError()}};
 }
@@ -163,6 +176,7 @@ void AccuracyStats::merge(const AccuracyStats& o) noexcept {
   auto m = [](AccuracyBucket& a, const AccuracyBucket& b) {
     a.pixels += b.pixels;
     a.misclassified += b.misclassified;
+    a.shadowedTruth += b.shadowedTruth;
     a.absErrorSum += b.absErrorSum;
   };
   m(overall, o.overall);

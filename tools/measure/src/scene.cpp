@@ -180,6 +180,22 @@ Scene Scene::makeTestScene(const TestSceneDesc& desc) {
                        {0.3f, 0.3f, 0.35f, 1.0f},
                        InstanceKind::kPole});
   }
+  // Small crates and short posts close to the camera: casters for the near cascades.
+  for (int k = 0; k < 8; ++k) {
+    const double x = -10.0 + 2.8 * k + rng.range(-0.8, 0.8);
+    const double z = 19.0 - 2.2 * k + rng.range(-0.8, 0.8);
+    const bool post = k % 3 == 2;
+    const glm::dvec3 size =
+        post ? glm::dvec3(0.15, rng.range(1.5, 2.5), 0.15)
+             : glm::dvec3(rng.range(0.6, 1.6), rng.range(0.6, 1.4), rng.range(0.6, 1.6));
+    const double base =
+        groundMin(x - 0.5 * size.x, z - 0.5 * size.z, x + 0.5 * size.x, z + 0.5 * size.z) - 0.1;
+    scene.addInstance({cube,
+                       desc.originWs + glm::dvec3(x, base + 0.5 * size.y, z),
+                       scaleMatrix(size),
+                       {0.6f, 0.45f, 0.3f, 1.0f},
+                       post ? InstanceKind::kPole : InstanceKind::kBuilding});
+  }
   for (int k = 0; k < 7; ++k) {
     const double x = 30.0 - 10.0 * k + rng.range(-2.0, 2.0);
     const double z = 2.0 - 14.0 * k + rng.range(-2.0, 2.0);

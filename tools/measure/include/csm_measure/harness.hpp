@@ -43,6 +43,9 @@ struct ProbeResult {
   int cascade = -1;       ///< selected cascade, -1 outside every cascade
   int blendCascade = -1;  ///< cascade blended in across the band, -1 none
   float blendWeight = 0.0f;
+  /// Smallest |receiver depth - stored depth| (m) over the 5x5 texels around the receiver in its
+  /// cascade (1e30 outside every cascade): below rounding noise the point sits on a depth tie.
+  float depthGapM = 1e30f;
 };
 
 /// One receiver pixel of an accuracy frame.

@@ -55,6 +55,15 @@ struct ShimmerRun {
   ShimmerClasses total;
   uint64_t nonFinite = 0;      ///< NaN / inf in shader outputs or cascade matrices
   uint64_t pointsTracked = 0;  ///< receivers inside the view in the first frame
+  /// Stayed points that changed visibly: (frame, receiver index, |ds|, depth gap in m), for
+  /// diagnosis (at most 100 kept).
+  struct Change {
+    int frame;
+    size_t receiver;
+    double delta;
+    double depthGapM;
+  };
+  std::vector<Change> visibleChanges;
   [[nodiscard]] nlohmann::json toJson(bool perFrameSeries) const;
 };
 
@@ -69,6 +78,7 @@ ShimmerRun measureShimmer(Harness& harness, std::span<const Receiver> receivers,
 struct AccuracyBucket {
   uint64_t pixels = 0;
   uint64_t misclassified = 0;  ///< |s - v| > 0.5
+  uint64_t shadowedTruth = 0;  ///< pixels the ray tracer puts in shadow (v = 0)
   double absErrorSum = 0.0;
   [[nodiscard]] double rate() const noexcept {
     return pixels ? double(misclassified) / double(pixels) : 0.0;
