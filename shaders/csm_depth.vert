@@ -1,20 +1,15 @@
-// Shadow depth pass, one cascade per render pass: the cascade index comes in the push constants.
+// Shadow depth pass, one cascade per render pass. The push constants carry the whole
+// model -> shadow clip transform of this caster in this cascade, composed in double on the CPU
+// about the cascade's snapped box centre, so the map does not depend on the camera's sub-texel
+// position (see modelToShadowClip in shadow_renderer.cpp).
 #version 450
-#extension GL_GOOGLE_include_directive : require
-
-#define CSM_SET 0
-#define CSM_UNIFORMS_ONLY
-#include "csm.glsl"
 
 layout(location = 0) in vec3 inPositionMs;
 
-// 68 bytes (CSM_DEPTH_PUSH_SIZE): camera-relative model matrix, then the cascade index.
+// 68 bytes (CSM_DEPTH_PUSH_SIZE): model -> shadow clip, then the cascade index (unused here).
 layout(push_constant) uniform CsmDepthPush {
-  mat4 modelCr;
+  mat4 modelToClip;
   uint cascadeOrMask;
 } pc;
 
-void main() {
-  const uint cascade = min(pc.cascadeOrMask, uint(CSM_MAX_CASCADES - 1));
-  gl_Position = csmU.cascades[cascade].viewProjCr * (pc.modelCr * vec4(inPositionMs, 1.0));
-}
+void main() { gl_Position = pc.modelToClip * vec4(inPositionMs, 1.0); }

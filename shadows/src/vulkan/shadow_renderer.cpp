@@ -17,7 +17,7 @@ static_assert(CSM_DEPTH_PUSH_SIZE == sizeof(glm::mat4) + sizeof(std::uint32_t));
 
 /// The depth pass's push constants (csm_depth.vert, csm_depth_layered.vert).
 struct DepthPush {
-  glm::mat4 modelCr;
+  glm::mat4 model;  // per-layer: model -> shadow clip; layered: model -> camera-relative world
   std::uint32_t cascadeOrMask;
 };
 static_assert(offsetof(DepthPush, cascadeOrMask) == 64);
@@ -54,6 +54,30 @@ glm::mat4 modelCameraRelative(const glm::dvec3& translationWs, const glm::mat3& 
   return m;
 }
 
+// Model space -> the cascade's shadow clip space, composed in double about the snapped box
+// centre: p_clip = S (B^T (R p + T - C)) + o. Nothing here depends on the camera, so a camera
+// that moves less than a texel re-renders a bit-identical map, and one that moves further
+// shifts it by whole texels (C moves on the world-anchored grid). A camera-relative composition
+// would re-round every caster differently each frame and flip coverage of texels that a caster
+// edge crosses within float noise of their centre: shimmer.
+glm::mat4 modelToShadowClip(const Cascade& c, const glm::dmat3& basisWs,
+                            const glm::dvec3& translationWs, const glm::mat3& linearWs) {
+  const glm::dvec3 scale(1.0 / c.halfExtentLs.x, 1.0 / c.halfExtentLs.y,
+                         1.0 / (c.depthFarLs - c.depthNearLs));
+  const glm::dmat3 toLight = glm::transpose(basisWs);
+  const glm::dmat3 linear = toLight * glm::dmat3(linearWs);
+  const glm::dvec3 t = toLight * (translationWs - c.boxCenterWs) - glm::dvec3(0, 0, c.depthNearLs);
+  glm::mat4 m(0.0f);
+  for (int col = 0; col < 3; ++col) {
+    for (int row = 0; row < 3; ++row) {
+      m[col][row] = static_cast<float>(linear[col][row] * scale[row]);
+    }
+  }
+  for (int row = 0; row < 3; ++row) m[3][row] = static_cast<float>(t[row] * scale[row]);
+  m[3][3] = 1.0f;
+  return m;
+}
+
 std::string fmt(const char* format, auto... args) {
   char buf[512];
   std::snprintf(buf, sizeof(buf), format, args...);
@@ -84,7 +108,11 @@ const char* errorCodeName(ErrorCode code) noexcept {
 
 void CascadeDrawContext::setTransform(const glm::dvec3& translationWs,
                                       const glm::mat3& linearWs) const {
-  DepthPush push{modelCameraRelative(translationWs, linearWs, cameraPositionWs), cascade};
+  const DepthPush push{frame != nullptr
+                           ? modelToShadowClip(frame->cascades[cascade], frame->lightBasisWs,
+                                               translationWs, linearWs)
+                           : glm::mat4(1.0f),
+                       cascade};
   vkCmdPushConstants(cmd, pipelineLayout, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                      &push);
 }
@@ -771,7 +799,12 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
       vkCmdBindIndexBuffer(cmd, mesh.indexBuffer, mesh.indexBufferOffset, layout_.indexType);
     }
     bound = &mesh;
-    const DepthPush push{modelCameraRelative(inst.translationWs, inst.linearWs, cam),
+    // Per-layer: the exact, camera-independent transform. Layered: one draw serves several
+    // cascades, so the shader applies each cascade's camera-relative matrix.
+    const DepthPush push{resolvedMode_ == RenderMode::kLayered
+                             ? modelCameraRelative(inst.translationWs, inst.linearWs, cam)
+                             : modelToShadowClip(frame.cascades[cascadeOrMask], frame.lightBasisWs,
+                                                 inst.translationWs, inst.linearWs),
                          cascadeOrMask};
     vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                        &push);
@@ -838,6 +871,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
     ctx.visible = visible ? &visible->visible[c] : nullptr;
     ctx.pipelineLayout = pipelineLayout_;
     ctx.cameraPositionWs = frame.cameraPositionWs;
+    ctx.frame = &frame;
     draw(ctx);
     endLayer(cmd);
   }

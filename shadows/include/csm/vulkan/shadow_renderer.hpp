@@ -125,8 +125,12 @@ struct CascadeDrawContext {
   VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
   /// Camera position of the frame (the origin of camera-relative space).
   glm::dvec3 cameraPositionWs{0.0};
+  /// The frame being recorded (its cascade `cascade` gives the transform setTransform pushes).
+  const CascadeFrame* frame = nullptr;
 
-  /// Sets the model transform of the following draws (pushes the camera-relative matrix).
+  /// Sets the model transform of the following draws: pushes model -> the cascade's shadow clip
+  /// space, composed in double about the cascade's snapped box centre (camera-independent, so
+  /// sub-texel camera motion re-renders a bit-identical map).
   void setTransform(const glm::dvec3& translationWs, const glm::mat3& linearWs) const;
 };
 
