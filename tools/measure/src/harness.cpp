@@ -14,6 +14,7 @@
 #include <engine/pipeline.hpp>
 #include <engine/render_target.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -190,6 +191,31 @@ void Harness::setScene(const Scene& scene) {
   casterSet_ = scene.casterSet();
   sceneBounds_ = scene.boundsWs();
   meshRanges_ = std::move(ranges);
+  lodMeshes_.clear();
+}
+
+void Harness::setCasterLods(std::vector<std::vector<uint32_t>> lodMeshes,
+                            const std::array<uint32_t, csm::kMaxCascades>& cascadeLod) {
+  if (!lodMeshes.empty() && lodMeshes.size() != instances_.size()) {
+    throw std::invalid_argument("setCasterLods: " + std::to_string(lodMeshes.size()) +
+                                " LOD lists for " + std::to_string(instances_.size()) +
+                                " instances: one per instance required");
+  }
+  for (size_t i = 0; i < lodMeshes.size(); ++i) {
+    if (lodMeshes[i].empty()) {
+      throw std::invalid_argument("setCasterLods: instance " + std::to_string(i) +
+                                  " has no LOD mesh: at least one required");
+    }
+    for (uint32_t m : lodMeshes[i]) {
+      if (m >= meshDraws_.size()) {
+        throw std::invalid_argument("setCasterLods: instance " + std::to_string(i) + " mesh " +
+                                    std::to_string(m) + " is out of range: allowed [0, " +
+                                    std::to_string(meshDraws_.size()) + ")");
+      }
+    }
+  }
+  lodMeshes_ = std::move(lodMeshes);
+  cascadeLod_ = cascadeLod;
 }
 
 csm::vk::Status Harness::configure(const csm::ShadowSettings& settings,
@@ -219,8 +245,37 @@ csm::CascadeFrame Harness::computeFrame(const csm::Camera& camera,
 
 void Harness::recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame) {
   renderer_->setUniformOptions({});
-  const csm::vk::Status s =
-      renderer_->recordShadowPass(cmd, frame, csm::vk::CasterList{meshDraws_, casters_}, &cull_);
+  shadowTriangles_ = 0;
+  csm::vk::Status s;
+  if (lodMeshes_.empty()) {
+    for (uint32_t c = 0; c < frame.cascadeCount; ++c) {
+      if (frame.cascades[c].empty) continue;
+      for (uint32_t i : cull_.visible[c])
+        shadowTriangles_ += meshDraws_[casters_[i].mesh].indexCount / 3;
+    }
+    s = renderer_->recordShadowPass(cmd, frame, csm::vk::CasterList{meshDraws_, casters_}, &cull_);
+  } else {
+    // Each cascade draws its culled casters at its LOD (every mesh lives in one MeshStore).
+    s = renderer_->recordShadowPass(
+        cmd, frame,
+        [&](const csm::vk::CascadeDrawContext& c) {
+          const VkBuffer vb = meshes_->vertexBuffer();
+          const VkDeviceSize zero = 0;
+          vkCmdBindVertexBuffers(c.cmd, 0, 1, &vb, &zero);
+          vkCmdBindIndexBuffer(c.cmd, meshes_->indexBuffer(), 0, VK_INDEX_TYPE_UINT32);
+          for (uint32_t i : *c.visible) {
+            const std::vector<uint32_t>& lods = lodMeshes_[i];
+            const uint32_t lod =
+                std::min<uint32_t>(cascadeLod_[c.cascade], uint32_t(lods.size() - 1));
+            const csm::vk::MeshDraw& m = meshDraws_[lods[lod]];
+            if (m.indexCount == 0) continue;
+            c.setTransform(casters_[i].translationWs, casters_[i].linearWs);
+            vkCmdDrawIndexed(c.cmd, m.indexCount, 1, m.firstIndex, m.vertexOffset, 0);
+            shadowTriangles_ += m.indexCount / 3;
+          }
+        },
+        &cull_);
+  }
   if (!s.ok()) throw std::runtime_error("recordShadowPass: " + s.message());
 }
 

@@ -15,6 +15,7 @@
 #include <engine/image_io.hpp>
 #include <engine/mesh_store.hpp>
 
+#include <array>
 #include <map>
 #include <memory>
 #include <span>
@@ -84,7 +85,18 @@ class Harness {
   csm::vk::ShadowRenderer& renderer() { return *renderer_; }
 
   /// Uploads the scene's meshes and builds its caster list (replacing any previous scene).
+  /// Caster LODs are off until setCasterLods().
   void setScene(const Scene& scene);
+  /// Caster LODs: the shadow pass's cascade c draws instance i with mesh
+  /// `lodMeshes[i][min(cascadeLod[c], lodMeshes[i].size() - 1)]` (meshes of the scene that no
+  /// instance needs to use, e.g. simplified copies) instead of the instance's own mesh. The
+  /// accuracy and lit passes and the ray tracer keep the instances' (full-detail) meshes. An
+  /// empty `lodMeshes` turns LODs off (every cascade draws the instances' meshes). Throws
+  /// std::invalid_argument for a size or mesh index out of range.
+  void setCasterLods(std::vector<std::vector<uint32_t>> lodMeshes,
+                     const std::array<uint32_t, csm::kMaxCascades>& cascadeLod);
+  /// Triangles the last recorded shadow pass drew, summed over its cascades.
+  uint64_t shadowTriangles() const { return shadowTriangles_; }
   /// Applies shadow settings and renderer options.
   csm::vk::Status configure(const csm::ShadowSettings& settings,
                             const csm::vk::RendererOptions& options = {});
@@ -144,6 +156,9 @@ class Harness {
   csm::CasterSet casterSet_;
   csm::CullResult cull_;
   csm::AabbWs sceneBounds_{};
+  std::vector<std::vector<uint32_t>> lodMeshes_;  // empty: caster LODs off
+  std::array<uint32_t, csm::kMaxCascades> cascadeLod_{};
+  uint64_t shadowTriangles_ = 0;
 
   struct Probe;
   std::unique_ptr<Probe> probe_;
