@@ -319,8 +319,13 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
           s.tri(a, e, b);
         }
       }
-      w.meshes[c] = makeAsset("terrain chunk " + std::to_string(cx) + "," + std::to_string(cz), s,
-                              0.25, 0.08);
+      // Terrain keeps full detail at every LOD. It is its own receiver, and a simplified
+      // heightfield lies above the real one over every concave stretch, where it shadows the
+      // ground it stands for: with Decimater LODs in cascades 1+, csm_tradeoff measured 30%
+      // of receiver pixels misclassified against the ray-traced truth (0.46% without). It is
+      // a small share of the shadow pass's triangles (512 per chunk).
+      w.meshes[c] =
+          makeAsset("terrain chunk " + std::to_string(cx) + "," + std::to_string(cz), s, 1.0, 1.0);
     };
     // Chunks are independent: build them on every core (results do not depend on the order).
     const unsigned threads = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));

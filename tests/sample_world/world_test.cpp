@@ -105,6 +105,15 @@ TEST(World, NormalsAreUnitAndLodsSimplify) {
   }
   EXPECT_LT(tris[1], tris[0] / 2);
   EXPECT_LT(tris[2], tris[1]);
+  // Terrain casters are never simplified: a simplified heightfield rises above the real one in
+  // every hollow and shadows the ground it stands for.
+  for (const world::Object& ob : w.objects) {
+    if (ob.kind != world::Kind::kTerrain) continue;
+    const world::MeshAsset& a = w.meshes[ob.mesh];
+    for (std::uint32_t l = 1; l < world::kLodCount; ++l) {
+      ASSERT_EQ(world::meshHash(a.lods[l]), world::meshHash(a.lods[0])) << a.name << " lod " << l;
+    }
+  }
   for (const world::MeshAsset& a : w.meshes) {
     for (const world::MeshData& m : a.lods) {
       ASSERT_EQ(m.positions.size(), m.normals.size());
