@@ -253,5 +253,37 @@ TEST(ShadowApiMisuse, RefusedCallsReturnErrorsAndLeaveTheRendererUsable) {
   EXPECT_EQ(validationMessages(), 0u);
 }
 
+TEST(ShadowApiMisuse, ResolutionAboveTheLimitIsRefusedAndTheRendererKeepsItsImage) {
+  {
+    ShadowScene scene;
+    engine::Context& ctx = scene.context();
+    // lavapipe's own limit (16384) equals the settings' maximum, so the device-limit path is
+    // reached through the host's cap, which shares it.
+    csm::vk::DeviceInfo info;
+    info.physicalDevice = ctx.physicalDevice();
+    info.device = ctx.device();
+    info.queueFamily = ctx.queueFamily();
+    info.depthClampEnabled = ctx.features().depthClamp;
+    info.debugUtilsEnabled = ctx.debugUtilsEnabled();
+    info.maxResolution = 1024;
+    csm::vk::Status status;
+    auto renderer = csm::vk::ShadowRenderer::create(info, csm::vk::VertexLayout{}, &status);
+    ASSERT_TRUE(renderer) << status.message();
+    CSM_ASSERT_OK(renderer->update(testSettings(2, 1024)));
+    const VkImage image = renderer->image();
+    status = renderer->update(testSettings(2, 2048));
+    EXPECT_EQ(status.code(), csm::vk::ErrorCode::kDeviceLimit) << status.message();
+    EXPECT_NE(status.message().find("settings.resolution = 2048"), std::string::npos);
+    EXPECT_NE(status.message().find("at most 1024"), std::string::npos) << status.message();
+    // Nothing changed: the renderer keeps its image and accepts the next valid update.
+    EXPECT_TRUE(renderer->ready());
+    EXPECT_EQ(renderer->image(), image);
+    CSM_ASSERT_OK(renderer->update(testSettings(3, 512)));
+    EXPECT_TRUE(renderer->ready());
+    renderer.reset();
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
 }  // namespace
 }  // namespace csm_test

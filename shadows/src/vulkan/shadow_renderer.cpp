@@ -396,13 +396,16 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
   Status s = checkFormat(options.depthFormat);
   if (!s.ok()) return s;
   const VkPhysicalDeviceLimits& lim = properties_.limits;
-  const std::uint32_t maxSide =
+  const std::uint32_t deviceSide =
       std::min({lim.maxImageDimension2D, lim.maxFramebufferWidth, lim.maxFramebufferHeight,
                 lim.maxViewportDimensions[0], lim.maxViewportDimensions[1]});
+  const std::uint32_t maxSide =
+      device_.maxResolution != 0 ? std::min(deviceSide, device_.maxResolution) : deviceSide;
   if (settings.resolution > maxSide) {
-    return Status(ErrorCode::kDeviceLimit,
-                  fmt("settings.resolution = %u is invalid: this device allows at most %u",
-                      settings.resolution, maxSide));
+    return Status(
+        ErrorCode::kDeviceLimit,
+        fmt("settings.resolution = %u is invalid: allowed at most %u (%s)", settings.resolution,
+            maxSide, maxSide < deviceSide ? "DeviceInfo::maxResolution" : "the device's limit"));
   }
   if (settings.cascadeCount > lim.maxImageArrayLayers) {
     return Status(ErrorCode::kDeviceLimit,

@@ -45,6 +45,9 @@ struct DeviceInfo {
   bool shaderOutputLayerEnabled = false;
   /// VK_EXT_debug_utils is enabled on the instance: objects get names, the pass gets labels.
   bool debugUtilsEnabled = false;
+  /// The host's own cap on the shadow-map side in texels (a memory budget, a console's limit);
+  /// 0 = only the device's limits. update() refuses a larger resolution with kDeviceLimit.
+  std::uint32_t maxResolution = 0;
 };
 
 /// How the vertex buffers of casters are laid out: the depth pass reads a float3 position.
