@@ -46,9 +46,11 @@ std::optional<FlightPath> FlightPath::make(const std::string& name, const World&
     p.altitudeM_ = 28.0;
     p.pitchRad_ = -0.22;
   } else if (name == "fast") {
-    p.pointsUv_ = {{c - 1700, c - 250}, {c + 1700, c - 250}};
-    p.altitudeM_ = 70.0;
-    p.pitchRad_ = -0.15;
+    // Straight and fast over the forest the low pass winds through (higher, looking down enough
+    // to keep trees and their shadows in view in every frame).
+    p.pointsUv_ = {{c - 1300, c + 900}, {c + 650, c - 300}};
+    p.altitudeM_ = 60.0;
+    p.pitchRad_ = -0.3;
   } else if (name == "rotate") {
     p.pointsUv_ = {{c - 260, c + 220}, {c - 260, c + 220}};
     p.altitudeM_ = 35.0;

@@ -93,14 +93,16 @@ TEST_P(Flight, HeadlessValidatedReportAndShadows) {
   // Screenshots at frames 0, 60 and 119, each with and without the overlay. Shadowed fraction
   // of the geometry pixels (shadow-factor debug view): the sun stands 32 degrees high, so every
   // tree, rock and building casts a shadow 1.6 times its height long onto lit ground, and every
-  // view of this world holds some (>= 1 %); more than 70 % shadowed would mean acne or a
-  // reversed comparison (lit slopes facing a 32-degree sun are most of the terrain).
+  // view of these paths holds some: the sparsest, the town seen from 60 m on the fast path,
+  // measures 0.87 %, the others 3-40 %; a shadow pass that draws nothing gives 0 (>= 0.5 %).
+  // More than 70 % shadowed would mean acne or a reversed comparison (lit slopes facing a
+  // 32-degree sun are most of the terrain).
   ASSERT_EQ(rep["screenshots"].size(), 3u);
   for (const json& s : rep["screenshots"]) {
     EXPECT_TRUE(fs::exists(out / s["file"].get<std::string>()));
     EXPECT_TRUE(fs::exists(out / s["overlay_file"].get<std::string>()));
     const double fraction = s["shadowed_fraction"].get<double>();
-    EXPECT_GE(fraction, 0.01) << path << " frame " << s["frame"];
+    EXPECT_GE(fraction, 0.005) << path << " frame " << s["frame"];
     EXPECT_LE(fraction, 0.70) << path << " frame " << s["frame"];
     EXPECT_GT(s["geometry_coverage"].get<double>(), 0.05) << path << " frame " << s["frame"];
   }
