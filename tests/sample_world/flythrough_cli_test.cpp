@@ -10,27 +10,12 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "run_app.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-struct ProcessResult {
-  int exitCode = -1;
-  std::string output;
-};
-
-ProcessResult runApp(const std::string& args) {
-  ProcessResult r;
-  const std::string cmd = std::string(CSM_FLYTHROUGH_EXE) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), p)) r.output += buf.data();
-  const int status = pclose(p);
-  r.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
 
 TEST(Cli, BadMeshFilesExitTwoWithTheirReason) {
   const fs::path dir = fs::temp_directory_path() / "csm_flythrough_cli";
