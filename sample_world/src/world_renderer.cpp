@@ -15,6 +15,7 @@
 #include "csm/gpu_layout.hpp"
 #include "engine/debug.hpp"
 #include "engine/errors.hpp"
+#include "sample_world/shadow_host.hpp"
 
 namespace world {
 
@@ -117,19 +118,7 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
   bucketObjects_.resize(world.meshes.size() * kLodCount);
 
   // ---- Shadow renderer ----------------------------------------------------------------------
-  csm::vk::DeviceInfo info;
-  info.physicalDevice = ctx.physicalDevice();
-  info.device = ctx.device();
-  info.queueFamily = ctx.queueFamily();
-  info.depthClampEnabled = ctx.features().depthClamp;
-  info.shaderOutputLayerEnabled = ctx.features().shaderOutputLayer;
-  info.debugUtilsEnabled = ctx.debugUtilsEnabled();
-  csm::vk::VertexLayout layout;
-  layout.stride = sizeof(engine::Vertex);
-  layout.positionOffset = 0;
-  csm::vk::Status status;
-  shadow_ = csm::vk::ShadowRenderer::create(info, layout, &status);
-  if (!shadow_) throw std::runtime_error("ShadowRenderer::create: " + status.message());
+  shadow_ = createShadowRenderer(ctx);
 
   // ---- Per-frame resources --------------------------------------------------------------------
   VkDevice dev = ctx.device();

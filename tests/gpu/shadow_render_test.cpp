@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <string>
 
+#include "sample_world/shadow_host.hpp"
 #include "shadow_scene.hpp"
 
 namespace csm_test {
@@ -259,12 +260,7 @@ TEST(ShadowApiMisuse, ResolutionAboveTheLimitIsRefusedAndTheRendererKeepsItsImag
     engine::Context& ctx = scene.context();
     // lavapipe's own limit (16384) equals the settings' maximum, so the device-limit path is
     // reached through the host's cap, which shares it.
-    csm::vk::DeviceInfo info;
-    info.physicalDevice = ctx.physicalDevice();
-    info.device = ctx.device();
-    info.queueFamily = ctx.queueFamily();
-    info.depthClampEnabled = ctx.features().depthClamp;
-    info.debugUtilsEnabled = ctx.debugUtilsEnabled();
+    csm::vk::DeviceInfo info = world::shadowDeviceInfo(ctx);
     info.maxResolution = 1024;
     csm::vk::Status status;
     auto renderer = csm::vk::ShadowRenderer::create(info, csm::vk::VertexLayout{}, &status);

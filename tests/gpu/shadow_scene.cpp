@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <engine/debug.hpp>
 #include <engine/render_target.hpp>
+#include <sample_world/shadow_host.hpp>
 
 #include <cmath>
 #include <filesystem>
@@ -102,19 +103,7 @@ ShadowScene::ShadowScene(uint32_t width, uint32_t height) {
            // A long rail along the view direction: its shadow edge runs through every cascade.
            {{4.2, 1.5, -45.0}, {4.8, 2.0, 3.0}}};
 
-  csm::vk::DeviceInfo info;
-  info.physicalDevice = ctx_->physicalDevice();
-  info.device = ctx_->device();
-  info.queueFamily = ctx_->queueFamily();
-  info.depthClampEnabled = ctx_->features().depthClamp;
-  info.shaderOutputLayerEnabled = ctx_->features().shaderOutputLayer;
-  info.debugUtilsEnabled = ctx_->debugUtilsEnabled();
-  csm::vk::VertexLayout layout;
-  layout.stride = sizeof(engine::Vertex);
-  layout.positionOffset = 0;
-  csm::vk::Status status;
-  renderer_ = csm::vk::ShadowRenderer::create(info, layout, &status);
-  if (!renderer_) throw std::runtime_error("ShadowRenderer::create: " + status.message());
+  renderer_ = world::createShadowRenderer(*ctx_);
 }
 
 ShadowScene::~ShadowScene() {

@@ -16,6 +16,7 @@
 #include <engine/headless_target.hpp>
 #include <engine/lit_pass.hpp>
 #include <engine/mesh_store.hpp>
+#include <sample_world/shadow_host.hpp>
 
 #include <chrono>
 #include <cmath>
@@ -75,18 +76,7 @@ class Bench {
     timer_ = std::make_unique<engine::GpuTimer>(*ctx_, 8);
     meshes_ = std::make_unique<engine::MeshStore>(*ctx_, 1 << 18, 1 << 20, "bench meshes");
 
-    csm::vk::DeviceInfo info;
-    info.physicalDevice = ctx_->physicalDevice();
-    info.device = ctx_->device();
-    info.queueFamily = ctx_->queueFamily();
-    info.depthClampEnabled = ctx_->features().depthClamp;
-    info.shaderOutputLayerEnabled = ctx_->features().shaderOutputLayer;
-    info.debugUtilsEnabled = ctx_->debugUtilsEnabled();
-    csm::vk::VertexLayout layout;
-    layout.stride = sizeof(engine::Vertex);
-    csm::vk::Status st;
-    renderer_ = csm::vk::ShadowRenderer::create(info, layout, &st);
-    if (!renderer_) throw std::runtime_error(st.message());
+    renderer_ = world::createShadowRenderer(*ctx_);
     buildScene();
     camera_.positionWs = {3.0, 12.0, 20.0};
     camera_.lookAt({0.0, 0.0, -60.0});

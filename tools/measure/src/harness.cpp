@@ -13,6 +13,7 @@
 #include <engine/mesh_store.hpp>
 #include <engine/pipeline.hpp>
 #include <engine/render_target.hpp>
+#include <sample_world/shadow_host.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -133,19 +134,7 @@ Harness::Harness(const HarnessDesc& desc) {
   cd.appName = desc.appName;
   cd.validation = desc.validation;
   ctx_ = std::make_unique<engine::Context>(cd);
-  csm::vk::DeviceInfo info;
-  info.physicalDevice = ctx_->physicalDevice();
-  info.device = ctx_->device();
-  info.queueFamily = ctx_->queueFamily();
-  info.depthClampEnabled = ctx_->features().depthClamp;
-  info.shaderOutputLayerEnabled = ctx_->features().shaderOutputLayer;
-  info.debugUtilsEnabled = ctx_->debugUtilsEnabled();
-  csm::vk::VertexLayout layout;
-  layout.stride = sizeof(engine::Vertex);
-  layout.positionOffset = 0;
-  csm::vk::Status status;
-  renderer_ = csm::vk::ShadowRenderer::create(info, layout, &status);
-  if (!renderer_) throw std::runtime_error("ShadowRenderer::create: " + status.message());
+  renderer_ = world::createShadowRenderer(*ctx_);
 }
 
 Harness::~Harness() {

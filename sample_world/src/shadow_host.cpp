@@ -1,0 +1,30 @@
+#include "sample_world/shadow_host.hpp"
+
+#include <stdexcept>
+
+#include "engine/mesh_store.hpp"
+
+namespace world {
+
+csm::vk::DeviceInfo shadowDeviceInfo(const engine::Context& ctx) {
+  csm::vk::DeviceInfo info;
+  info.physicalDevice = ctx.physicalDevice();
+  info.device = ctx.device();
+  info.queueFamily = ctx.queueFamily();
+  info.depthClampEnabled = ctx.features().depthClamp;
+  info.shaderOutputLayerEnabled = ctx.features().shaderOutputLayer;
+  info.debugUtilsEnabled = ctx.debugUtilsEnabled();
+  return info;
+}
+
+std::unique_ptr<csm::vk::ShadowRenderer> createShadowRenderer(const engine::Context& ctx) {
+  csm::vk::VertexLayout layout;
+  layout.stride = sizeof(engine::Vertex);
+  layout.positionOffset = offsetof(engine::Vertex, position);
+  csm::vk::Status status;
+  auto renderer = csm::vk::ShadowRenderer::create(shadowDeviceInfo(ctx), layout, &status);
+  if (!renderer) throw std::runtime_error("ShadowRenderer::create: " + status.message());
+  return renderer;
+}
+
+}  // namespace world
