@@ -9,10 +9,9 @@ include(CMakePackageConfigHelpers)
 add_library(csm_shadows INTERFACE)
 add_library(csm::shadows ALIAS csm_shadows)
 target_link_libraries(csm_shadows INTERFACE csm_core csm_vulkan)
-# The directories a host's GLSL compiler needs (-I each) to #include "csm.glsl": in the build
-# tree the shaders and the shared constants live apart; installed, they sit in one directory.
-set(CSM_SHADER_INCLUDE_DIRS ${PROJECT_SOURCE_DIR}/shaders ${CMAKE_CURRENT_SOURCE_DIR}/include
-    CACHE INTERNAL "")
+# The directories a host's GLSL compiler needs (-I each) to #include "csm.glsl" are in
+# ${CSM_SHADER_INCLUDE_DIRS} (cmake/csm_build.cmake): in the source tree the shaders and the
+# shared constants live apart; installed, they sit in one directory.
 
 set_target_properties(csm_core PROPERTIES EXPORT_NAME core)
 set_target_properties(csm_vulkan PROPERTIES EXPORT_NAME vulkan)
@@ -32,8 +31,9 @@ install(FILES ${CMAKE_CURRENT_SOURCE_DIR}/README.md ${CMAKE_CURRENT_SOURCE_DIR}/
 # GLSL: csm.glsl and the depth pass as sources, with the shared constants beside them so that
 # `-I ${CSM_SHADER_INCLUDE_DIR}` resolves every include; the depth pass also as SPIR-V.
 set(csm_shader_dest ${CMAKE_INSTALL_DATADIR}/csm/shaders)
-install(FILES ${PROJECT_SOURCE_DIR}/shaders/csm.glsl ${PROJECT_SOURCE_DIR}/shaders/csm_depth.vert
-              ${PROJECT_SOURCE_DIR}/shaders/csm_depth_layered.vert
+install(FILES ${CMAKE_CURRENT_SOURCE_DIR}/shaders/csm.glsl
+              ${CMAKE_CURRENT_SOURCE_DIR}/shaders/csm_depth.vert
+              ${CMAKE_CURRENT_SOURCE_DIR}/shaders/csm_depth_layered.vert
         DESTINATION ${csm_shader_dest})
 install(FILES ${CMAKE_CURRENT_SOURCE_DIR}/include/csm/shared_constants.h
               ${CMAKE_CURRENT_SOURCE_DIR}/include/csm/gpu_shared.h

@@ -5,7 +5,8 @@ find_package(Vulkan REQUIRED)
 # The GPU layout of the uniform block is pure (GLM only) and belongs to the core.
 target_sources(csm_core PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src/core/gpu_layout.cpp)
 
-csm_compile_shaders(csm_depth_shaders csm_depth.vert csm_depth_layered.vert)
+csm_compile_shaders(csm_depth_shaders SOURCE_DIR ${CMAKE_CURRENT_SOURCE_DIR}/shaders
+                    csm_depth.vert csm_depth_layered.vert)
 
 add_library(csm_vulkan STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer.cpp)

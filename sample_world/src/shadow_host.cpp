@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "engine/mesh_store.hpp"
+#include "engine/render_target.hpp"
 
 namespace world {
 
@@ -11,6 +12,8 @@ csm::vk::DeviceInfo shadowDeviceInfo(const engine::Context& ctx) {
   info.physicalDevice = ctx.physicalDevice();
   info.device = ctx.device();
   info.queueFamily = ctx.queueFamily();
+  info.queue = ctx.queue();
+  info.framesInFlight = engine::kFramesInFlight;
   info.depthClampEnabled = ctx.features().depthClamp;
   info.shaderOutputLayerEnabled = ctx.features().shaderOutputLayer;
   info.debugUtilsEnabled = ctx.debugUtilsEnabled();

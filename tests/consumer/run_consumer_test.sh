@@ -2,6 +2,8 @@
 # Builds tests/consumer as a separate project against the module and checks its image.
 #   run_consumer_test.sh installed  MAIN_BUILD_DIR WORK_DIR   (cmake --install into a temp prefix)
 #   run_consumer_test.sh subdir     REPO_DIR       WORK_DIR   (add_subdirectory of the repo)
+#   run_consumer_test.sh vendored   REPO_DIR       WORK_DIR   (add_subdirectory of a copy of
+#                                                              shadows/ alone, nothing else)
 set -euo pipefail
 mode=$1 from=$2 work=$3
 here=$(cd "$(dirname "$0")" && pwd)
@@ -17,6 +19,12 @@ if [[ $mode == installed ]]; then
   cmake --install "$from" --prefix "$work/prefix" >/dev/null
   cmake -S "$here" -B "$work/build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
         -Dcsm_DIR="$work/prefix/lib/cmake/csm" >/dev/null
+elif [[ $mode == vendored ]]; then
+  # The folder alone, copied where nothing else of the repo is reachable.
+  mkdir -p "$work/vendor"
+  cp -r "$from/shadows" "$work/vendor/shadows"
+  cmake -S "$here" -B "$work/build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+        -DCSM_SHADOWS_DIR="$work/vendor/shadows" >/dev/null
 else
   cmake -S "$here" -B "$work/build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
         -DCSM_SOURCE_DIR="$from" >/dev/null

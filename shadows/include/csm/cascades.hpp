@@ -56,6 +56,10 @@ struct CascadeFrame {
   /// The camera this frame was computed for (the origin of camera-relative space).
   glm::dvec3 cameraPositionWs{0.0};
   glm::dvec3 cameraForwardWs{0.0, 0.0, -1.0};
+  /// What the recording and the shader take from the settings the frame was computed with (the
+  /// renderer refuses a frame whose values differ from those given to its update()).
+  double blendBand = 0.0;
+  float normalOffsetTexels = 0.0f;
 };
 
 /// What carries over between frames so that sizes change only in quantised steps with

@@ -60,6 +60,8 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   const std::uint32_t count = settings.cascadeCount;
   frame.cascadeCount = count;
   frame.resolution = settings.resolution;
+  frame.blendBand = settings.blendBand;
+  frame.normalOffsetTexels = settings.normalOffsetTexels;
   frame.lightDirectionWs = glm::normalize(light.directionWs);
   frame.lightBasisWs = lightBasisWs(frame.lightDirectionWs);
   frame.cameraPositionWs = camera.positionWs;

@@ -155,6 +155,11 @@ Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout
                       layout.stride, layout.positionOffset, int(layout.positionFormat),
                       int(layout.indexType)));
   }
+  if (device.framesInFlight < 1 || device.framesInFlight > 16) {
+    return Status(
+        ErrorCode::kInvalidArgument,
+        fmt("DeviceInfo::framesInFlight = %u is invalid: allowed [1, 16]", device.framesInFlight));
+  }
   device_ = device;
   layout_ = layout;
   VkDevice dev = device.device;
@@ -212,25 +217,30 @@ Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout
             "csm depth pipeline layout");
   }
   {
-    VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2},
-                                     {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2}};
+    // The depth pass's set never changes; the lighting set lives with each image (createImage).
+    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1};
     auto ci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    ci.maxSets = 2;
-    ci.poolSizeCount = 2;
-    ci.pPoolSizes = sizes;
+    ci.maxSets = 1;
+    ci.poolSizeCount = 1;
+    ci.pPoolSizes = &size;
     CSM_VK_TRY(vkCreateDescriptorPool(dev, &ci, nullptr, &pool_));
     setName(handleBits(pool_), VK_OBJECT_TYPE_DESCRIPTOR_POOL, "csm descriptor pool");
-    VkDescriptorSetLayout layouts[2] = {depthSetLayout_, lightingLayout_};
-    VkDescriptorSet sets[2]{};
     auto ai = vkInit<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
     ai.descriptorPool = pool_;
-    ai.descriptorSetCount = 2;
-    ai.pSetLayouts = layouts;
-    CSM_VK_TRY(vkAllocateDescriptorSets(dev, &ai, sets));
-    depthSet_ = sets[0];
-    lightingSet_ = sets[1];
+    ai.descriptorSetCount = 1;
+    ai.pSetLayouts = &depthSetLayout_;
+    CSM_VK_TRY(vkAllocateDescriptorSets(dev, &ai, &depthSet_));
     setName(handleBits(depthSet_), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm depth set");
-    setName(handleBits(lightingSet_), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm lighting set");
+  }
+  if (device.queue != VK_NULL_HANDLE) {
+    auto ci = vkInit<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
+    ci.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+    ci.queueFamilyIndex = device.queueFamily;
+    CSM_VK_TRY(vkCreateCommandPool(dev, &ci, nullptr, &clearPool_));
+    setName(handleBits(clearPool_), VK_OBJECT_TYPE_COMMAND_POOL, "csm clear command pool");
+    auto fi = vkInit<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
+    CSM_VK_TRY(vkCreateFence(dev, &fi, nullptr, &clearFence_));
+    setName(handleBits(clearFence_), VK_OBJECT_TYPE_FENCE, "csm clear fence");
   }
   {
     auto ci = vkInit<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
@@ -268,16 +278,13 @@ Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout
     if (!s.ok()) return s;
     CSM_VK_TRY(vkBindBufferMemory(dev, uniformBuffer_, uniformMemory_, 0));
     VkDescriptorBufferInfo bi{uniformBuffer_, 0, sizeof(CsmUniforms)};
-    VkWriteDescriptorSet w[2]{};
-    for (int i = 0; i < 2; ++i) {
-      w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
-      w[i].dstSet = i == 0 ? depthSet_ : lightingSet_;
-      w[i].dstBinding = CSM_BINDING_UNIFORMS;
-      w[i].descriptorCount = 1;
-      w[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-      w[i].pBufferInfo = &bi;
-    }
-    vkUpdateDescriptorSets(dev, 2, w, 0, nullptr);
+    auto w = vkInit<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+    w.dstSet = depthSet_;
+    w.dstBinding = CSM_BINDING_UNIFORMS;
+    w.descriptorCount = 1;
+    w.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    w.pBufferInfo = &bi;
+    vkUpdateDescriptorSets(dev, 1, &w, 0, nullptr);
   }
   {
     auto ci = vkInit<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
@@ -325,8 +332,13 @@ Status ShadowRenderer::allocate(const VkMemoryRequirements& req, VkDeviceMemory*
 ShadowRenderer::~ShadowRenderer() {
   VkDevice dev = device_.device;
   if (dev == VK_NULL_HANDLE) return;
+  // Frames the host still has in flight may use any of what follows.
+  if (device_.queue != VK_NULL_HANDLE) (void)vkQueueWaitIdle(device_.queue);
+  collectRetired(true);
   destroyPipelines();
   destroyImage();
+  vkDestroyCommandPool(dev, clearPool_, nullptr);
+  vkDestroyFence(dev, clearFence_, nullptr);
   vkDestroyShaderModule(dev, vertexModule_, nullptr);
   vkDestroyShaderModule(dev, layeredModule_, nullptr);
   vkDestroyBuffer(dev, uniformBuffer_, nullptr);
@@ -348,11 +360,31 @@ void ShadowRenderer::destroyImage() noexcept {
   vkDestroyImageView(dev, arrayView_, nullptr);
   vkDestroyImage(dev, image_, nullptr);
   vkFreeMemory(dev, imageMemory_, nullptr);
+  vkDestroyDescriptorPool(dev, lightingPool_, nullptr);
+  lightingPool_ = VK_NULL_HANDLE;
+  lightingSet_ = VK_NULL_HANDLE;
   arrayView_ = VK_NULL_HANDLE;
   image_ = VK_NULL_HANDLE;
   imageMemory_ = VK_NULL_HANDLE;
   layerCount_ = 0;
   resolution_ = 0;
+}
+
+void ShadowRenderer::collectRetired(bool all) noexcept {
+  VkDevice dev = device_.device;
+  std::size_t kept = 0;
+  for (Retired& r : retired_) {
+    if (!all && records_ < r.afterRecord + device_.framesInFlight) {
+      retired_[kept++] = r;
+      continue;
+    }
+    for (VkImageView v : r.views) vkDestroyImageView(dev, v, nullptr);
+    vkDestroyImage(dev, r.image, nullptr);
+    vkFreeMemory(dev, r.memory, nullptr);
+    vkDestroyDescriptorPool(dev, r.pool, nullptr);
+    for (VkPipeline p : r.pipelines) vkDestroyPipeline(dev, p, nullptr);
+  }
+  retired_.resize(kept);
 }
 
 void ShadowRenderer::destroyPipelines() noexcept {
@@ -412,8 +444,22 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
                   fmt("settings.cascadeCount = %u is invalid: this device allows at most %u layers",
                       settings.cascadeCount, lim.maxImageArrayLayers));
   }
+  if (options.renderMode != RenderMode::kPerLayer && options.renderMode != RenderMode::kLayered &&
+      options.renderMode != RenderMode::kAuto) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("options.renderMode = %d is invalid: allowed kPerLayer (0), kLayered (1), "
+                      "kAuto (2)",
+                      int(options.renderMode)));
+  }
   RenderMode mode = options.renderMode;
-  if (mode == RenderMode::kAuto) mode = RenderMode::kPerLayer;
+  if (mode == RenderMode::kAuto) {
+    // CPU rasterisers pay per draw, not per pass: per-layer measured faster on lavapipe.
+    const bool gpu = properties_.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU;
+    mode =
+        gpu && device_.shaderOutputLayerEnabled && settings.cascadeCount <= lim.maxFramebufferLayers
+            ? RenderMode::kLayered
+            : RenderMode::kPerLayer;
+  }
   if (mode == RenderMode::kLayered) {
     if (!device_.shaderOutputLayerEnabled) {
       return Status(ErrorCode::kInvalidArgument,
@@ -437,9 +483,7 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
                         settings.cascadeCount != layerCount_ ||
                         options.depthFormat != options_.depthFormat;
   const bool newPipelines = !pipelinesBuilt_ || options.depthFormat != options_.depthFormat;
-  if ((newImage && image_ != VK_NULL_HANDLE) || (newPipelines && pipelinesBuilt_)) {
-    CSM_VK_TRY(vkDeviceWaitIdle(device_.device));
-  }
+  // Nothing waits for the GPU: what is replaced is retired (collectRetired).
   if (newPipelines) {
     s = createPipelines(options.depthFormat);
     if (!s.ok()) return s;
@@ -447,10 +491,102 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
   if (newImage) {
     s = createImage(settings, options.depthFormat);
     if (!s.ok()) return s;
+    pendingClear_ = true;
   }
   settings_ = settings;
   options_ = options;
   resolvedMode_ = mode;
+  if (pendingClear_ && device_.queue != VK_NULL_HANDLE) return submitClear();
+  return {};
+}
+
+// The one-time clear of a new image: depth 1 (lit) in every layer, then the sampled layout, so
+// a lighting pass can sample it before the first shadow pass. The first time, the uniform block
+// is zeroed too (no cascades: csm.glsl reads every receiver as lit).
+void ShadowRenderer::recordClear(VkCommandBuffer cmd) {
+  VkImageMemoryBarrier2 b[2] = {
+      vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
+      vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
+  b[0].srcStageMask = VK_PIPELINE_STAGE_2_NONE;
+  b[0].dstStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
+  b[0].dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  b[0].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  b[0].newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  b[0].srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b[0].dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b[0].image = image_;
+  b[0].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
+  b[1] = b[0];
+  b[1].srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
+  b[1].srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  b[1].dstStageMask = options_.consumerStages;
+  b[1].dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
+  b[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  b[1].newLayout = sampledLayout();
+  auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
+  dep.imageMemoryBarrierCount = 1;
+  dep.pImageMemoryBarriers = &b[0];
+  vkCmdPipelineBarrier2(cmd, &dep);
+  const VkClearDepthStencilValue one{1.0f, 0};
+  const VkImageSubresourceRange range{VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
+  vkCmdClearDepthStencilImage(cmd, image_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &one, 1, &range);
+  auto buf = vkInit<VkBufferMemoryBarrier2>(VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2);
+  if (!uniformsCleared_) {
+    vkCmdFillBuffer(cmd, uniformBuffer_, 0, VK_WHOLE_SIZE, 0u);
+    buf.srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT;
+    buf.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+    buf.dstStageMask = options_.consumerStages | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT;
+    buf.dstAccessMask = VK_ACCESS_2_UNIFORM_READ_BIT;
+    buf.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    buf.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    buf.buffer = uniformBuffer_;
+    buf.size = VK_WHOLE_SIZE;
+    dep.bufferMemoryBarrierCount = 1;
+    dep.pBufferMemoryBarriers = &buf;
+    uniformsCleared_ = true;
+  }
+  dep.pImageMemoryBarriers = &b[1];
+  vkCmdPipelineBarrier2(cmd, &dep);
+  pendingClear_ = false;
+}
+
+Status ShadowRenderer::submitClear() {
+  VkDevice dev = device_.device;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  auto ai = vkInit<VkCommandBufferAllocateInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO);
+  ai.commandPool = clearPool_;
+  ai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+  ai.commandBufferCount = 1;
+  CSM_VK_TRY(vkAllocateCommandBuffers(dev, &ai, &cmd));
+  auto bi = vkInit<VkCommandBufferBeginInfo>(VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO);
+  bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+  VkResult r = vkBeginCommandBuffer(cmd, &bi);
+  if (r == VK_SUCCESS) {
+    recordClear(cmd);
+    r = vkEndCommandBuffer(cmd);
+  }
+  if (r == VK_SUCCESS) {
+    auto si = vkInit<VkSubmitInfo>(VK_STRUCTURE_TYPE_SUBMIT_INFO);
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cmd;
+    r = vkQueueSubmit(device_.queue, 1, &si, clearFence_);
+    if (r == VK_SUCCESS) r = vkWaitForFences(dev, 1, &clearFence_, VK_TRUE, UINT64_MAX);
+    if (r == VK_SUCCESS) r = vkResetFences(dev, 1, &clearFence_);
+  }
+  vkFreeCommandBuffers(dev, clearPool_, 1, &cmd);
+  if (r != VK_SUCCESS) {
+    pendingClear_ = true;  // prepare() can still record it
+    return vkError(r, "the one-time clear of the shadow map (DeviceInfo::queue)");
+  }
+  return {};
+}
+
+Status ShadowRenderer::prepare(VkCommandBuffer cmd) {
+  if (image_ == VK_NULL_HANDLE) {
+    return Status(ErrorCode::kWrongOrder, "prepare before a successful update()");
+  }
+  if (cmd == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "cmd is VK_NULL_HANDLE");
+  if (pendingClear_) recordClear(cmd);
   return {};
 }
 
@@ -479,7 +615,8 @@ Status ShadowRenderer::createImage(const ShadowSettings& settings, VkFormat form
   ci.arrayLayers = settings.cascadeCount;
   ci.samples = VK_SAMPLE_COUNT_1_BIT;
   ci.tiling = VK_IMAGE_TILING_OPTIMAL;
-  ci.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+  ci.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |
+             VK_IMAGE_USAGE_TRANSFER_DST_BIT;
   ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   ci.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
   VkResult r = vkCreateImage(dev, &ci, nullptr, &image);
@@ -508,8 +645,48 @@ Status ShadowRenderer::createImage(const ShadowSettings& settings, VkFormat form
     const std::string name = "csm shadow map layer " + std::to_string(i);
     setName(handleBits(layerViews[i]), VK_OBJECT_TYPE_IMAGE_VIEW, name.c_str());
   }
+  // The lighting set lives with the image: command buffers recorded with the old set stay valid.
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+  {
+    VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+                                     {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2}};
+    auto pci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+    pci.maxSets = 1;
+    pci.poolSizeCount = 2;
+    pci.pPoolSizes = sizes;
+    r = vkCreateDescriptorPool(dev, &pci, nullptr, &pool);
+    if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateDescriptorPool(csm lighting)"));
+    setName(handleBits(pool), VK_OBJECT_TYPE_DESCRIPTOR_POOL, "csm lighting pool");
+    auto ai = vkInit<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+    ai.descriptorPool = pool;
+    ai.descriptorSetCount = 1;
+    ai.pSetLayouts = &lightingLayout_;
+    r = vkAllocateDescriptorSets(dev, &ai, &set);
+    if (r != VK_SUCCESS) {
+      vkDestroyDescriptorPool(dev, pool, nullptr);
+      return fail(vkError(r, "vkAllocateDescriptorSets(csm lighting)"));
+    }
+    setName(handleBits(set), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm lighting set");
+  }
 
-  destroyImage();
+  if (image_ != VK_NULL_HANDLE) {
+    Retired old;
+    old.afterRecord = records_;
+    old.image = image_;
+    old.memory = imageMemory_;
+    old.views[0] = arrayView_;
+    std::copy(std::begin(layerViews_), std::end(layerViews_), old.views + 1);
+    old.pool = lightingPool_;
+    retired_.push_back(old);
+    image_ = VK_NULL_HANDLE;
+    imageMemory_ = VK_NULL_HANDLE;
+    arrayView_ = VK_NULL_HANDLE;
+    lightingPool_ = VK_NULL_HANDLE;
+    std::fill(std::begin(layerViews_), std::end(layerViews_), VK_NULL_HANDLE);
+  }
+  lightingPool_ = pool;
+  lightingSet_ = set;
   image_ = image;
   imageMemory_ = memory;
   arrayView_ = arrayView;
@@ -591,7 +768,13 @@ Status ShadowRenderer::createPipelines(VkFormat format) {
     setName(handleBits(pipes[layered]), VK_OBJECT_TYPE_PIPELINE,
             layered ? "csm depth pipeline (layered)" : "csm depth pipeline");
   }
-  destroyPipelines();
+  if (pipelinesBuilt_) {
+    Retired old;
+    old.afterRecord = records_;
+    old.pipelines[0] = pipeline_;
+    old.pipelines[1] = layeredPipeline_;
+    retired_.push_back(old);
+  }
   pipeline_ = pipes[0];
   layeredPipeline_ = pipes[1];
   pipelinesBuilt_ = true;
@@ -635,6 +818,24 @@ Status ShadowRenderer::checkFrame(const CascadeFrame& frame) const {
   if (image_ == VK_NULL_HANDLE) {
     return Status(ErrorCode::kWrongOrder, "recordShadowPass before a successful update()");
   }
+  if (static_cast<std::uint32_t>(uniformOptions_.debugMode) >= CSM_DEBUG_COUNT) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("UniformOptions::debugMode = %u is invalid: allowed [0, %d) (csm::DebugMode)",
+                      static_cast<std::uint32_t>(uniformOptions_.debugMode), CSM_DEBUG_COUNT));
+  }
+  if (frame.blendBand != settings_.blendBand) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("frame.blendBand = %g but update() was given settings.blendBand = %g: "
+                      "compute the frame with the settings given to update()",
+                      frame.blendBand, settings_.blendBand));
+  }
+  if (frame.normalOffsetTexels != settings_.normalOffsetTexels) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("frame.normalOffsetTexels = %g but update() was given "
+                      "settings.normalOffsetTexels = %g: compute the frame with the settings "
+                      "given to update()",
+                      double(frame.normalOffsetTexels), double(settings_.normalOffsetTexels)));
+  }
   if (frame.cascadeCount != settings_.cascadeCount || frame.resolution != settings_.resolution) {
     return Status(
         ErrorCode::kInvalidArgument,
@@ -646,6 +847,11 @@ Status ShadowRenderer::checkFrame(const CascadeFrame& frame) const {
 }
 
 void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame) {
+  // One more host frame: what was retired framesInFlight records ago is no longer in use.
+  ++records_;
+  collectRetired(false);
+  pendingClear_ = false;  // the pass below leaves every layer written and sampleable
+  uniformsCleared_ = true;
   uniforms_ = packUniforms(frame, settings_, uniformOptions_);
   if (beginLabel_) {
     auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);

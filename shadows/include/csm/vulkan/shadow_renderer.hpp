@@ -2,7 +2,8 @@
 // that fills it, and what a host's lighting shader needs to sample it through csm.glsl.
 //
 // Per frame, in order:
-//   renderer.update(settings, options)           // once, and whenever settings change
+//   renderer.update(settings, options)           // once, and whenever settings change; the
+//                                                // image is then cleared to lit and sampleable
 //   frame = csm::computeCascades(...)            // the pure math
 //   csm::cullCasters(casterSet, frame, ..., cull)
 //   renderer.recordShadowPass(cmd, frame, casters, &cull)   // or the callback form
@@ -11,6 +12,17 @@
 // The renderer takes the host's Vulkan handles and allocates its own memory (one allocation per
 // resource); it depends on nothing but Vulkan, GLM and csm::core. Not thread-safe: one thread
 // records at a time.
+//
+// Lifetime (see shadows/README.md, "Lifetime"):
+//  - After a successful update() the image is cleared to depth 1 ("lit") and in sampledLayout(),
+//    so a lighting pass may sample lightingSet() before any shadow pass. With DeviceInfo::queue
+//    update() submits that clear itself; without it the host records it with prepare(cmd).
+//  - update() never waits for the GPU: what it replaces (image, views, lighting set, pipelines)
+//    is retired and destroyed only after DeviceInfo::framesInFlight further recordShadowPass
+//    calls (the host has waited for those frames by then) or at destruction. Command buffers
+//    recorded before update() stay valid to submit.
+//  - The destructor waits for DeviceInfo::queue to be idle (when given) before destroying, so a
+//    renderer can be dropped with frames in flight on that queue.
 #pragma once
 
 #include <vulkan/vulkan.h>
@@ -34,8 +46,18 @@ namespace csm::vk {
 struct DeviceInfo {
   VkPhysicalDevice physicalDevice = VK_NULL_HANDLE;
   VkDevice device = VK_NULL_HANDLE;
-  /// Queue family whose command buffers record the shadow pass (graphics).
+  /// Queue family whose command buffers record the shadow pass (graphics): the one-time clear
+  /// update() submits is recorded from a command pool of this family.
   std::uint32_t queueFamily = 0;
+  /// A queue of `queueFamily` the host submits its frames to. When given, update() submits the
+  /// one-time clear of a new image there (and waits for that submission's own fence), and the
+  /// destructor waits for the queue to be idle. The host must not submit to it from another
+  /// thread during those calls. VK_NULL_HANDLE: the host calls prepare(cmd) after update().
+  VkQueue queue = VK_NULL_HANDLE;
+  /// How many frames the host may have in flight, [1, 16]: when it records frame N it has
+  /// waited for frame N - framesInFlight. Resources replaced by update() are destroyed after
+  /// this many further recordShadowPass calls.
+  std::uint32_t framesInFlight = 2;
   /// Optional pipeline cache the depth pipelines are created through.
   VkPipelineCache pipelineCache = VK_NULL_HANDLE;
   /// VkPhysicalDeviceFeatures::depthClamp enabled: casters in front of the light box's near
@@ -69,8 +91,9 @@ enum class RenderMode {
   /// One pass over every layer; each caster is drawn once, instanced into the cascades it was
   /// culled into, the layer chosen by gl_Layer in the vertex shader. Needs shaderOutputLayer.
   kLayered,
-  /// The faster on lavapipe (measured by csm_gpu_bench, see README): kPerLayer; kLayered where
-  /// the device lacks nothing for it is not chosen automatically.
+  /// Chosen by device: kPerLayer on CPU implementations (lavapipe: per-layer measured faster by
+  /// csm_gpu_bench, see README), kLayered on other devices when shaderOutputLayer is enabled
+  /// (one pass instead of one per cascade), else kPerLayer. renderMode() tells the choice.
   kAuto,
 };
 
@@ -148,16 +171,27 @@ class ShadowRenderer {
   [[nodiscard]] static std::unique_ptr<ShadowRenderer> create(const DeviceInfo& device,
                                                               const VertexLayout& layout,
                                                               Status* status = nullptr);
-  /// Destroys every object. The host must have waited for the GPU to finish using them.
+  /// Destroys every object, including retired ones. Waits for DeviceInfo::queue to be idle
+  /// first when one was given; otherwise the host must have waited for the GPU.
   ~ShadowRenderer();
   ShadowRenderer(const ShadowRenderer&) = delete;
   ShadowRenderer& operator=(const ShadowRenderer&) = delete;
 
   /// Applies settings and options: validates them, checks them against the device's limits and
   /// formats, and recreates only what changed (the depth image and its views on resolution,
-  /// cascade count or format; the pipelines on format, cull mode or render mode). When something
-  /// is recreated it waits for the device to be idle first. On error nothing changes.
+  /// cascade count or format; the pipelines on format). It does not wait for the GPU: replaced
+  /// objects are retired (see "Lifetime" above). A new image is cleared to lit and left in
+  /// sampledLayout() before update() returns (DeviceInfo::queue) or by prepare(). Errors name
+  /// the field: invalid settings, out-of-range options (renderMode, cullMode, depthFormat), the
+  /// device's limits. On error nothing changes.
   Status update(const ShadowSettings& settings, const RendererOptions& options = {});
+
+  /// Records the pending one-time clear of a new image (depth 1, then sampledLayout()) into
+  /// `cmd`, for hosts without DeviceInfo::queue; a no-op when nothing is pending. Record it
+  /// before any command buffer that samples the lighting set (a shadow pass clears it too).
+  Status prepare(VkCommandBuffer cmd);
+  /// Whether a new image still waits for its clear (prepare() or a shadow pass).
+  [[nodiscard]] bool needsPrepare() const noexcept { return pendingClear_; }
 
   /// Sets what recordShadowPass packs into the uniform block besides the cascades (debug mode,
   /// world-space kernel). Takes effect at the next record.
@@ -166,9 +200,12 @@ class ShadowRenderer {
   /// Records the shadow pass of `frame` into `cmd` (a primary command buffer of the queue family,
   /// outside any render pass): uploads the uniform block, then for each non-empty cascade draws
   /// the casters of `visible->visible[c]` (every caster when `visible` is null), then leaves the
-  /// image in sampledLayout() for `options.consumerStages`. Errors: kWrongOrder before update(),
-  /// kInvalidArgument when the frame's cascade count or resolution differs from the settings,
-  /// kIndexOutOfRange for a visible index or mesh index out of range (nothing is recorded).
+  /// image in sampledLayout() for `options.consumerStages`. Each call counts one host frame for
+  /// retiring (DeviceInfo::framesInFlight). Errors: kWrongOrder before update(),
+  /// kInvalidArgument when the frame was computed with other settings than update()'s (cascade
+  /// count, resolution, blend band, normal offset: the field is named) or the uniform options
+  /// hold an out-of-range debug mode, kIndexOutOfRange for a visible index or mesh index out of
+  /// range (nothing is recorded).
   Status recordShadowPass(VkCommandBuffer cmd, const CascadeFrame& frame, const CasterList& casters,
                           const CullResult* visible);
 
@@ -203,8 +240,9 @@ class ShadowRenderer {
   /// CSM_BINDING_SHADOW_MAP (comparison sampler + array view), CSM_BINDING_SHADOW_DEPTH (depth
   /// sampler + array view), visible to fragment and compute shaders.
   [[nodiscard]] VkDescriptorSetLayout lightingSetLayout() const noexcept { return lightingLayout_; }
-  /// A descriptor set of that layout owned by the renderer and kept pointing at the current
-  /// resources (rewritten by update() when they are recreated).
+  /// A descriptor set of that layout owned by the renderer, pointing at the current resources.
+  /// A new set replaces it when update() recreates the image (the old one stays valid for
+  /// command buffers already recorded, until retired): fetch it each frame.
   [[nodiscard]] VkDescriptorSet lightingSet() const noexcept { return lightingSet_; }
   /// Writes the current resources into a host-allocated set of lightingSetLayout().
   Status writeLightingSet(VkDescriptorSet set) const;
@@ -219,6 +257,9 @@ class ShadowRenderer {
   void destroyImage() noexcept;
   void destroyPipelines() noexcept;
   Status checkFrame(const CascadeFrame& frame) const;
+  Status submitClear();
+  void recordClear(VkCommandBuffer cmd);
+  void collectRetired(bool all) noexcept;
   void recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame);
   void recordEnd(VkCommandBuffer cmd);
   void beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered);
@@ -254,7 +295,25 @@ class ShadowRenderer {
   VkShaderModule vertexModule_ = VK_NULL_HANDLE;
   VkShaderModule layeredModule_ = VK_NULL_HANDLE;
 
+  // Lifetime: the one-time clear and what update() replaced, destroyed after framesInFlight
+  // further records (afterRecord = records_ when retired).
+  VkCommandPool clearPool_ = VK_NULL_HANDLE;
+  VkFence clearFence_ = VK_NULL_HANDLE;
+  bool pendingClear_ = false;
+  bool uniformsCleared_ = false;
+  std::uint64_t records_ = 0;
+  struct Retired {
+    std::uint64_t afterRecord = 0;
+    VkImage image = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    VkImageView views[kMaxCascades + 1] = {};
+    VkDescriptorPool pool = VK_NULL_HANDLE;
+    VkPipeline pipelines[2] = {};
+  };
+  std::vector<Retired> retired_;
+
   // Settings-dependent objects.
+  VkDescriptorPool lightingPool_ = VK_NULL_HANDLE;  // holds lightingSet_
   VkImage image_ = VK_NULL_HANDLE;
   VkDeviceMemory imageMemory_ = VK_NULL_HANDLE;
   VkImageView arrayView_ = VK_NULL_HANDLE;
