@@ -9,7 +9,8 @@ csm_compile_shaders(csm_depth_shaders SOURCE_DIR ${CMAKE_CURRENT_SOURCE_DIR}/sha
                     csm_depth.vert csm_depth_layered.vert)
 
 add_library(csm_vulkan STATIC
-  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer.cpp)
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_view.cpp)
 add_library(csm::vulkan ALIAS csm_vulkan)
 target_link_libraries(csm_vulkan PUBLIC csm::core Vulkan::Vulkan)
 # The embedded shaders are a build-time dependency only (no link or install interface).

@@ -473,6 +473,13 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
                         settings.cascadeCount, lim.maxFramebufferLayers));
     }
   }
+  for (std::uint32_t c = 0; c < kMaxCascades; ++c) {
+    if (options.cascadeLod[c] >= kMaxCasterLods) {
+      return Status(ErrorCode::kInvalidArgument,
+                    fmt("options.cascadeLod[%u] = %u is invalid: allowed [0, %u)", c,
+                        options.cascadeLod[c], kMaxCasterLods));
+    }
+  }
   if ((options.cullMode & ~VkCullModeFlags(VK_CULL_MODE_FRONT_AND_BACK)) != 0) {
     return Status(ErrorCode::kInvalidArgument,
                   fmt("options.cullMode = %u is invalid: allowed VK_CULL_MODE_* flags",
@@ -978,6 +985,15 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
                     fmt("casters.instances[%zu].mesh = %u is out of range: allowed [0, %zu)", i,
                         casters.instances[i].mesh, casters.meshes.size()));
     }
+    for (std::uint32_t k = 0; k + 1 < kMaxCasterLods; ++k) {
+      const std::uint32_t m = casters.instances[i].lodMeshes[k];
+      if (m != kNoMesh && m >= casters.meshes.size()) {
+        return Status(ErrorCode::kIndexOutOfRange,
+                      fmt("casters.instances[%zu].lodMeshes[%u] = %u is out of range: allowed "
+                          "[0, %zu) or kNoMesh",
+                          i, k, m, casters.meshes.size()));
+      }
+    }
   }
   if (visible) {
     for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
@@ -995,9 +1011,10 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
   recordBegin(cmd, frame);
   const glm::dvec3 cam = frame.cameraPositionWs;
   const MeshDraw* bound = nullptr;
-  auto drawCaster = [&](std::uint32_t index, std::uint32_t cascadeOrMask, std::uint32_t copies) {
+  auto drawCaster = [&](std::uint32_t index, std::uint32_t meshIndex, std::uint32_t cascadeOrMask,
+                        std::uint32_t copies) {
     const CasterInstance& inst = casters.instances[index];
-    const MeshDraw& mesh = casters.meshes[inst.mesh];
+    const MeshDraw& mesh = casters.meshes[meshIndex];
     if (mesh.indexCount == 0) return;
     if (bound == nullptr || bound->vertexBuffer != mesh.vertexBuffer ||
         bound->vertexBufferOffset != mesh.vertexBufferOffset) {
@@ -1037,10 +1054,21 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
     }
     beginLayer(cmd, 0, true);
     for (std::size_t i = 0; i < instanceCount; ++i) {
-      const std::uint32_t mask = casterMasks_[i];
-      if (mask != 0) {
-        drawCaster(static_cast<std::uint32_t>(i), mask,
-                   static_cast<std::uint32_t>(std::popcount(mask)));
+      std::uint32_t mask = casterMasks_[i];
+      // One instanced draw per distinct LOD mesh among the cascades the caster is culled into.
+      while (mask != 0) {
+        const std::uint32_t first = static_cast<std::uint32_t>(std::countr_zero(mask));
+        const std::uint32_t m = casters.instances[i].meshForLod(options_.cascadeLod[first]);
+        std::uint32_t same = 0;
+        for (std::uint32_t c = first; c < frame.cascadeCount; ++c) {
+          if ((mask & (1u << c)) != 0 &&
+              casters.instances[i].meshForLod(options_.cascadeLod[c]) == m) {
+            same |= 1u << c;
+          }
+        }
+        drawCaster(static_cast<std::uint32_t>(i), m, same,
+                   static_cast<std::uint32_t>(std::popcount(same)));
+        mask &= ~same;
       }
     }
     endLayer(cmd);
@@ -1049,11 +1077,14 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
       if ((nonEmpty & (1u << c)) == 0) continue;
       beginLayer(cmd, c, false);
       bound = nullptr;
+      const std::uint32_t lod = options_.cascadeLod[c];
       if (visible) {
-        for (std::uint32_t i : visible->visible[c]) drawCaster(i, c, 1);
+        for (std::uint32_t i : visible->visible[c]) {
+          drawCaster(i, casters.instances[i].meshForLod(lod), c, 1);
+        }
       } else {
         for (std::size_t i = 0; i < instanceCount; ++i) {
-          drawCaster(static_cast<std::uint32_t>(i), c, 1);
+          drawCaster(static_cast<std::uint32_t>(i), casters.instances[i].meshForLod(lod), c, 1);
         }
       }
       endLayer(cmd);

@@ -27,6 +27,8 @@
 
 #include <vulkan/vulkan.h>
 
+#include <algorithm>
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -72,6 +74,11 @@ struct DeviceInfo {
   std::uint32_t maxResolution = 0;
 };
 
+/// Most LODs a caster instance may name (LOD 0 = its full-detail mesh).
+inline constexpr std::uint32_t kMaxCasterLods = 4;
+/// "No mesh" in CasterInstance::lodMeshes.
+inline constexpr std::uint32_t kNoMesh = UINT32_MAX;
+
 /// How the vertex buffers of casters are laid out: the depth pass reads a float3 position.
 struct VertexLayout {
   /// Bytes from one vertex to the next.
@@ -111,6 +118,10 @@ struct RendererOptions {
   /// pass (the destination of the pass's final barrier, the source of its first one).
   VkPipelineStageFlags2 consumerStages =
       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  /// The caster LOD each cascade draws, [0, kMaxCasterLods): an instance without that LOD draws
+  /// its nearest coarser-or-equal one it has (see CasterInstance::lodMeshes). All 0: full detail
+  /// everywhere (the default: simplified meshes' silhouettes cost accuracy, see README).
+  std::array<std::uint32_t, kMaxCascades> cascadeLod{};
 };
 
 /// A range of an index buffer drawn as one caster mesh.
@@ -128,10 +139,21 @@ struct MeshDraw {
 /// scale) then a translation to `translationWs` in double precision; the renderer makes it
 /// camera-relative itself. Its index in the caster list is its index in csm::CasterSet.
 struct CasterInstance {
-  /// Index into the mesh list given with the casters.
+  /// Index into the mesh list given with the casters (LOD 0, the full detail).
   std::uint32_t mesh = 0;
   glm::dvec3 translationWs{0.0};
   glm::mat3 linearWs{1.0f};
+  /// Coarser LODs: lodMeshes[k - 1] is the mesh of LOD k, or kNoMesh when the instance has none
+  /// (a cascade asking for LOD k then draws the highest LOD below k that the instance has).
+  std::array<std::uint32_t, kMaxCasterLods - 1> lodMeshes{kNoMesh, kNoMesh, kNoMesh};
+
+  /// The mesh drawn for `lod`.
+  [[nodiscard]] std::uint32_t meshForLod(std::uint32_t lod) const noexcept {
+    for (std::uint32_t k = std::min(lod, kMaxCasterLods - 1); k > 0; --k) {
+      if (lodMeshes[k - 1] != kNoMesh) return lodMeshes[k - 1];
+    }
+    return mesh;
+  }
 };
 
 /// The caster list of one frame: meshes and their instances.

@@ -1,0 +1,103 @@
+// One view's shadows in one object: the settings, the caster set, the history, the frame, the
+// cull lists and the renderer, set up once; then one call per frame that computes the cascades
+// for the camera and the light, culls the casters and records the shadow pass.
+//
+//   auto view = csm::vk::ShadowView::create(deviceInfo, vertexLayout, &status);
+//   view->setSettings(settings);                           // once, and when settings change
+//   view->setCasters(meshes, instances, bounds);           // once, and when casters change
+//   view->setSceneBounds(&sceneBounds);                    // optional (recommended)
+//   each frame:  view->record(cmd, camera, light);         // then bind view->lightingSet()
+//
+// Built on the public free functions (csm::computeCascades, csm::cullCasters) and
+// ShadowRenderer, which stay available to hosts that want their own loop. Settings are given in
+// one place, so the frame, the culling and the recording cannot disagree.
+//
+// One object per view: split screen, a reflection view or a second camera each get their own
+// ShadowView (own image, history and lighting set); they may record into the same command
+// buffer. Lifetime and threading are those of ShadowRenderer (shadow_renderer.hpp).
+#pragma once
+
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "csm/cascades.hpp"
+#include "csm/culling.hpp"
+#include "csm/vulkan/shadow_renderer.hpp"
+
+namespace csm::vk {
+
+class ShadowView {
+ public:
+  /// Creates the view's renderer (ShadowRenderer::create). Returns nullptr and fills `status`
+  /// on error. setSettings() before the first record().
+  [[nodiscard]] static std::unique_ptr<ShadowView> create(const DeviceInfo& device,
+                                                          const VertexLayout& layout,
+                                                          Status* status = nullptr);
+
+  /// Validates and applies settings and renderer options (ShadowRenderer::update: the image is
+  /// cleared to lit and sampleable when this returns, or after prepare()). A change of cascade
+  /// count restarts the history. On error nothing changes.
+  Status setSettings(const ShadowSettings& settings, const RendererOptions& options = {});
+  /// Debug output and world-space kernel of the lighting shader (checked at the next record).
+  void setUniformOptions(const UniformOptions& options) noexcept {
+    renderer_->setUniformOptions(options);
+  }
+
+  /// The casters: meshes, instances (each naming a mesh per LOD, see CasterInstance) and each
+  /// instance's world bounds for culling (bounds[i] belongs to instances[i]). Copied; the
+  /// culling hierarchy is built here. Refuses (naming the index) a mesh index out of range, a
+  /// count mismatch or invalid bounds; on error the previous casters stay.
+  Status setCasters(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances,
+                    std::span<const AabbWs> boundsWs);
+  /// Bounds of every receiver and caster (splits end where the scene does, empty cascades are
+  /// skipped); nullptr: unbounded. Invalid bounds are refused.
+  Status setSceneBounds(const AabbWs* boundsWs);
+
+  /// The frame: computes the cascades for `camera` and `light` (with the view's history), culls
+  /// the casters into them and records the shadow pass into `cmd` (a primary command buffer,
+  /// outside any render pass). Afterwards the lighting pass binds lightingSet(). Errors name
+  /// the invalid input (camera, light) or come from the renderer; nothing is recorded then.
+  Status record(VkCommandBuffer cmd, const Camera& camera, const DirectionalLight& light);
+
+  /// Records the pending clear of a new image (hosts without DeviceInfo::queue; see
+  /// ShadowRenderer::prepare).
+  Status prepare(VkCommandBuffer cmd) { return renderer_->prepare(cmd); }
+  /// Forgets the history (after a camera cut, so sizes need not shrink step by step).
+  void resetHistory() noexcept { history_ = {}; }
+
+  /// The set layout the lighting pipeline declares at CSM_SET, and the set to bind (it changes
+  /// when setSettings() recreates the image: fetch it each frame).
+  [[nodiscard]] VkDescriptorSetLayout lightingSetLayout() const noexcept {
+    return renderer_->lightingSetLayout();
+  }
+  [[nodiscard]] VkDescriptorSet lightingSet() const noexcept { return renderer_->lightingSet(); }
+
+  /// The last recorded frame and its cull lists (for overlays, statistics, tests).
+  [[nodiscard]] const CascadeFrame& frame() const noexcept { return frame_; }
+  [[nodiscard]] const CullResult& cull() const noexcept { return cull_; }
+  [[nodiscard]] const ShadowSettings& settings() const noexcept { return settings_; }
+  [[nodiscard]] const RendererOptions& options() const noexcept { return options_; }
+  [[nodiscard]] std::size_t casterCount() const noexcept { return instances_.size(); }
+  /// The renderer (its image, views, samplers and uniform block).
+  [[nodiscard]] ShadowRenderer& renderer() noexcept { return *renderer_; }
+  [[nodiscard]] const ShadowRenderer& renderer() const noexcept { return *renderer_; }
+
+ private:
+  ShadowView() = default;
+
+  std::unique_ptr<ShadowRenderer> renderer_;
+  ShadowSettings settings_{};
+  RendererOptions options_{};
+  bool hasSettings_ = false;
+  CasterSet casterSet_;
+  std::vector<MeshDraw> meshes_;
+  std::vector<CasterInstance> instances_;
+  AabbWs sceneBounds_{};
+  bool hasSceneBounds_ = false;
+  CascadeHistory history_{};
+  CascadeFrame frame_{};
+  CullResult cull_;
+};
+
+}  // namespace csm::vk

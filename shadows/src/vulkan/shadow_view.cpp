@@ -1,0 +1,93 @@
+// ShadowView: one view's settings, casters, history, frame and cull lists around a renderer.
+#include "csm/vulkan/shadow_view.hpp"
+
+#include <string>
+
+namespace csm::vk {
+
+std::unique_ptr<ShadowView> ShadowView::create(const DeviceInfo& device, const VertexLayout& layout,
+                                               Status* status) {
+  std::unique_ptr<ShadowView> view(new ShadowView());
+  view->renderer_ = ShadowRenderer::create(device, layout, status);
+  if (!view->renderer_) return nullptr;
+  return view;
+}
+
+Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOptions& options) {
+  Status s = renderer_->update(settings, options);
+  if (!s.ok()) return s;
+  if (!hasSettings_ || settings.cascadeCount != settings_.cascadeCount) history_ = {};
+  settings_ = settings;
+  options_ = options;
+  hasSettings_ = true;
+  return {};
+}
+
+Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
+                              std::span<const CasterInstance> instances,
+                              std::span<const AabbWs> boundsWs) {
+  if (boundsWs.size() != instances.size()) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "setCasters: " + std::to_string(boundsWs.size()) + " bounds for " +
+                      std::to_string(instances.size()) + " instances: give one per instance");
+  }
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    const CasterInstance& inst = instances[i];
+    bool ok = inst.mesh < meshes.size();
+    for (std::uint32_t m : inst.lodMeshes) ok = ok && (m == kNoMesh || m < meshes.size());
+    if (!ok) {
+      return Status(ErrorCode::kIndexOutOfRange, "setCasters: instances[" + std::to_string(i) +
+                                                     "] names a mesh out of range: allowed [0, " +
+                                                     std::to_string(meshes.size()) +
+                                                     ") (lodMeshes: or kNoMesh)");
+    }
+  }
+  CasterSet set;
+  set.reserve(instances.size());
+  for (std::size_t i = 0; i < boundsWs.size(); ++i) {
+    auto added = set.addBox(boundsWs[i].minWs, boundsWs[i].maxWs);
+    if (!added) {
+      return Status(ErrorCode::kInvalidArgument,
+                    "setCasters: bounds[" + std::to_string(i) + "]: " + added.error().message());
+    }
+  }
+  set.build();
+  casterSet_ = std::move(set);
+  meshes_.assign(meshes.begin(), meshes.end());
+  instances_.assign(instances.begin(), instances.end());
+  return {};
+}
+
+Status ShadowView::setSceneBounds(const AabbWs* boundsWs) {
+  if (boundsWs == nullptr) {
+    hasSceneBounds_ = false;
+    return {};
+  }
+  if (auto e = csm::validate(*boundsWs, "sceneBounds")) {
+    return Status(ErrorCode::kInvalidArgument, e->message());
+  }
+  sceneBounds_ = *boundsWs;
+  hasSceneBounds_ = true;
+  return {};
+}
+
+Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,
+                          const DirectionalLight& light) {
+  if (!hasSettings_) {
+    return Status(ErrorCode::kWrongOrder, "ShadowView::record before a successful setSettings()");
+  }
+  // Computed into a copy of the history: a refused input leaves the view as it was.
+  CascadeHistory history = history_;
+  auto frame = computeCascades(settings_, camera, light, hasSceneBounds_ ? &sceneBounds_ : nullptr,
+                               &history);
+  if (!frame.ok()) return Status(ErrorCode::kInvalidArgument, frame.error().message());
+  cullCasters(casterSet_, frame.value(), settings_.minCasterTexels, cull_);
+  Status s =
+      renderer_->recordShadowPass(cmd, frame.value(), CasterList{meshes_, instances_}, &cull_);
+  if (!s.ok()) return s;
+  history_ = history;
+  frame_ = frame.value();
+  return {};
+}
+
+}  // namespace csm::vk
