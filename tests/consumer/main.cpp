@@ -258,18 +258,15 @@ int main(int argc, char** argv) try {
     d->vertexBuffer = vb.buffer;
     d->indexBuffer = ib.buffer;
   }
-  const std::vector<HostCaster> casters = {
-      {ground, scene::kOrigin, scene::kOrigin + glm::dvec3(-g, -0.5, -g),
-       scene::kOrigin + glm::dvec3(g, 0, g)},
-      {box, scene::kOrigin, scene::kOrigin + scene::kBoxMin, scene::kOrigin + scene::kBoxMax}};
+  const csm::vk::MeshDraw meshes[2] = {ground, box};
+  const csm::AabbWs bounds[2] = {
+      {scene::kOrigin + glm::dvec3(-g, -0.5, -g), scene::kOrigin + glm::dvec3(g, 0, g)},
+      {scene::kOrigin + scene::kBoxMin, scene::kOrigin + scene::kBoxMax}};
   const csm::AabbWs sceneBounds{scene::kOrigin + glm::dvec3(-g, -0.5, -g),
                                 scene::kOrigin + glm::dvec3(g, scene::kBoxMax.y, g)};
 
-  ConsumerShadows shadows;
-  if (std::string e = shadows.init(h.gpu, h.device, h.family, h.validation, casters, sceneBounds);
-      !e.empty()) {
-    throw std::runtime_error("csm: " + e);
-  }
+  auto shadows = createShadows(h.gpu, h.device, h.family, h.queue, meshes, bounds, scene::kOrigin,
+                               sceneBounds);
 
   // Target images and the lighting pipeline (set 1 = the module's resources).
   Image color = createImage(h, VK_FORMAT_R8G8B8A8_UNORM,
@@ -297,7 +294,7 @@ int main(int argc, char** argv) try {
   VkDescriptorSetLayout emptyLayout;
   VkDescriptorSetLayoutCreateInfo dslci{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
   check(vkCreateDescriptorSetLayout(h.device, &dslci, nullptr, &emptyLayout), "set layout");
-  const VkDescriptorSetLayout setLayouts[2] = {emptyLayout, shadows.setLayout()};
+  const VkDescriptorSetLayout setLayouts[2] = {emptyLayout, shadows->lightingSetLayout()};
   VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
                             sizeof(Push)};
   VkPipelineLayoutCreateInfo plci{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
@@ -403,8 +400,8 @@ int main(int argc, char** argv) try {
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   check(vkBeginCommandBuffer(cmd, &begin), "begin");
 
-  if (std::string e = shadows.record(cmd, camera, light); !e.empty())
-    throw std::runtime_error("csm: " + e);
+  if (csm::vk::Status s = shadows->record(cmd, camera, light); !s)
+    throw std::runtime_error("csm: " + s.message());
 
   barrier(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
           VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
@@ -435,7 +432,7 @@ int main(int argc, char** argv) try {
   ri.pDepthAttachment = &da;
   vkCmdBeginRendering(cmd, &ri);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
-  VkDescriptorSet set = shadows.set();
+  VkDescriptorSet set = shadows->lightingSet();
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout, 1, 1, &set, 0,
                           nullptr);
   const VkDeviceSize zero = 0;
@@ -492,7 +489,7 @@ int main(int argc, char** argv) try {
   vkDestroyPipelineLayout(h.device, pipelineLayout, nullptr);
   vkDestroyDescriptorSetLayout(h.device, emptyLayout, nullptr);
   for (VkShaderModule m : modules) vkDestroyShaderModule(h.device, m, nullptr);
-  shadows = ConsumerShadows();
+  shadows.reset();
   for (Image* img : {&color, &depth}) {
     vkDestroyImageView(h.device, img->view, nullptr);
     vkDestroyImage(h.device, img->image, nullptr);
