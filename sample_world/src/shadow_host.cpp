@@ -20,12 +20,26 @@ csm::vk::DeviceInfo shadowDeviceInfo(const engine::Context& ctx) {
   return info;
 }
 
-std::unique_ptr<csm::vk::ShadowRenderer> createShadowRenderer(const engine::Context& ctx) {
+namespace {
+csm::vk::VertexLayout engineVertexLayout() {
   csm::vk::VertexLayout layout;
   layout.stride = sizeof(engine::Vertex);
   layout.positionOffset = offsetof(engine::Vertex, position);
+  return layout;
+}
+}  // namespace
+
+std::unique_ptr<csm::vk::ShadowView> createShadowView(const engine::Context& ctx) {
   csm::vk::Status status;
-  auto renderer = csm::vk::ShadowRenderer::create(shadowDeviceInfo(ctx), layout, &status);
+  auto view = csm::vk::ShadowView::create(shadowDeviceInfo(ctx), engineVertexLayout(), &status);
+  if (!view) throw std::runtime_error("ShadowView::create: " + status.message());
+  return view;
+}
+
+std::unique_ptr<csm::vk::ShadowRenderer> createShadowRenderer(const engine::Context& ctx) {
+  csm::vk::Status status;
+  auto renderer =
+      csm::vk::ShadowRenderer::create(shadowDeviceInfo(ctx), engineVertexLayout(), &status);
   if (!renderer) throw std::runtime_error("ShadowRenderer::create: " + status.message());
   return renderer;
 }

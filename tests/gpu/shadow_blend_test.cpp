@@ -112,7 +112,10 @@ class Probe {
       uint32_t pad[3];
     } push{{0.0f, 1.0f, 0.0f, 0.0f}, uint32_t(cr.size()), {}};
     ctx_.submitAndWait([&](VkCommandBuffer cmd) {
-      scene.recordShadow(cmd, frame, csm::DebugMode::kNone);
+      const csm::CascadeFrame recorded = scene.recordShadow(cmd, csm::DebugMode::kNone);
+      // The view recomputes the frame for the same camera: the probe's frame is the recorded one.
+      EXPECT_EQ(recorded.splitsM, frame.splitsM);
+      EXPECT_EQ(recorded.cascades[0].boxCenterWs, frame.cascades[0].boxCenterWs);
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_);
       const VkDescriptorSet sets[2] = {set_, scene.renderer().lightingSet()};
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout_, 0, 2, sets, 0,

@@ -15,46 +15,6 @@ constexpr csm::PcfKernel kKernels[] = {csm::PcfKernel::k1Tap, csm::PcfKernel::kT
                                        csm::PcfKernel::kTent5, csm::PcfKernel::kTent7,
                                        csm::PcfKernel::kPoisson16};
 
-struct Agreement {
-  uint64_t compared = 0;
-  uint64_t agreed = 0;
-  uint64_t shadowed = 0;  // compared pixels the analytic answer puts in shadow
-  [[nodiscard]] double ratio() const { return compared ? double(agreed) / double(compared) : 0.0; }
-};
-
-// Ground pixels farther than 2 texels (of their cascade, the coarser one in a blend band) from
-// the analytic shadow edge and inside the cascades: shadow factor < 0.5 <=> analytically shadowed.
-Agreement compareWithAnalytic(const ShadowScene& scene, const Rendered& r) {
-  Agreement a;
-  for (uint32_t y = 0; y < r.image.height; ++y) {
-    for (uint32_t x = 0; x < r.image.width; ++x) {
-      const ShadowScene::Hit hit = scene.trace(x, y);
-      if (!hit.hit || !hit.plane) continue;
-      const csm::CascadeSelection sel = csm::selectCascade(
-          r.frame, csm::viewDepthM(r.frame, hit.posWs), scene.settings().blendBand);
-      if (sel.index < 0) continue;
-      double texel = r.frame.cascades[sel.index].texelSizeM();
-      if (sel.blendIndex >= 0)
-        texel = std::max(texel, r.frame.cascades[sel.blendIndex].texelSizeM());
-      if (!scene.farFromEdge(hit.posWs, 2.0 * texel, r.frame)) continue;
-      const bool analytic = scene.shadowedAnalytic(hit.posWs);
-      const bool gpu = r.image.at(x, y)[0] < 128;
-      ++a.compared;
-      a.shadowed += analytic ? 1 : 0;
-      a.agreed += analytic == gpu ? 1 : 0;
-    }
-  }
-  return a;
-}
-
-csm::ShadowSettings testSettings(uint32_t cascades, uint32_t resolution) {
-  csm::ShadowSettings s;
-  s.cascadeCount = cascades;
-  s.resolution = resolution;
-  s.shadowDistanceM = 60.0;
-  return s;
-}
-
 class ShadowAnalytic : public ::testing::TestWithParam<uint32_t> {};
 
 TEST_P(ShadowAnalytic, EveryKernelAgreesWithAnalyticShadowAwayFromEdges) {

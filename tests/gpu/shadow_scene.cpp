@@ -103,13 +103,14 @@ ShadowScene::ShadowScene(uint32_t width, uint32_t height) {
            // A long rail along the view direction: its shadow edge runs through every cascade.
            {{4.2, 1.5, -45.0}, {4.8, 2.0, 3.0}}};
 
-  renderer_ = world::createShadowRenderer(*ctx_);
+  view_ = world::createShadowView(*ctx_);
 }
 
 ShadowScene::~ShadowScene() {
   if (ctx_) ctx_->waitIdle();
   litPasses_.clear();
-  renderer_.reset();
+  second_.reset();
+  view_.reset();
   meshes_.reset();
   target_.reset();
   if (ctx_) ctx_->shutdown();
@@ -151,92 +152,126 @@ void ShadowScene::buildScene() {
     return d;
   };
   casterMeshes_ = {meshDraw(planeMesh_), meshDraw(sphereMesh_), meshDraw(cubeMesh_)};
+  std::vector<csm::vk::CasterInstance>& casters = casters_;
+  std::vector<csm::AabbWs>& bounds = casterBounds_;
   auto add = [&](uint32_t mesh, const engine::MeshRange& range, const glm::dvec3& t,
-                 const glm::dvec3& scale, const glm::vec4& color) {
+                 const glm::dvec3& scale, const glm::vec4& color, const csm::AabbWs& box) {
     const glm::mat3 linear(glm::vec3(scale.x, 0, 0), glm::vec3(0, scale.y, 0),
                            glm::vec3(0, 0, scale.z));
-    casters_.push_back({mesh, t, linear});
+    casters.push_back({mesh, t, linear});
     litDraws_.push_back({range, t, linear, color});
+    bounds.push_back(box);
   };
   // The ground receives and casts (so that self-shadowing acne would show).
-  add(0, planeMesh_, planeCenterWs, {planeHalfM, 1.0, planeHalfM}, {0.8f, 0.8f, 0.8f, 1.0f});
-  auto check = [](const csm::Result<uint32_t>& r) {
-    if (!r.ok()) throw std::runtime_error("CasterSet: " + r.error().message());
-  };
-  check(casterSet_.addBox(planeCenterWs - glm::dvec3(planeHalfM, 0.0, planeHalfM),
-                          planeCenterWs + glm::dvec3(planeHalfM, 0.0, planeHalfM)));
+  add(0, planeMesh_, planeCenterWs, {planeHalfM, 1.0, planeHalfM}, {0.8f, 0.8f, 0.8f, 1.0f},
+      {planeCenterWs - glm::dvec3(planeHalfM, 0.0, planeHalfM),
+       planeCenterWs + glm::dvec3(planeHalfM, 0.0, planeHalfM)});
   for (const SphereWs& s : spheres) {
-    add(1, sphereMesh_, s.centerWs, glm::dvec3(s.radiusM), {0.9f, 0.3f, 0.2f, 1.0f});
-    check(casterSet_.addSphere(s.centerWs, s.radiusM));
+    add(1, sphereMesh_, s.centerWs, glm::dvec3(s.radiusM), {0.9f, 0.3f, 0.2f, 1.0f},
+        {s.centerWs - glm::dvec3(s.radiusM), s.centerWs + glm::dvec3(s.radiusM)});
   }
   for (const csm::AabbWs& b : boxes) {
-    add(2, cubeMesh_, 0.5 * (b.minWs + b.maxWs), b.maxWs - b.minWs, {0.2f, 0.4f, 0.9f, 1.0f});
-    check(casterSet_.addBox(b.minWs, b.maxWs));
+    add(2, cubeMesh_, 0.5 * (b.minWs + b.maxWs), b.maxWs - b.minWs, {0.2f, 0.4f, 0.9f, 1.0f}, b);
   }
-  casterSet_.build();
   sceneBounds.minWs = planeCenterWs - glm::dvec3(planeHalfM, 0.0, planeHalfM);
   sceneBounds.maxWs = planeCenterWs + glm::dvec3(planeHalfM, 6.0, planeHalfM);
+  csm::vk::Status s = view_->setCasters(casterMeshes_, casters, bounds);
+  if (s.ok()) s = view_->setSceneBounds(&sceneBounds);
+  if (!s.ok()) throw std::runtime_error("ShadowView: " + s.message());
   built_ = true;
 }
 
 csm::vk::Status ShadowScene::update(const csm::ShadowSettings& settings,
                                     const csm::vk::RendererOptions& options) {
   if (!built_) buildScene();
-  csm::vk::Status s = renderer_->update(settings, options);
-  if (s.ok()) {
-    settings_ = settings;
-    history_ = {};
-  }
+  csm::vk::Status s = view_->setSettings(settings, options);
+  if (s.ok()) view_->resetHistory();
   return s;
 }
 
 Rendered ShadowScene::render(csm::PcfKernel kernel, csm::DebugMode debug, bool blend,
                              bool worldSpaceKernel) {
+  FrameHooks hooks;
+  hooks.debug = debug;
+  hooks.blend = blend;
+  hooks.worldSpaceKernel = worldSpaceKernel;
+  return renderFrame(kernel, hooks);
+}
+
+void ShadowScene::enableSecondView() {
   if (!built_) buildScene();
-  const auto key = std::make_pair(static_cast<uint32_t>(kernel), blend ? 1u : 0u);
+  second_ = world::createShadowView(*ctx_);
+  csm::vk::Status s = second_->setSettings(view_->settings(), view_->options());
+  if (s.ok()) s = second_->setCasters(casterMeshes_, casters_, casterBounds_);
+  if (s.ok()) s = second_->setSceneBounds(&sceneBounds);
+  if (!s.ok()) throw std::runtime_error("second ShadowView: " + s.message());
+}
+
+void ShadowScene::destroyView() {
+  view_.reset();
+}
+
+Rendered ShadowScene::renderFrame(csm::PcfKernel kernel, const FrameHooks& hooks) {
+  if (!built_) buildScene();
+  const auto key = std::make_pair(static_cast<uint32_t>(kernel), hooks.blend ? 1u : 0u);
   auto& lit = litPasses_[key];
   if (!lit) {
     engine::LitPassDesc desc;
     desc.colorFormat = target_->colorFormat();
     desc.depthFormat = target_->depthFormat();
-    desc.shadowSetLayout = renderer_->lightingSetLayout();
+    desc.shadowSetLayout = view_->lightingSetLayout();
     desc.specialization = {{CSM_SPEC_KERNEL, key.first}, {CSM_SPEC_BLEND, key.second}};
     lit = std::make_unique<engine::LitPass>(*ctx_, desc);
   }
 
   Rendered out;
-  out.frame = computeFrame();
   std::optional<engine::Frame> f = target_->beginFrame();
   if (!f) throw std::runtime_error("beginFrame returned no frame");
-  recordShadow(f->cmd, out.frame, debug, worldSpaceKernel);
+  csm::CascadeFrame secondFrame;
+  if (second_) {
+    // Split screen: the second view records into the same command buffer, first.
+    second_->setUniformOptions({hooks.debug, hooks.worldSpaceKernel});
+    csm::Camera c = csmCamera();
+    c.positionWs = secondCamera.positionWs;
+    c.orientationWs = secondCamera.orientation;
+    const csm::vk::Status s = second_->record(f->cmd, c, light);
+    if (!s.ok()) throw std::runtime_error("second ShadowView::record: " + s.message());
+    secondFrame = second_->frame();
+  }
+  if (hooks.shadowPass) out.frame = recordShadow(f->cmd, hooks.debug, hooks.worldSpaceKernel);
+  const bool useSecond = second_ && hooks.litFromSecond;
+  const engine::Camera& litCamera = useSecond ? secondCamera : camera;
+  if (useSecond) out.frame = secondFrame;
   engine::LitFrame lf;
-  lf.viewProjCr = camera.viewProjectionCr();
-  lf.cameraPositionWs = camera.positionWs;
+  lf.viewProjCr = litCamera.viewProjectionCr();
+  lf.cameraPositionWs = litCamera.positionWs;
   lf.lightDirectionWs = glm::vec3(light.directionWs);
   lit->prepare(f->cmd, lf);
   engine::beginRendering(*f, VkClearColorValue{{0.1f, 0.1f, 0.15f, 1.0f}});
-  lit->draw(f->cmd, *meshes_, renderer_->lightingSet(), litDraws_, f->extent);
+  lit->draw(f->cmd, *meshes_, useSecond ? second_->lightingSet() : view_->lightingSet(), litDraws_,
+            f->extent);
   vkCmdEndRendering(f->cmd);
+  if (hooks.beforeSubmit) hooks.beforeSubmit();
   target_->endFrame();
+  if (hooks.afterSubmit) hooks.afterSubmit();
   out.image = target_->readback();
   return out;
 }
 
 csm::CascadeFrame ShadowScene::computeFrame() {
   if (!built_) buildScene();
-  csm::Result<csm::CascadeFrame> frame =
-      csm::computeCascades(settings_, csmCamera(), light, &sceneBounds, &history_);
-  if (!frame.ok()) throw std::runtime_error("computeCascades: " + frame.error().message());
-  csm::cullCasters(casterSet_, frame.value(), settings_.minCasterTexels, cull_);
+  csm::Result<csm::CascadeFrame> frame = view_->computeFrame(csmCamera(), light);
+  if (!frame.ok()) throw std::runtime_error("computeFrame: " + frame.error().message());
   return frame.value();
 }
 
-void ShadowScene::recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame,
-                               csm::DebugMode debug, bool worldSpaceKernel) {
-  renderer_->setUniformOptions({debug, worldSpaceKernel});
-  const csm::vk::Status s =
-      renderer_->recordShadowPass(cmd, frame, csm::vk::CasterList{casterMeshes_, casters_}, &cull_);
-  if (!s.ok()) throw std::runtime_error("recordShadowPass: " + s.message());
+csm::CascadeFrame ShadowScene::recordShadow(VkCommandBuffer cmd, csm::DebugMode debug,
+                                            bool worldSpaceKernel) {
+  if (!built_) buildScene();
+  view_->setUniformOptions({debug, worldSpaceKernel});
+  const csm::vk::Status s = view_->record(cmd, csmCamera(), light);
+  if (!s.ok()) throw std::runtime_error("ShadowView::record: " + s.message());
+  return view_->frame();
 }
 
 ShadowScene::Hit ShadowScene::trace(uint32_t x, uint32_t y) const {
@@ -309,6 +344,37 @@ std::string ShadowScene::saveArtefact(const engine::CpuImage& image,
   const std::string path = (dir / (name + ".png")).string();
   engine::writePng(path, image);
   return path;
+}
+
+Agreement compareWithAnalytic(const ShadowScene& scene, const Rendered& r) {
+  Agreement a;
+  for (uint32_t y = 0; y < r.image.height; ++y) {
+    for (uint32_t x = 0; x < r.image.width; ++x) {
+      const ShadowScene::Hit hit = scene.trace(x, y);
+      if (!hit.hit || !hit.plane) continue;
+      const csm::CascadeSelection sel = csm::selectCascade(
+          r.frame, csm::viewDepthM(r.frame, hit.posWs), scene.settings().blendBand);
+      if (sel.index < 0) continue;
+      double texel = r.frame.cascades[sel.index].texelSizeM();
+      if (sel.blendIndex >= 0)
+        texel = std::max(texel, r.frame.cascades[sel.blendIndex].texelSizeM());
+      if (!scene.farFromEdge(hit.posWs, 2.0 * texel, r.frame)) continue;
+      const bool analytic = scene.shadowedAnalytic(hit.posWs);
+      const bool gpu = r.image.at(x, y)[0] < 128;
+      ++a.compared;
+      a.shadowed += analytic ? 1 : 0;
+      a.agreed += analytic == gpu ? 1 : 0;
+    }
+  }
+  return a;
+}
+
+csm::ShadowSettings testSettings(uint32_t cascades, uint32_t resolution) {
+  csm::ShadowSettings s;
+  s.cascadeCount = cascades;
+  s.resolution = resolution;
+  s.shadowDistanceM = 60.0;
+  return s;
 }
 
 }  // namespace csm_test

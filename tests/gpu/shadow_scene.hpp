@@ -6,12 +6,14 @@
 #include <csm/core.hpp>
 #include <csm/gpu_layout.hpp>
 #include <csm/vulkan/shadow_renderer.hpp>
+#include <csm/vulkan/shadow_view.hpp>
 #include <engine/camera.hpp>
 #include <engine/context.hpp>
 #include <engine/headless_target.hpp>
 #include <engine/lit_pass.hpp>
 #include <engine/mesh_store.hpp>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -53,12 +55,33 @@ class ShadowScene {
   /// Renders one frame with the given kernel, blend specialization and debug output.
   Rendered render(csm::PcfKernel kernel, csm::DebugMode debug, bool blend = true,
                   bool worldSpaceKernel = false);
+  /// What renderFrame does besides render(): for the lifetime and split-screen tests.
+  struct FrameHooks {
+    csm::DebugMode debug = csm::DebugMode::kShadowFactor;
+    bool blend = true;
+    bool worldSpaceKernel = false;
+    /// False: the lit pass samples the view without its pass this frame (out.frame default).
+    bool shadowPass = true;
+    /// With enableSecondView(): the lit pass renders from secondCamera with the second view.
+    bool litFromSecond = false;
+    /// Run after recording, before the frame is submitted / right after it is submitted.
+    std::function<void()> beforeSubmit;
+    std::function<void()> afterSubmit;
+  };
+  Rendered renderFrame(csm::PcfKernel kernel, const FrameHooks& hooks);
+  /// A second view of the same casters (split screen), recorded into the same command buffer
+  /// as the main one each frame, for `secondCamera`. Call after update().
+  void enableSecondView();
+  engine::Camera secondCamera;
+  /// Destroys the main view now (the lifetime test does it with a frame in flight).
+  void destroyView();
 
   /// Computes (and culls) the cascades of the current camera, light and settings.
   csm::CascadeFrame computeFrame();
+  /// Records the view's shadow pass for the scene's camera and light; returns its frame.
   /// Records the shadow pass of `frame` (computed by computeFrame()) into `cmd`.
-  void recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame, csm::DebugMode debug,
-                    bool worldSpaceKernel = false);
+  csm::CascadeFrame recordShadow(VkCommandBuffer cmd, csm::DebugMode debug,
+                                 bool worldSpaceKernel = false);
 
   /// Nearest surface a camera ray through pixel (x, y) hits: its world point, and whether it is
   /// the ground plane (false: a caster, or nothing).
@@ -79,8 +102,9 @@ class ShadowScene {
   std::string saveArtefact(const engine::CpuImage& image, const std::string& name) const;
 
   engine::Context& context() { return *ctx_; }
-  csm::vk::ShadowRenderer& renderer() { return *renderer_; }
-  const csm::ShadowSettings& settings() const { return settings_; }
+  csm::vk::ShadowRenderer& renderer() { return view_->renderer(); }
+  csm::vk::ShadowView& view() { return *view_; }
+  const csm::ShadowSettings& settings() const { return view_->settings(); }
   csm::Camera csmCamera() const;
 
   engine::Camera camera;
@@ -95,20 +119,33 @@ class ShadowScene {
   std::unique_ptr<engine::Context> ctx_;
   std::unique_ptr<engine::HeadlessTarget> target_;
   std::unique_ptr<engine::MeshStore> meshes_;
-  std::unique_ptr<csm::vk::ShadowRenderer> renderer_;
-  std::map<std::pair<uint32_t, uint32_t>, std::unique_ptr<engine::LitPass>> litPasses_;
-  engine::MeshRange planeMesh_, sphereMesh_, cubeMesh_;
+  std::unique_ptr<csm::vk::ShadowView> view_;
+  std::unique_ptr<csm::vk::ShadowView> second_;
   std::vector<csm::vk::MeshDraw> casterMeshes_;
   std::vector<csm::vk::CasterInstance> casters_;
-  csm::CasterSet casterSet_;
-  csm::CullResult cull_;
+  std::vector<csm::AabbWs> casterBounds_;
+  std::map<std::pair<uint32_t, uint32_t>, std::unique_ptr<engine::LitPass>> litPasses_;
+  engine::MeshRange planeMesh_, sphereMesh_, cubeMesh_;
   std::vector<engine::LitDraw> litDraws_;
-  csm::ShadowSettings settings_{};
-  csm::CascadeHistory history_{};
   bool built_ = false;
 
   void buildScene();
 };
+
+/// Analytic agreement of a kShadowFactor image (shared by the render and lifetime tests).
+struct Agreement {
+  uint64_t compared = 0;
+  uint64_t agreed = 0;
+  uint64_t shadowed = 0;  // compared pixels the analytic answer puts in shadow
+  [[nodiscard]] double ratio() const { return compared ? double(agreed) / double(compared) : 0.0; }
+};
+
+/// Ground pixels farther than 2 texels (of their cascade, the coarser one in a blend band) from
+/// the analytic shadow edge and inside the cascades: shadow factor < 0.5 <=> analytically shadowed.
+Agreement compareWithAnalytic(const ShadowScene& scene, const Rendered& r);
+
+/// Settings of the shadow tests: `cascades` of `resolution`, shadows to 60 m.
+csm::ShadowSettings testSettings(uint32_t cascades, uint32_t resolution);
 
 /// Counts validation messages (warnings + errors) seen so far in this process.
 uint64_t validationMessages();

@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "csm/vulkan/shadow_renderer.hpp"
+#include "csm/vulkan/shadow_view.hpp"
 #include "engine/context.hpp"
 
 namespace world {
@@ -18,5 +19,9 @@ namespace world {
 /// std::runtime_error with the module's message when it cannot be created.
 [[nodiscard]] std::unique_ptr<csm::vk::ShadowRenderer> createShadowRenderer(
     const engine::Context& ctx);
+
+/// A shadow view (the per-view object) on the context's device, reading engine::Vertex
+/// positions. Throws std::runtime_error with the module's message when it cannot be created.
+[[nodiscard]] std::unique_ptr<csm::vk::ShadowView> createShadowView(const engine::Context& ctx);
 
 }  // namespace world

@@ -71,6 +71,13 @@ Status ShadowView::setSceneBounds(const AabbWs* boundsWs) {
   return {};
 }
 
+Result<CascadeFrame> ShadowView::computeFrame(const Camera& camera,
+                                              const DirectionalLight& light) const {
+  CascadeHistory history = history_;
+  return computeCascades(settings_, camera, light, hasSceneBounds_ ? &sceneBounds_ : nullptr,
+                         &history);
+}
+
 Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,
                           const DirectionalLight& light) {
   if (!hasSettings_) {

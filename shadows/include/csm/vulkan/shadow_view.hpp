@@ -60,6 +60,11 @@ class ShadowView {
   /// the invalid input (camera, light) or come from the renderer; nothing is recorded then.
   Status record(VkCommandBuffer cmd, const Camera& camera, const DirectionalLight& light);
 
+  /// The frame record() would compute now for `camera` and `light`, without recording or
+  /// advancing the history (for tests, overlays and hosts that place things by the cascades).
+  [[nodiscard]] Result<CascadeFrame> computeFrame(const Camera& camera,
+                                                  const DirectionalLight& light) const;
+
   /// Records the pending clear of a new image (hosts without DeviceInfo::queue; see
   /// ShadowRenderer::prepare).
   Status prepare(VkCommandBuffer cmd) { return renderer_->prepare(cmd); }

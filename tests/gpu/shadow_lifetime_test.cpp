@@ -1,0 +1,188 @@
+// The module's lifetime promises, with validation on (any message fails): the lighting set can
+// be sampled before the first shadow pass (it reads "lit"); settings can change between
+// recording and submitting and with frames in flight; a view can be destroyed with a frame in
+// flight; two views (split screen) record into one command buffer, each lighting its own camera.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+
+#include "sample_world/shadow_host.hpp"
+#include "shadow_scene.hpp"
+
+namespace csm_test {
+namespace {
+
+// Plane pixels of two images with the same camera: how many are darker in `shadowed` than in
+// `unshadowed` (by more than 10 of 255) and how many are brighter (by more than 2).
+struct Difference {
+  uint64_t plane = 0;
+  uint64_t darker = 0;
+  uint64_t brighter = 0;
+};
+Difference compareImages(const ShadowScene& scene, const engine::CpuImage& unshadowed,
+                         const engine::CpuImage& shadowed) {
+  Difference d;
+  for (uint32_t y = 0; y < shadowed.height; ++y) {
+    for (uint32_t x = 0; x < shadowed.width; ++x) {
+      const ShadowScene::Hit hit = scene.trace(x, y);
+      if (!hit.hit || !hit.plane) continue;
+      ++d.plane;
+      const int a = unshadowed.at(x, y)[0], b = shadowed.at(x, y)[0];
+      d.darker += b < a - 10 ? 1 : 0;
+      d.brighter += b > a + 2 ? 1 : 0;
+    }
+  }
+  return d;
+}
+
+TEST(ShadowLifetime, LightingSetSampledBeforeTheFirstShadowPassReadsLit) {
+  {
+    ShadowScene scene;
+    CSM_ASSERT_OK(scene.update(testSettings(3, 512)));
+    EXPECT_FALSE(scene.renderer().needsPrepare());  // cleared on DeviceInfo::queue by update()
+    ShadowScene::FrameHooks noPass;
+    noPass.shadowPass = false;
+    const Rendered before = scene.renderFrame(csm::PcfKernel::kTent3, noPass);
+    // The same shading (no debug output) with the shadow pass.
+    ShadowScene::FrameHooks shaded;
+    shaded.debug = csm::DebugMode::kNone;
+    const Rendered with = scene.renderFrame(csm::PcfKernel::kTent3, shaded);
+    const Agreement a = compareWithAnalytic(
+        scene, scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor));
+    // The uniform block holds no cascade before the first pass: every plane pixel is lit, and
+    // the render with shadows darkens only (where the analytic answer is shadowed).
+    const Difference d = compareImages(scene, before.image, with.image);
+    std::printf(
+        "before the first pass: %llu plane pixels, %llu darker with shadows, %llu brighter;"
+        " analytic agreement with shadows %.4f (%llu shadowed)\n",
+        (unsigned long long)d.plane, (unsigned long long)d.darker, (unsigned long long)d.brighter,
+        a.ratio(), (unsigned long long)a.shadowed);
+    EXPECT_GT(d.plane, 10000u);
+    EXPECT_GE(d.darker, a.shadowed / 2);
+    EXPECT_GT(d.darker, 500u);
+    EXPECT_EQ(d.brighter, 0u);
+    EXPECT_GE(a.ratio(), 0.995);
+    scene.saveArtefact(before.image, "lifetime_before_first_pass");
+    scene.saveArtefact(with.image, "lifetime_after_first_pass");
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+TEST(ShadowLifetime, WithoutAQueuePrepareRecordsTheClear) {
+  {
+    ShadowScene scene;
+    csm::vk::DeviceInfo info = world::shadowDeviceInfo(scene.context());
+    info.queue = VK_NULL_HANDLE;
+    csm::vk::Status status;
+    auto renderer = csm::vk::ShadowRenderer::create(info, csm::vk::VertexLayout{}, &status);
+    ASSERT_TRUE(renderer) << status.message();
+    CSM_ASSERT_OK(renderer->update(testSettings(2, 512)));
+    EXPECT_TRUE(renderer->needsPrepare());
+    scene.context().submitAndWait([&](VkCommandBuffer cmd) { status = renderer->prepare(cmd); });
+    CSM_ASSERT_OK(status);
+    EXPECT_FALSE(renderer->needsPrepare());
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+TEST(ShadowLifetime, SettingsChangeBetweenRecordingAndSubmitting) {
+  {
+    ShadowScene scene;
+    CSM_ASSERT_OK(scene.update(testSettings(2, 512)));
+    (void)scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+    const VkImage first = scene.renderer().image();
+    // The recorded frame uses the 512 image and its lighting set; the new settings replace
+    // both before it is submitted. It must still run, with no validation message.
+    ShadowScene::FrameHooks hooks;
+    hooks.beforeSubmit = [&] {
+      const csm::vk::Status s = scene.update(testSettings(3, 1024));
+      EXPECT_TRUE(s.ok()) << s.message();
+    };
+    const Rendered recordedBefore = scene.renderFrame(csm::PcfKernel::kTent3, hooks);
+    EXPECT_GE(compareWithAnalytic(scene, recordedBefore).ratio(), 0.99);
+    EXPECT_NE(scene.renderer().image(), first);
+    // The next frames render with the new settings, correctly, past the retirement of the old.
+    for (int i = 0; i < 4; ++i) {
+      const Rendered r = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+      EXPECT_EQ(r.frame.cascadeCount, 3u);
+      const Agreement a = compareWithAnalytic(scene, r);
+      EXPECT_GE(a.ratio(), 0.995) << "frame " << i;
+    }
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+TEST(ShadowLifetime, SettingsChangeWithFramesInFlight) {
+  {
+    ShadowScene scene;
+    CSM_ASSERT_OK(scene.update(testSettings(2, 512)));
+    // Each frame is submitted, then the settings change at once, with the frame still in flight
+    // (the hook runs right after submission, before the frame's readback waits for it).
+    const csm::ShadowSettings cycle[] = {testSettings(3, 1024), testSettings(2, 512),
+                                         testSettings(4, 512), testSettings(1, 1024)};
+    for (int i = 0; i < 8; ++i) {
+      ShadowScene::FrameHooks hooks;
+      const csm::ShadowSettings next = cycle[i % 4];
+      hooks.afterSubmit = [&] {
+        const csm::vk::Status s = scene.update(next);
+        EXPECT_TRUE(s.ok()) << s.message();
+      };
+      const Rendered r = scene.renderFrame(csm::PcfKernel::kTent3, hooks);
+      EXPECT_GE(compareWithAnalytic(scene, r).ratio(), 0.99) << "frame " << i;
+    }
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+TEST(ShadowLifetime, ViewDestroyedWithAFrameInFlight) {
+  {
+    ShadowScene scene;
+    CSM_ASSERT_OK(scene.update(testSettings(3, 1024)));
+    (void)scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+    ShadowScene::FrameHooks hooks;
+    hooks.afterSubmit = [&] { scene.destroyView(); };  // waits for DeviceInfo::queue
+    const Rendered r = scene.renderFrame(csm::PcfKernel::kTent3, hooks);
+    EXPECT_GT(r.image.width, 0u);
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+TEST(ShadowLifetime, TwoViewsRecordIntoOneCommandBufferEachLightingItsOwnCamera) {
+  {
+    ShadowScene scene;
+    CSM_ASSERT_OK(scene.update(testSettings(3, 1024)));
+    // The second camera: elsewhere, looking another way (split screen, two players).
+    scene.secondCamera = scene.camera;
+    scene.secondCamera.positionWs = {-8.0, 9.0, -4.0};
+    scene.secondCamera.lookAt({2.0, 0.0, -20.0});
+    scene.enableSecondView();
+    for (int frame = 0; frame < 3; ++frame) {
+      ShadowScene::FrameHooks first;
+      const Rendered a = scene.renderFrame(csm::PcfKernel::kTent3, first);
+      const Agreement ga = compareWithAnalytic(scene, a);
+      ShadowScene::FrameHooks second;
+      second.litFromSecond = true;
+      const Rendered b = scene.renderFrame(csm::PcfKernel::kTent3, second);
+      std::swap(scene.camera, scene.secondCamera);  // compare from the camera b was lit from
+      const Agreement gb = compareWithAnalytic(scene, b);
+      std::swap(scene.camera, scene.secondCamera);
+      std::printf("frame %d: view 1 agrees %.4f (%llu px), view 2 agrees %.4f (%llu px)\n", frame,
+                  ga.ratio(), (unsigned long long)ga.compared, gb.ratio(),
+                  (unsigned long long)gb.compared);
+      EXPECT_GE(ga.ratio(), 0.995);
+      EXPECT_GE(gb.ratio(), 0.995);
+      EXPECT_GT(ga.compared, 5000u);
+      EXPECT_GT(gb.compared, 5000u);
+      // The two views' frames differ (their own cameras), so neither borrowed the other's.
+      EXPECT_NE(a.frame.cameraPositionWs, b.frame.cameraPositionWs);
+      if (frame == 0) {
+        scene.saveArtefact(a.image, "lifetime_split_view1");
+        scene.saveArtefact(b.image, "lifetime_split_view2");
+      }
+    }
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+}  // namespace
+}  // namespace csm_test
