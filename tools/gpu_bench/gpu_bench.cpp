@@ -9,6 +9,7 @@
 #include <csm/core.hpp>
 #include <csm/gpu_layout.hpp>
 #include <csm/vulkan/shadow_renderer.hpp>
+#include <csm/vulkan/shadow_view.hpp>
 #include <engine/camera.hpp>
 #include <engine/context.hpp>
 #include <engine/errors.hpp>
@@ -76,7 +77,7 @@ class Bench {
     timer_ = std::make_unique<engine::GpuTimer>(*ctx_, 8);
     meshes_ = std::make_unique<engine::MeshStore>(*ctx_, 1 << 18, 1 << 20, "bench meshes");
 
-    renderer_ = world::createShadowRenderer(*ctx_);
+    view_ = world::createShadowView(*ctx_);
     buildScene();
     camera_.positionWs = {3.0, 12.0, 20.0};
     camera_.lookAt({0.0, 0.0, -60.0});
@@ -89,7 +90,7 @@ class Bench {
   ~Bench() {
     ctx_->waitIdle();
     lit_.clear();
-    renderer_.reset();
+    view_.reset();
     meshes_.reset();
     timer_.reset();
     target_.reset();
@@ -108,14 +109,14 @@ class Bench {
     settings.shadowDistanceM = 200.0;
     csm::vk::RendererOptions options;
     options.renderMode = mode;
-    const csm::vk::Status st = renderer_->update(settings, options);
+    const csm::vk::Status st = view_->setSettings(settings, options);
     if (!st.ok()) throw std::runtime_error("update: " + st.message());
     auto& lit = lit_[uint32_t(kernel)];
     if (!lit) {
       engine::LitPassDesc desc;
       desc.colorFormat = target_->colorFormat();
       desc.depthFormat = target_->depthFormat();
-      desc.shadowSetLayout = renderer_->lightingSetLayout();
+      desc.shadowSetLayout = view_->lightingSetLayout();
       desc.specialization = {{CSM_SPEC_KERNEL, uint32_t(kernel)}, {CSM_SPEC_BLEND, 1u}};
       lit = std::make_unique<engine::LitPass>(*ctx_, desc);
     }
@@ -126,19 +127,14 @@ class Bench {
     cam.aspect = camera_.aspect;
     cam.nearM = camera_.nearM;
     cam.farM = camera_.farM;
-    csm::CascadeHistory history;
+    view_->resetHistory();
     double shadowMs = 0.0, litMs = 0.0;
     for (int f = 0; f <= opt_.frames; ++f) {
-      csm::Result<csm::CascadeFrame> frame =
-          csm::computeCascades(settings, cam, light_, &bounds_, &history);
-      if (!frame.ok()) throw std::runtime_error(frame.error().message());
-      csm::cullCasters(casterSet_, frame.value(), 0.0f, cull_);
       std::optional<engine::Frame> fr = target_->beginFrame();
       if (!fr) throw std::runtime_error("no frame");
       timer_->beginFrame(fr->cmd, fr->slot);
       timer_->begin(fr->cmd, "shadow");
-      const csm::vk::Status s = renderer_->recordShadowPass(
-          fr->cmd, frame.value(), csm::vk::CasterList{casterMeshes_, casters_}, &cull_);
+      const csm::vk::Status s = view_->record(fr->cmd, cam, light_);
       if (!s.ok()) throw std::runtime_error("record: " + s.message());
       timer_->end(fr->cmd, "shadow");
       engine::LitFrame lf;
@@ -148,7 +144,7 @@ class Bench {
       lit->prepare(fr->cmd, lf);
       timer_->begin(fr->cmd, "lit");
       engine::beginRendering(*fr, VkClearColorValue{{0.1f, 0.1f, 0.15f, 1.0f}});
-      lit->draw(fr->cmd, *meshes_, renderer_->lightingSet(), litDraws_, fr->extent);
+      lit->draw(fr->cmd, *meshes_, view_->lightingSet(), litDraws_, fr->extent);
       vkCmdEndRendering(fr->cmd);
       timer_->end(fr->cmd, "lit");
       const uint32_t slot = fr->slot;
@@ -211,8 +207,10 @@ class Bench {
       }
     }
     casterSet_.build();
-    bounds_.minWs = {-half, 0.0, -100.0 - half};
-    bounds_.maxWs = {half, 6.0, -100.0 + half};
+    const csm::AabbWs bounds{{-half, 0.0, -100.0 - half}, {half, 6.0, -100.0 + half}};
+    csm::vk::Status s = view_->setCasters(casterMeshes_, casters_, casterSet_);
+    if (s.ok()) s = view_->setSceneBounds(&bounds);
+    if (!s.ok()) throw std::runtime_error("ShadowView: " + s.message());
   }
 
   Options opt_;
@@ -220,14 +218,12 @@ class Bench {
   std::unique_ptr<engine::HeadlessTarget> target_;
   std::unique_ptr<engine::GpuTimer> timer_;
   std::unique_ptr<engine::MeshStore> meshes_;
-  std::unique_ptr<csm::vk::ShadowRenderer> renderer_;
+  std::unique_ptr<csm::vk::ShadowView> view_;
   std::map<uint32_t, std::unique_ptr<engine::LitPass>> lit_;
   std::vector<csm::vk::MeshDraw> casterMeshes_;
   std::vector<csm::vk::CasterInstance> casters_;
   std::vector<engine::LitDraw> litDraws_;
   csm::CasterSet casterSet_;
-  csm::CullResult cull_;
-  csm::AabbWs bounds_{};
   engine::Camera camera_;
   csm::DirectionalLight light_;
 };

@@ -23,14 +23,9 @@ Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOpt
   return {};
 }
 
-Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
-                              std::span<const CasterInstance> instances,
-                              std::span<const AabbWs> boundsWs) {
-  if (boundsWs.size() != instances.size()) {
-    return Status(ErrorCode::kInvalidArgument,
-                  "setCasters: " + std::to_string(boundsWs.size()) + " bounds for " +
-                      std::to_string(instances.size()) + " instances: give one per instance");
-  }
+namespace {
+
+Status checkInstances(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances) {
   for (std::size_t i = 0; i < instances.size(); ++i) {
     const CasterInstance& inst = instances[i];
     bool ok = inst.mesh < meshes.size();
@@ -42,6 +37,21 @@ Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
                                                      ") (lodMeshes: or kNoMesh)");
     }
   }
+  return {};
+}
+
+}  // namespace
+
+Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
+                              std::span<const CasterInstance> instances,
+                              std::span<const AabbWs> boundsWs) {
+  if (boundsWs.size() != instances.size()) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "setCasters: " + std::to_string(boundsWs.size()) + " bounds for " +
+                      std::to_string(instances.size()) + " instances: give one per instance");
+  }
+  Status s = checkInstances(meshes, instances);
+  if (!s.ok()) return s;
   CasterSet set;
   set.reserve(instances.size());
   for (std::size_t i = 0; i < boundsWs.size(); ++i) {
@@ -53,6 +63,23 @@ Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
   }
   set.build();
   casterSet_ = std::move(set);
+  meshes_.assign(meshes.begin(), meshes.end());
+  instances_.assign(instances.begin(), instances.end());
+  return {};
+}
+
+Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
+                              std::span<const CasterInstance> instances,
+                              const CasterSet& casterSet) {
+  if (casterSet.size() != instances.size()) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "setCasters: a caster set of " + std::to_string(casterSet.size()) + " for " +
+                      std::to_string(instances.size()) + " instances: give one per instance");
+  }
+  Status s = checkInstances(meshes, instances);
+  if (!s.ok()) return s;
+  casterSet_ = casterSet;
+  if (!casterSet_.built()) casterSet_.build();
   meshes_.assign(meshes.begin(), meshes.end());
   instances_.assign(instances.begin(), instances.end());
   return {};
@@ -71,11 +98,22 @@ Status ShadowView::setSceneBounds(const AabbWs* boundsWs) {
   return {};
 }
 
-Result<CascadeFrame> ShadowView::computeFrame(const Camera& camera,
-                                              const DirectionalLight& light) const {
-  CascadeHistory history = history_;
+Result<CascadeFrame> ShadowView::computeFrame(const Camera& camera, const DirectionalLight& light,
+                                              CascadeHistory* history) const {
+  CascadeHistory own = history_;
   return computeCascades(settings_, camera, light, hasSceneBounds_ ? &sceneBounds_ : nullptr,
-                         &history);
+                         history != nullptr ? history : &own);
+}
+
+Status ShadowView::record(VkCommandBuffer cmd, const CascadeFrame& frame) {
+  if (!hasSettings_) {
+    return Status(ErrorCode::kWrongOrder, "ShadowView::record before a successful setSettings()");
+  }
+  cullCasters(casterSet_, frame, settings_.minCasterTexels, cull_);
+  Status s = renderer_->recordShadowPass(cmd, frame, CasterList{meshes_, instances_}, &cull_);
+  if (!s.ok()) return s;
+  frame_ = frame;
+  return {};
 }
 
 Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,
@@ -85,16 +123,11 @@ Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,
   }
   // Computed into a copy of the history: a refused input leaves the view as it was.
   CascadeHistory history = history_;
-  auto frame = computeCascades(settings_, camera, light, hasSceneBounds_ ? &sceneBounds_ : nullptr,
-                               &history);
+  auto frame = computeFrame(camera, light, &history);
   if (!frame.ok()) return Status(ErrorCode::kInvalidArgument, frame.error().message());
-  cullCasters(casterSet_, frame.value(), settings_.minCasterTexels, cull_);
-  Status s =
-      renderer_->recordShadowPass(cmd, frame.value(), CasterList{meshes_, instances_}, &cull_);
-  if (!s.ok()) return s;
-  history_ = history;
-  frame_ = frame.value();
-  return {};
+  Status s = record(cmd, frame.value());
+  if (s.ok()) history_ = history;
+  return s;
 }
 
 }  // namespace csm::vk

@@ -134,7 +134,7 @@ Harness::Harness(const HarnessDesc& desc) {
   cd.appName = desc.appName;
   cd.validation = desc.validation;
   ctx_ = std::make_unique<engine::Context>(cd);
-  renderer_ = world::createShadowRenderer(*ctx_);
+  view_ = world::createShadowView(*ctx_);
 }
 
 Harness::~Harness() {
@@ -146,7 +146,7 @@ Harness::~Harness() {
   accuracy_.reset();
   probePipelines_.clear();
   probe_.reset();
-  renderer_.reset();
+  view_.reset();
   meshes_.reset();
   if (ctx_) ctx_->shutdown();
 }
@@ -178,9 +178,17 @@ void Harness::setScene(const Scene& scene) {
   for (const Instance& in : instances_)
     casters_.push_back({in.mesh, in.translationWs, in.linearWs});
   casterSet_ = scene.casterSet();
-  sceneBounds_ = scene.boundsWs();
+  const csm::AabbWs bounds = scene.boundsWs();
   meshRanges_ = std::move(ranges);
-  lodMeshes_.clear();
+  csm::vk::Status s = view_->setCasters(meshDraws_, casters_, casterSet_);
+  if (s.ok()) s = view_->setSceneBounds(&bounds);
+  if (!s.ok()) throw std::runtime_error("ShadowView: " + s.message());
+  cascadeLod_ = {};
+  if (view_->renderer().ready()) {
+    options_.cascadeLod = {};
+    s = view_->setSettings(view_->settings(), options_);
+    if (!s.ok()) throw std::runtime_error("ShadowView::setSettings: " + s.message());
+  }
 }
 
 void Harness::setCasterLods(std::vector<std::vector<uint32_t>> lodMeshes,
@@ -191,9 +199,11 @@ void Harness::setCasterLods(std::vector<std::vector<uint32_t>> lodMeshes,
                                 " instances: one per instance required");
   }
   for (size_t i = 0; i < lodMeshes.size(); ++i) {
-    if (lodMeshes[i].empty()) {
-      throw std::invalid_argument("setCasterLods: instance " + std::to_string(i) +
-                                  " has no LOD mesh: at least one required");
+    if (lodMeshes[i].empty() || lodMeshes[i].size() > csm::vk::kMaxCasterLods) {
+      throw std::invalid_argument("setCasterLods: instance " + std::to_string(i) + " has " +
+                                  std::to_string(lodMeshes[i].size()) +
+                                  " LOD meshes: allowed [1, " +
+                                  std::to_string(csm::vk::kMaxCasterLods) + "]");
     }
     for (uint32_t m : lodMeshes[i]) {
       if (m >= meshDraws_.size()) {
@@ -203,69 +213,59 @@ void Harness::setCasterLods(std::vector<std::vector<uint32_t>> lodMeshes,
       }
     }
   }
-  lodMeshes_ = std::move(lodMeshes);
-  cascadeLod_ = cascadeLod;
+  // LOD 0 of the module's instance is the instance's LOD-0 mesh; LODs off: the own mesh only.
+  std::vector<csm::vk::CasterInstance> casters = casters_;
+  for (size_t i = 0; i < lodMeshes.size(); ++i) {
+    casters[i].mesh = lodMeshes[i][0];
+    for (uint32_t k = 1; k < csm::vk::kMaxCasterLods; ++k) {
+      casters[i].lodMeshes[k - 1] = k < lodMeshes[i].size() ? lodMeshes[i][k] : csm::vk::kNoMesh;
+    }
+  }
+  csm::vk::Status s = view_->setCasters(meshDraws_, casters, casterSet_);
+  cascadeLod_ = lodMeshes.empty() ? std::array<uint32_t, csm::kMaxCascades>{} : cascadeLod;
+  options_.cascadeLod = cascadeLod_;
+  for (uint32_t& l : options_.cascadeLod) l = std::min(l, csm::vk::kMaxCasterLods - 1);
+  if (s.ok() && view_->renderer().ready()) s = view_->setSettings(view_->settings(), options_);
+  if (!s.ok()) throw std::invalid_argument("setCasterLods: " + s.message());
 }
 
 csm::vk::Status Harness::configure(const csm::ShadowSettings& settings,
                                    const csm::vk::RendererOptions& options) {
-  const csm::vk::Status s = renderer_->update(settings, options);
-  if (s.ok()) {
-    settings_ = settings;
-    options_ = options;
-  }
+  // The caster LODs of setCasterLods() stay in force.
+  csm::vk::RendererOptions withLods = options;
+  withLods.cascadeLod = options_.cascadeLod;
+  const csm::vk::Status s = view_->setSettings(settings, withLods);
+  if (s.ok()) options_ = withLods;
   return s;
 }
 
 uint64_t Harness::shadowMapBytes() const {
-  return uint64_t(settings_.resolution) * settings_.resolution * settings_.cascadeCount *
-         engine::bytesPerTexel(renderer_->depthFormat());
+  const csm::ShadowSettings& settings = view_->settings();
+  return uint64_t(settings.resolution) * settings.resolution * settings.cascadeCount *
+         engine::bytesPerTexel(view_->renderer().depthFormat());
 }
 
 csm::CascadeFrame Harness::computeFrame(const csm::Camera& camera,
                                         const csm::DirectionalLight& light,
                                         csm::CascadeHistory& history) {
-  csm::Result<csm::CascadeFrame> frame =
-      csm::computeCascades(settings_, camera, light, &sceneBounds_, &history);
+  csm::Result<csm::CascadeFrame> frame = view_->computeFrame(camera, light, &history);
   if (!frame.ok()) throw std::runtime_error("computeCascades: " + frame.error().message());
-  csm::cullCasters(casterSet_, frame.value(), settings_.minCasterTexels, cull_);
   return frame.value();
 }
 
 void Harness::recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame) {
-  renderer_->setUniformOptions({});
+  view_->setUniformOptions({});
+  const csm::vk::Status s = view_->record(cmd, frame);
+  if (!s.ok()) throw std::runtime_error("ShadowView::record: " + s.message());
+  // Triangles drawn: each cascade's culled casters at that cascade's LOD.
   shadowTriangles_ = 0;
-  csm::vk::Status s;
-  if (lodMeshes_.empty()) {
-    for (uint32_t c = 0; c < frame.cascadeCount; ++c) {
-      if (frame.cascades[c].empty) continue;
-      for (uint32_t i : cull_.visible[c])
-        shadowTriangles_ += meshDraws_[casters_[i].mesh].indexCount / 3;
+  for (uint32_t c = 0; c < frame.cascadeCount; ++c) {
+    if (frame.cascades[c].empty) continue;
+    const std::span<const csm::vk::CasterInstance> casters = view_->instances();
+    for (uint32_t i : view_->cull().visible[c]) {
+      shadowTriangles_ += meshDraws_[casters[i].meshForLod(options_.cascadeLod[c])].indexCount / 3;
     }
-    s = renderer_->recordShadowPass(cmd, frame, csm::vk::CasterList{meshDraws_, casters_}, &cull_);
-  } else {
-    // Each cascade draws its culled casters at its LOD (every mesh lives in one MeshStore).
-    s = renderer_->recordShadowPass(
-        cmd, frame,
-        [&](const csm::vk::CascadeDrawContext& c) {
-          const VkBuffer vb = meshes_->vertexBuffer();
-          const VkDeviceSize zero = 0;
-          vkCmdBindVertexBuffers(c.cmd, 0, 1, &vb, &zero);
-          vkCmdBindIndexBuffer(c.cmd, meshes_->indexBuffer(), 0, VK_INDEX_TYPE_UINT32);
-          for (uint32_t i : *c.visible) {
-            const std::vector<uint32_t>& lods = lodMeshes_[i];
-            const uint32_t lod =
-                std::min<uint32_t>(cascadeLod_[c.cascade], uint32_t(lods.size() - 1));
-            const csm::vk::MeshDraw& m = meshDraws_[lods[lod]];
-            if (m.indexCount == 0) continue;
-            c.setTransform(casters_[i].translationWs, casters_[i].linearWs);
-            vkCmdDrawIndexed(c.cmd, m.indexCount, 1, m.firstIndex, m.vertexOffset, 0);
-            shadowTriangles_ += m.indexCount / 3;
-          }
-        },
-        &cull_);
   }
-  if (!s.ok()) throw std::runtime_error("recordShadowPass: " + s.message());
 }
 
 // ---- probe ----------------------------------------------------------------------------------
@@ -281,7 +281,7 @@ void Harness::ensureProbeBuffers(uint32_t count) {
     probe_->pool = makePool(dev, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2, "measure.probe.pool");
     probe_->set = allocateSet(dev, probe_->pool, probe_->layout, "measure.probe.set");
     VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, 16};
-    const VkDescriptorSetLayout sets[2] = {probe_->layout.get(), renderer_->lightingSetLayout()};
+    const VkDescriptorSetLayout sets[2] = {probe_->layout.get(), view_->lightingSetLayout()};
     auto li = vkStruct<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
     li.setLayoutCount = 2;
     li.pSetLayouts = sets;
@@ -350,7 +350,7 @@ std::vector<ProbeResult> Harness::probe(const csm::CascadeFrame& frame,
     recordShadow(cmd, frame);
     engine::ScopedLabel label(cmd, "measure probe");
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
-    const VkDescriptorSet sets[2] = {probe_->set, renderer_->lightingSet()};
+    const VkDescriptorSet sets[2] = {probe_->set, view_->lightingSet()};
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, probe_->pipelineLayout, 0, 2, sets,
                             0, nullptr);
     const uint32_t push[4] = {count, 0, 0, 0};
@@ -435,7 +435,7 @@ Harness::AccuracyPipeline& Harness::accuracyPipeline(csm::PcfKernel kernel, bool
       .depthTest(true, true, VK_COMPARE_OP_LESS)
       .pushConstants(VK_SHADER_STAGE_VERTEX_BIT, sizeof(AccuracyPush))
       .descriptorSetLayout(accuracy_->layout)
-      .descriptorSetLayout(renderer_->lightingSetLayout())
+      .descriptorSetLayout(view_->lightingSetLayout())
       .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_KERNEL, uint32_t(kernel))
       .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, blend ? 1u : 0u);
   p->pipeline = builder.build(*ctx_, std::string("measure.accuracy.") + csm::kernelName(kernel) +
@@ -495,7 +495,7 @@ std::vector<PixelSample> Harness::renderAccuracy(const csm::Camera& camera,
       vkCmdBeginRendering(cmd, &ri);
       engine::setViewportAndScissor(cmd, extent);
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline.pipeline);
-      const VkDescriptorSet sets[2] = {t.set, renderer_->lightingSet()};
+      const VkDescriptorSet sets[2] = {t.set, view_->lightingSet()};
       vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline.layout, 0, 2,
                               sets, 0, nullptr);
       meshes_->bind(cmd);
@@ -596,7 +596,7 @@ FrameTimings Harness::timeFrame(const csm::Camera& camera, const csm::Directiona
     engine::LitPassDesc desc;
     desc.colorFormat = timingTarget_->colorFormat();
     desc.depthFormat = timingTarget_->depthFormat();
-    desc.shadowSetLayout = renderer_->lightingSetLayout();
+    desc.shadowSetLayout = view_->lightingSetLayout();
     desc.specialization = {{CSM_SPEC_KERNEL, uint32_t(kernel)}, {CSM_SPEC_BLEND, blend ? 1u : 0u}};
     lit = std::make_unique<engine::LitPass>(*ctx_, desc);
   }
@@ -624,7 +624,7 @@ FrameTimings Harness::timeFrame(const csm::Camera& camera, const csm::Directiona
   lit->prepare(f->cmd, lf);
   timer_->begin(f->cmd, "lit");
   engine::beginRendering(*f, VkClearColorValue{{0.1f, 0.1f, 0.15f, 1.0f}});
-  lit->draw(f->cmd, *meshes_, renderer_->lightingSet(), draws, f->extent);
+  lit->draw(f->cmd, *meshes_, view_->lightingSet(), draws, f->extent);
   vkCmdEndRendering(f->cmd);
   timer_->end(f->cmd, "lit");
   const uint32_t slot = f->slot;

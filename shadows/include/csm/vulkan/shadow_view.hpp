@@ -50,6 +50,10 @@ class ShadowView {
   /// count mismatch or invalid bounds; on error the previous casters stay.
   Status setCasters(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances,
                     std::span<const AabbWs> boundsWs);
+  /// The same with the culling bounds as a CasterSet the host built (spheres or boxes; caster i
+  /// of the set is instances[i]; copied, and built here if it was not).
+  Status setCasters(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances,
+                    const CasterSet& casterSet);
   /// Bounds of every receiver and caster (splits end where the scene does, empty cascades are
   /// skipped); nullptr: unbounded. Invalid bounds are refused.
   Status setSceneBounds(const AabbWs* boundsWs);
@@ -61,9 +65,17 @@ class ShadowView {
   Status record(VkCommandBuffer cmd, const Camera& camera, const DirectionalLight& light);
 
   /// The frame record() would compute now for `camera` and `light`, without recording or
-  /// advancing the history (for tests, overlays and hosts that place things by the cascades).
+  /// advancing the view's history (for tests, overlays and hosts that place things by the
+  /// cascades). With `history`, that history is used and advanced instead: tools that hold
+  /// several frames or histories (measurements) compute them so and record them with
+  /// record(cmd, frame).
   [[nodiscard]] Result<CascadeFrame> computeFrame(const Camera& camera,
-                                                  const DirectionalLight& light) const;
+                                                  const DirectionalLight& light,
+                                                  CascadeHistory* history = nullptr) const;
+  /// Culls and records a frame computed by computeFrame() (with this view's settings: a frame
+  /// computed with others is refused, naming the field). record(cmd, camera, light) is this
+  /// after computeFrame with the view's own history.
+  Status record(VkCommandBuffer cmd, const CascadeFrame& frame);
 
   /// Records the pending clear of a new image (hosts without DeviceInfo::queue; see
   /// ShadowRenderer::prepare).
@@ -84,6 +96,8 @@ class ShadowView {
   [[nodiscard]] const ShadowSettings& settings() const noexcept { return settings_; }
   [[nodiscard]] const RendererOptions& options() const noexcept { return options_; }
   [[nodiscard]] std::size_t casterCount() const noexcept { return instances_.size(); }
+  [[nodiscard]] std::span<const MeshDraw> meshes() const noexcept { return meshes_; }
+  [[nodiscard]] std::span<const CasterInstance> instances() const noexcept { return instances_; }
   /// The renderer (its image, views, samplers and uniform block).
   [[nodiscard]] ShadowRenderer& renderer() noexcept { return *renderer_; }
   [[nodiscard]] const ShadowRenderer& renderer() const noexcept { return *renderer_; }

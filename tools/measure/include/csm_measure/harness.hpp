@@ -14,6 +14,7 @@
 #include <engine/context.hpp>
 #include <engine/image_io.hpp>
 #include <engine/mesh_store.hpp>
+#include "csm/vulkan/shadow_view.hpp"
 
 #include <array>
 #include <map>
@@ -82,17 +83,20 @@ class Harness {
   Harness& operator=(const Harness&) = delete;
 
   engine::Context& context() { return *ctx_; }
-  csm::vk::ShadowRenderer& renderer() { return *renderer_; }
+  csm::vk::ShadowRenderer& renderer() { return view_->renderer(); }
+  csm::vk::ShadowView& view() { return *view_; }
 
   /// Uploads the scene's meshes and builds its caster list (replacing any previous scene).
   /// Caster LODs are off until setCasterLods().
   void setScene(const Scene& scene);
-  /// Caster LODs: the shadow pass's cascade c draws instance i with mesh
+  /// Caster LODs, through the module's (CasterInstance::lodMeshes, RendererOptions::cascadeLod):
+  /// the shadow pass's cascade c draws instance i with mesh
   /// `lodMeshes[i][min(cascadeLod[c], lodMeshes[i].size() - 1)]` (meshes of the scene that no
   /// instance needs to use, e.g. simplified copies) instead of the instance's own mesh. The
   /// accuracy and lit passes and the ray tracer keep the instances' (full-detail) meshes. An
   /// empty `lodMeshes` turns LODs off (every cascade draws the instances' meshes). Throws
-  /// std::invalid_argument for a size or mesh index out of range.
+  /// std::invalid_argument for a size or mesh index out of range (at most
+  /// csm::vk::kMaxCasterLods LODs).
   void setCasterLods(std::vector<std::vector<uint32_t>> lodMeshes,
                      const std::array<uint32_t, csm::kMaxCascades>& cascadeLod);
   /// Triangles the last recorded shadow pass drew, summed over its cascades.
@@ -100,10 +104,10 @@ class Harness {
   /// Applies shadow settings and renderer options.
   csm::vk::Status configure(const csm::ShadowSettings& settings,
                             const csm::vk::RendererOptions& options = {});
-  const csm::ShadowSettings& settings() const { return settings_; }
+  const csm::ShadowSettings& settings() const { return view_->settings(); }
 
-  /// computeCascades (scene bounds, `history`) and culling; throws std::runtime_error naming the
-  /// refused field on invalid input.
+  /// The view's frame for `camera` with the caller's `history` (scene bounds applied); throws
+  /// std::runtime_error naming the refused field on invalid input.
   csm::CascadeFrame computeFrame(const csm::Camera& camera, const csm::DirectionalLight& light,
                                  csm::CascadeHistory& history);
 
@@ -144,8 +148,7 @@ class Harness {
 
   std::unique_ptr<engine::Context> ctx_;
   std::unique_ptr<engine::MeshStore> meshes_;
-  std::unique_ptr<csm::vk::ShadowRenderer> renderer_;
-  csm::ShadowSettings settings_{};
+  std::unique_ptr<csm::vk::ShadowView> view_;
   csm::vk::RendererOptions options_{};
 
   // Scene on the GPU.
@@ -154,9 +157,6 @@ class Harness {
   std::vector<csm::vk::CasterInstance> casters_;
   std::vector<Instance> instances_;
   csm::CasterSet casterSet_;
-  csm::CullResult cull_;
-  csm::AabbWs sceneBounds_{};
-  std::vector<std::vector<uint32_t>> lodMeshes_;  // empty: caster LODs off
   std::array<uint32_t, csm::kMaxCascades> cascadeLod_{};
   uint64_t shadowTriangles_ = 0;
 
