@@ -100,9 +100,7 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
       for (std::uint32_t l = 0; l < kLodCount; ++l) r[l] = upload(*meshes_, c.lods[l]);
     }
     clusterRanges_.push_back(r);
-    (void)casterSet_.addBox(c.boundsWs.minWs, c.boundsWs.maxWs);
   }
-  casterSet_.build();
 
   // ---- View culling groups ------------------------------------------------------------------
   const std::uint32_t chunks = world.chunksPerSide * world.chunksPerSide;
@@ -118,7 +116,32 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
   bucketObjects_.resize(world.meshes.size() * kLodCount);
 
   // ---- Shadow renderer ----------------------------------------------------------------------
-  shadow_ = createShadowRenderer(ctx);
+  static_assert(kLodCount <= csm::vk::kMaxCasterLods);
+  shadow_ = createShadowView(ctx);
+  std::vector<csm::vk::MeshDraw> draws;
+  std::vector<csm::vk::CasterInstance> instances;
+  std::vector<csm::AabbWs> bounds;
+  for (std::size_t k = 0; k < world.clusters.size(); ++k) {
+    csm::vk::CasterInstance in;
+    in.mesh = static_cast<std::uint32_t>(draws.size());
+    in.translationWs = world.clusters[k].originWs;
+    for (std::uint32_t l = 0; l < kLodCount; ++l) {
+      const engine::MeshRange& r = clusterRanges_[k][l];
+      csm::vk::MeshDraw d;
+      d.vertexBuffer = meshes_->vertexBuffer();
+      d.indexBuffer = meshes_->indexBuffer();
+      d.firstIndex = r.firstIndex;
+      d.indexCount = r.indexCount;
+      d.vertexOffset = r.vertexOffset;
+      if (l > 0) in.lodMeshes[l - 1] = static_cast<std::uint32_t>(draws.size());
+      draws.push_back(d);
+    }
+    instances.push_back(in);
+    bounds.push_back(world.clusters[k].boundsWs);
+  }
+  csm::vk::Status casterStatus = shadow_->setCasters(draws, instances, bounds);
+  if (casterStatus.ok()) casterStatus = shadow_->setSceneBounds(&world.boundsWs);
+  if (!casterStatus.ok()) throw std::runtime_error("ShadowView: " + casterStatus.message());
 
   // ---- Per-frame resources --------------------------------------------------------------------
   VkDevice dev = ctx.device();
@@ -237,14 +260,19 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   csm::vk::RendererOptions options;
   options.depthFormat = settings.depth16 ? VK_FORMAT_D16_UNORM : VK_FORMAT_D32_SFLOAT;
   options.consumerStages = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-  const csm::vk::Status s = shadow_->update(effectiveShadow(settings), options);
+  if (settings.casterLods) {
+    for (std::uint32_t c = 0; c < csm::kMaxCascades; ++c) {
+      options.cascadeLod[c] = std::min(settings.cascadeLod[c], kLodCount - 1);
+    }
+  }
+  const csm::vk::Status s = shadow_->setSettings(effectiveShadow(settings), options);
   if (!s.ok()) return s.message();
   const bool resetHistory = !applied_ ||
                             settings.shadow.cascadeCount != settings_.shadow.cascadeCount ||
                             settings.shadow.stabilize != settings_.shadow.stabilize;
   settings_ = settings;
   applied_ = true;
-  if (resetHistory) history_ = {};
+  if (resetHistory) shadow_->resetHistory();
   buildLitPipeline();
   return std::nullopt;
 }
@@ -259,17 +287,15 @@ std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, 
   c.nearM = camera.nearM;
   c.farM = camera.farM;
   const csm::DirectionalLight light{lightDirection(settings_)};
-  const csm::ShadowSettings shadow = effectiveShadow(settings_);
 
+  // The shadows: cascades for this camera, and the casters culled into them.
   auto t0 = Clock::now();
-  csm::Result<csm::CascadeFrame> r =
-      csm::computeCascades(shadow, c, light, &world_->boundsWs, &history_);
+  const csm::vk::Status r = shadow_->compute(c, light);
   stats.cpuSetupMs = msSince(t0);
-  if (!r.ok()) return r.error().message();
-  frame_ = r.value();
+  if (!r.ok()) return r.message();
+  const csm::CascadeFrame& cascades = shadow_->frame();
 
   t0 = Clock::now();
-  csm::cullCasters(casterSet_, frame_, shadow.minCasterTexels, cull_);
   // Lit pass: chunks in the view frustum, then objects; LOD by distance.
   const auto planes = frustumPlanes(camera);
   for (auto& b : bucketObjects_) b.clear();
@@ -327,8 +353,8 @@ std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, 
   }
   stats.litInstances = static_cast<std::uint32_t>(instances_.size());
   stats.cpuCullMs = msSince(t0);
-  stats.cascades = frame_;
-  stats.cascadeCount = frame_.cascadeCount;
+  stats.cascades = cascades;
+  stats.cascadeCount = cascades.cascadeCount;
   return std::nullopt;
 }
 
@@ -338,39 +364,41 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
   VkCommandBuffer cmd = f.cmd;
   Slot& slot = slots_[f.slot];
 
-  // ---- Shadow pass: each cascade draws its culled clusters at its LOD ------------------------
+  // ---- Shadow pass: each cascade draws its culled clusters at its LOD (the module's LODs) -----
   shadow_->setUniformOptions({settings_.debug, settings_.worldSpaceKernel});
+  const csm::CascadeFrame& cascades = shadow_->frame();
+  const csm::CullResult& culled = shadow_->cull();
   stats.casters = {};
   stats.triangles = {};
+  for (std::uint32_t c = 0; c < cascades.cascadeCount; ++c) {
+    if (cascades.cascades[c].empty) continue;
+    const std::uint32_t lod = shadow_->options().cascadeLod[c];
+    stats.lod[c] = lod;
+    for (std::uint32_t k : culled.visible[c]) {
+      const engine::MeshRange& r = clusterRanges_[k][lod];
+      if (r.indexCount == 0) continue;
+      ++stats.casters[c];
+      stats.triangles[c] += r.indexCount / 3;
+    }
+  }
   const VkBuffer vb = meshes_->vertexBuffer();
   const VkDeviceSize zero = 0;
   timer.begin(cmd, "shadow");
-  // Each cascade's scope runs from its callback to the next cascade's (or the pass's end), so it
+  // Each cascade's scope runs from its hook to the next cascade's (or the pass's end), so it
   // includes the end of its render pass: where a binning rasteriser (lavapipe) does the work.
   std::string openScope;
-  const csm::vk::Status s = shadow_->recordShadowPass(
-      cmd, frame_,
-      [&](const csm::vk::CascadeDrawContext& c) {
-        if (!openScope.empty()) timer.end(cmd, openScope);
-        openScope = "shadow c" + std::to_string(c.cascade);
-        timer.begin(cmd, openScope);
-        const std::uint32_t lod = settings_.casterLods ? settings_.cascadeLod[c.cascade] : 0u;
-        stats.lod[c.cascade] = lod;
-        vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &zero);
-        vkCmdBindIndexBuffer(cmd, meshes_->indexBuffer(), 0, VK_INDEX_TYPE_UINT32);
-        for (std::uint32_t k : *c.visible) {
-          const engine::MeshRange& r = clusterRanges_[k][lod];
-          if (r.indexCount == 0) continue;
-          c.setTransform(world_->clusters[k].originWs, glm::mat3(1.0f));
-          vkCmdDrawIndexed(cmd, r.indexCount, 1, r.firstIndex, r.vertexOffset, 0);
-          ++stats.casters[c.cascade];
-          stats.triangles[c.cascade] += r.indexCount / 3;
-        }
-      },
-      &cull_);
+  shadow_->setCascadeHook([&](VkCommandBuffer hookCmd, std::uint32_t cascade) {
+    if (!openScope.empty()) timer.end(hookCmd, openScope);
+    openScope.clear();
+    if (cascade == csm::vk::kCascadeHookEnd) return;
+    openScope = "shadow c" + std::to_string(cascade);
+    timer.begin(hookCmd, openScope);
+  });
+  const csm::vk::Status s = shadow_->recordPass(cmd);
+  shadow_->setCascadeHook({});
   if (!openScope.empty()) timer.end(cmd, openScope);
   timer.end(cmd, "shadow");
-  if (!s.ok()) throw std::runtime_error("recordShadowPass: " + s.message());
+  if (!s.ok()) throw std::runtime_error("ShadowView::recordPass: " + s.message());
 
   // ---- Lit pass ---------------------------------------------------------------------------------
   WorldFrameGpu gpu{};
@@ -439,6 +467,8 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
 
 void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& tris,
                                  std::vector<OverlayVertex>& lines) const {
+  const csm::CascadeFrame& cascades = shadow_->frame();
+  const csm::CullResult& culled = shadow_->cull();
   const glm::vec4 solid(-1.0f, 0.0f, 1.0f, 0.0f);
   auto quad = [&](glm::vec2 a, glm::vec2 b, glm::vec4 color, glm::vec4 depth) {
     const OverlayVertex v00{a, {0, 0}, color, depth}, v10{{b.x, a.y}, {1, 0}, color, depth};
@@ -450,14 +480,14 @@ void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& 
     lines.push_back({b, {0, 0}, color, solid});
   };
   const auto W = static_cast<float>(extent.width), H = static_cast<float>(extent.height);
-  const std::uint32_t n = frame_.cascadeCount;
+  const std::uint32_t n = cascades.cascadeCount;
   const float pad = std::max(4.0f, 0.01f * H);
 
   // Shadow-map thumbnails along the bottom-left, each framed in its cascade's tint.
   if (settings_.overlayThumbnails) {
     const float size = std::min(0.2f * H, (0.55f * W - pad * (n + 1)) / std::max(1u, n));
     for (std::uint32_t c = 0; c < n; ++c) {
-      const csm::Cascade& cs = frame_.cascades[c];
+      const csm::Cascade& cs = cascades.cascades[c];
       const glm::vec4 tint(csm::cascadeTint(static_cast<int>(c)), 1.0f);
       const glm::vec2 a(pad + c * (size + pad), H - pad - size);
       quad(a - glm::vec2(2.0f), a + glm::vec2(size + 2.0f), tint, solid);
@@ -480,8 +510,8 @@ void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& 
     const float size = std::min(0.42f * H, 0.3f * W);
     const glm::vec2 origin(W - pad - size, H - pad - size);
     quad(origin, origin + glm::vec2(size), {0.0f, 0.0f, 0.0f, 0.55f}, solid);
-    const double radius = std::max(50.0, 1.05 * frame_.shadowFarM);
-    const glm::dvec3 cam = frame_.cameraPositionWs;
+    const double radius = std::max(50.0, 1.05 * cascades.shadowFarM);
+    const glm::dvec3 cam = cascades.cameraPositionWs;
     auto toMap = [&](const glm::dvec3& p) {
       const glm::dvec2 d((p.x - cam.x) / radius, (p.z - cam.z) / radius);
       return origin +
@@ -496,7 +526,7 @@ void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& 
     for (int c = static_cast<int>(n) - 1; c >= 0; --c) {
       const glm::vec4 tint(csm::cascadeTint(c), 0.9f);
       const float dot = 1.0f + 0.5f * static_cast<float>(c);
-      for (std::uint32_t k : cull_.visible[static_cast<std::size_t>(c)]) {
+      for (std::uint32_t k : culled.visible[static_cast<std::size_t>(c)]) {
         const csm::AabbWs& b = world_->clusters[k].boundsWs;
         const glm::vec2 p = toMap(0.5 * (b.minWs + b.maxWs));
         if (p.x < origin.x || p.y < origin.y || p.x > origin.x + size || p.y > origin.y + size) {
@@ -508,7 +538,7 @@ void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& 
     const glm::dvec3 fwd = camera_.forwardWs(), right = camera_.rightWs(), up = camera_.upWs();
     const double ty = std::tan(0.5 * camera_.fovYRad), tx = ty * camera_.aspect;
     for (std::uint32_t c = 0; c < n; ++c) {
-      const csm::Cascade& cs = frame_.cascades[c];
+      const csm::Cascade& cs = cascades.cascades[c];
       const glm::vec4 tint(csm::cascadeTint(static_cast<int>(c)), 1.0f);
       // Frustum slice: its far rectangle and the edges back to its near rectangle.
       glm::dvec3 nearC[4], farC[4];
@@ -534,8 +564,8 @@ void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& 
       }
       if (cs.empty) continue;
       // Light box: its 12 edges seen from above.
-      const glm::dvec3 lr = frame_.lightBasisWs[0], lu = frame_.lightBasisWs[1],
-                       lf = frame_.lightBasisWs[2];
+      const glm::dvec3 lr = cascades.lightBasisWs[0], lu = cascades.lightBasisWs[1],
+                       lf = cascades.lightBasisWs[2];
       glm::dvec3 corner[8];
       for (int k = 0; k < 8; ++k) {
         corner[k] = cs.boxCenterWs + ((k & 1) ? 1.0 : -1.0) * cs.halfExtentLs.x * lr +

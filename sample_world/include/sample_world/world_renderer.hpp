@@ -15,6 +15,7 @@
 #include "csm/cascades.hpp"
 #include "csm/culling.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
+#include "csm/vulkan/shadow_view.hpp"
 #include "engine/camera.hpp"
 #include "engine/context.hpp"
 #include "engine/gpu_timer.hpp"
@@ -29,8 +30,8 @@ namespace world {
 
 /// What one frame cost and drew.
 struct FrameStats {
-  double cpuSetupMs = 0.0;   ///< computeCascades
-  double cpuCullMs = 0.0;    ///< caster culling (all cascades) + view culling of the lit pass
+  double cpuSetupMs = 0.0;   ///< ShadowView::compute: cascades + caster culling (all cascades)
+  double cpuCullMs = 0.0;    ///< view culling of the lit pass
   double cpuRecordMs = 0.0;  ///< recording the command buffer
   std::uint32_t cascadeCount = 0;
   std::array<std::uint32_t, csm::kMaxCascades> casters{};
@@ -63,11 +64,12 @@ class WorldRenderer {
   /// when `overlay`. GPU scopes: "shadow", "shadow c<i>", "lit", "overlay".
   void record(const engine::Frame& frame, engine::GpuTimer& timer, bool overlay, FrameStats& stats);
 
-  const csm::CascadeFrame& cascades() const { return frame_; }
-  const csm::CullResult& cull() const { return cull_; }
+  const csm::CascadeFrame& cascades() const { return shadow_->frame(); }
+  const csm::CullResult& cull() const { return shadow_->cull(); }
   const World& world() const { return *world_; }
   const AppSettings& settings() const { return settings_; }
-  csm::vk::ShadowRenderer& shadowRenderer() { return *shadow_; }
+  csm::vk::ShadowRenderer& shadowRenderer() { return shadow_->renderer(); }
+  csm::vk::ShadowView& shadowView() { return *shadow_; }
   /// Total triangles of the clusters' LOD l (for statistics).
   std::uint64_t clusterTriangles(std::uint32_t lod) const;
 
@@ -105,11 +107,9 @@ class WorldRenderer {
   std::unique_ptr<engine::MeshStore> meshes_;
   std::vector<std::array<engine::MeshRange, kLodCount>> assetRanges_;
   std::vector<std::array<engine::MeshRange, kLodCount>> clusterRanges_;
-  std::unique_ptr<csm::vk::ShadowRenderer> shadow_;
-  csm::CasterSet casterSet_;
-  csm::CullResult cull_;
-  csm::CascadeHistory history_{};
-  csm::CascadeFrame frame_{};
+  // The shadows of this view: clusters as instances with one mesh per LOD (cluster k's LOD l
+  // is mesh k * kLodCount + l).
+  std::unique_ptr<csm::vk::ShadowView> shadow_;
   engine::Camera camera_{};
 
   // Per chunk: the bounds of everything in it (view culling of the lit pass).

@@ -1052,6 +1052,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
         for (std::size_t i = 0; i < instanceCount; ++i) casterMasks_[i] |= 1u << c;
       }
     }
+    if (cascadeHook_) cascadeHook_(cmd, static_cast<std::uint32_t>(std::countr_zero(nonEmpty)));
     beginLayer(cmd, 0, true);
     for (std::size_t i = 0; i < instanceCount; ++i) {
       std::uint32_t mask = casterMasks_[i];
@@ -1075,6 +1076,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
   } else {
     for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
       if ((nonEmpty & (1u << c)) == 0) continue;
+      if (cascadeHook_) cascadeHook_(cmd, c);
       beginLayer(cmd, c, false);
       bound = nullptr;
       const std::uint32_t lod = options_.cascadeLod[c];
@@ -1090,6 +1092,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
       endLayer(cmd);
     }
   }
+  if (cascadeHook_ && nonEmpty != 0) cascadeHook_(cmd, kCascadeHookEnd);
   recordEnd(cmd);
   return {};
 }
@@ -1102,8 +1105,11 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
   if (cmd == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "cmd is VK_NULL_HANDLE");
   if (!draw) return Status(ErrorCode::kInvalidArgument, "draw callback is empty");
   recordBegin(cmd, frame);
+  bool any = false;
   for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
     if (frame.cascades[c].empty) continue;
+    if (cascadeHook_) cascadeHook_(cmd, c);
+    any = true;
     beginLayer(cmd, c, false);
     CascadeDrawContext ctx;
     ctx.cmd = cmd;
@@ -1115,6 +1121,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
     draw(ctx);
     endLayer(cmd);
   }
+  if (cascadeHook_ && any) cascadeHook_(cmd, kCascadeHookEnd);
   recordEnd(cmd);
   return {};
 }

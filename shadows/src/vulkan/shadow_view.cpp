@@ -20,6 +20,7 @@ Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOpt
   settings_ = settings;
   options_ = options;
   hasSettings_ = true;
+  computed_ = false;
   return {};
 }
 
@@ -65,6 +66,7 @@ Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
   casterSet_ = std::move(set);
   meshes_.assign(meshes.begin(), meshes.end());
   instances_.assign(instances.begin(), instances.end());
+  computed_ = false;
   return {};
 }
 
@@ -82,6 +84,7 @@ Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
   if (!casterSet_.built()) casterSet_.build();
   meshes_.assign(meshes.begin(), meshes.end());
   instances_.assign(instances.begin(), instances.end());
+  computed_ = false;
   return {};
 }
 
@@ -109,6 +112,7 @@ Status ShadowView::record(VkCommandBuffer cmd, const CascadeFrame& frame) {
   if (!hasSettings_) {
     return Status(ErrorCode::kWrongOrder, "ShadowView::record before a successful setSettings()");
   }
+  computed_ = false;
   cullCasters(casterSet_, frame, settings_.minCasterTexels, cull_);
   Status s = renderer_->recordShadowPass(cmd, frame, CasterList{meshes_, instances_}, &cull_);
   if (!s.ok()) return s;
@@ -116,17 +120,34 @@ Status ShadowView::record(VkCommandBuffer cmd, const CascadeFrame& frame) {
   return {};
 }
 
-Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,
-                          const DirectionalLight& light) {
+Status ShadowView::compute(const Camera& camera, const DirectionalLight& light) {
   if (!hasSettings_) {
-    return Status(ErrorCode::kWrongOrder, "ShadowView::record before a successful setSettings()");
+    return Status(ErrorCode::kWrongOrder, "ShadowView::compute before a successful setSettings()");
   }
   // Computed into a copy of the history: a refused input leaves the view as it was.
   CascadeHistory history = history_;
   auto frame = computeFrame(camera, light, &history);
   if (!frame.ok()) return Status(ErrorCode::kInvalidArgument, frame.error().message());
-  Status s = record(cmd, frame.value());
-  if (s.ok()) history_ = history;
+  history_ = history;
+  frame_ = frame.value();
+  cullCasters(casterSet_, frame_, settings_.minCasterTexels, cull_);
+  computed_ = true;
+  return {};
+}
+
+Status ShadowView::recordPass(VkCommandBuffer cmd) {
+  if (!computed_) {
+    return Status(ErrorCode::kWrongOrder, "ShadowView::recordPass without a compute() before it");
+  }
+  return renderer_->recordShadowPass(cmd, frame_, CasterList{meshes_, instances_}, &cull_);
+}
+
+Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,
+                          const DirectionalLight& light) {
+  const CascadeHistory before = history_;
+  Status s = compute(camera, light);
+  if (s.ok()) s = recordPass(cmd);
+  if (!s.ok()) history_ = before;  // nothing recorded: the view stays as it was
   return s;
 }
 

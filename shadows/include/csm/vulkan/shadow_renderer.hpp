@@ -185,6 +185,14 @@ struct CascadeDrawContext {
 /// Called once per non-empty cascade by the callback form of recordShadowPass.
 using CascadeDrawCallback = std::function<void(const CascadeDrawContext&)>;
 
+/// The `cascade` a CascadeHook gets after the pass's last render pass ended.
+inline constexpr std::uint32_t kCascadeHookEnd = UINT32_MAX;
+/// Called by recordShadowPass (both forms) outside any render pass: with the cascade index just
+/// before each non-empty cascade's render pass begins (per-layer; layered: once, with the first
+/// non-empty cascade), and with kCascadeHookEnd after the last one ended. For per-cascade GPU
+/// timestamps and labels; it must not touch the shadow image.
+using CascadeHook = std::function<void(VkCommandBuffer cmd, std::uint32_t cascade)>;
+
 /// The shadow renderer. Create with create(); then update() before the first record.
 class ShadowRenderer {
  public:
@@ -218,6 +226,8 @@ class ShadowRenderer {
   /// Sets what recordShadowPass packs into the uniform block besides the cascades (debug mode,
   /// world-space kernel). Takes effect at the next record.
   void setUniformOptions(const UniformOptions& options) noexcept { uniformOptions_ = options; }
+  /// Sets (or clears, with an empty function) the per-cascade hook of the following records.
+  void setCascadeHook(CascadeHook hook) { cascadeHook_ = std::move(hook); }
 
   /// Records the shadow pass of `frame` into `cmd` (a primary command buffer of the queue family,
   /// outside any render pass): uploads the uniform block, then for each non-empty cascade draws
@@ -300,6 +310,7 @@ class ShadowRenderer {
   RendererOptions options_{};
   RenderMode resolvedMode_ = RenderMode::kPerLayer;
   UniformOptions uniformOptions_{};
+  CascadeHook cascadeHook_;
   CsmUniforms uniforms_{};
   bool pipelinesBuilt_ = false;
 

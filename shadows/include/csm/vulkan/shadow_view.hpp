@@ -64,6 +64,12 @@ class ShadowView {
   /// the invalid input (camera, light) or come from the renderer; nothing is recorded then.
   Status record(VkCommandBuffer cmd, const Camera& camera, const DirectionalLight& light);
 
+  /// record() in two steps, for hosts that prepare frames on the CPU before recording (or on
+  /// another thread): compute() computes the cascades (advancing the history) and culls;
+  /// recordPass() records that frame. frame() and cull() are valid after compute().
+  Status compute(const Camera& camera, const DirectionalLight& light);
+  Status recordPass(VkCommandBuffer cmd);
+
   /// The frame record() would compute now for `camera` and `light`, without recording or
   /// advancing the view's history (for tests, overlays and hosts that place things by the
   /// cascades). With `history`, that history is used and advanced instead: tools that hold
@@ -82,6 +88,8 @@ class ShadowView {
   Status prepare(VkCommandBuffer cmd) { return renderer_->prepare(cmd); }
   /// Forgets the history (after a camera cut, so sizes need not shrink step by step).
   void resetHistory() noexcept { history_ = {}; }
+  /// Per-cascade hook of the pass (GPU timestamps, labels): see CascadeHook.
+  void setCascadeHook(CascadeHook hook) { renderer_->setCascadeHook(std::move(hook)); }
 
   /// The set layout the lighting pipeline declares at CSM_SET, and the set to bind (it changes
   /// when setSettings() recreates the image: fetch it each frame).
@@ -116,6 +124,7 @@ class ShadowView {
   bool hasSceneBounds_ = false;
   CascadeHistory history_{};
   CascadeFrame frame_{};
+  bool computed_ = false;  // frame_ and cull_ hold compute()'s result for recordPass()
   CullResult cull_;
 };
 
