@@ -20,7 +20,8 @@ Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOpt
   settings_ = settings;
   options_ = options;
   hasSettings_ = true;
-  computed_ = false;
+  // A frame compute() made before stays recordable only if it agrees with the new settings in
+  // what the pass and the shader read (the renderer checks and names any difference).
   return {};
 }
 
