@@ -17,6 +17,16 @@ inline constexpr std::uint32_t kMaxCascades = CSM_MAX_CASCADES;
 inline constexpr std::uint32_t kMinResolution = 256;
 inline constexpr std::uint32_t kMaxResolution = 16384;
 
+/// How a stabilised cascade's box is sized.
+enum class BoxFit : std::uint8_t {
+  /// Around the slice's minimal bounding sphere: independent of the camera's orientation.
+  kSphere = 0,
+  /// The smaller of the sphere's box and the slice's light-space extent (square): tighter when
+  /// the light is near the view axis or the field of view is narrow; rotation changes the size,
+  /// but only at rung events of the ladder.
+  kTight = 1,
+};
+
 /// What a host sets once and changes rarely. Every field is checked by validate(); nothing is
 /// clamped silently.
 struct ShadowSettings {
@@ -45,6 +55,25 @@ struct ShadowSettings {
   /// Casters whose bounds span fewer than this many texels of a cascade are not drawn into it
   /// (they cannot show there). 0 turns the test off. [0, 1e6].
   float minCasterTexels = 0.0f;
+
+  // ---- The size ladder (stabilised mode only) ----
+  /// Every length that sets a cascade's extent or texel size (box half side, depth range, the
+  /// interior split distances) takes only values 2^(k / ladderStepsPerOctave) metres,
+  /// with hysteresis kept in CascadeHistory, so a zoom, a resize, a near-plane or a lambda change
+  /// changes a texel size only at rare rung events. Off: sizes follow their inputs continuously
+  /// (kept for comparison; the texel size changes on every frame such an input moves).
+  bool sizeLadder = true;
+  /// Rungs per doubling, [1, 64]: 8 gives steps of 2^(1/8) = 9.05%.
+  double ladderStepsPerOctave = 8.0;
+  /// How far, in rungs, a length must move past a rung before the ladder leaves it, [0, 8].
+  double ladderHysteresisSteps = 1.0;
+  /// Box fit: the sphere's box, or the slice's own light-space extent where that is smaller
+  /// (light near the view axis, narrow fields of view). Both on the ladder and snapped.
+  BoxFit boxFit = BoxFit::kSphere;
+  /// Light direction used for shadows advances in steps of this angle and holds in between
+  /// (kept in CascadeHistory), so a moving sun changes the maps only at steps. 0 = follow the
+  /// light exactly. Degrees, [0, 10].
+  double lightStepDeg = 0.0;
 };
 
 /// A perspective camera. Looks down its local -Z with +Y up (the GLM/Vulkan view convention).

@@ -57,6 +57,20 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
   if (!(s.normalOffsetTexels >= 0.0f) || !std::isfinite(s.normalOffsetTexels)) {
     return refuse("settings.normalOffsetTexels", s.normalOffsetTexels, "a finite number >= 0");
   }
+  if (!(s.ladderStepsPerOctave >= 1.0 && s.ladderStepsPerOctave <= 64.0)) {
+    return refuse("settings.ladderStepsPerOctave", s.ladderStepsPerOctave,
+                  "rungs per doubling in [1, 64]");
+  }
+  if (!(s.ladderHysteresisSteps >= 0.0 && s.ladderHysteresisSteps <= 8.0)) {
+    return refuse("settings.ladderHysteresisSteps", s.ladderHysteresisSteps,
+                  "a number of rungs in [0, 8]");
+  }
+  if (!(s.boxFit == BoxFit::kSphere || s.boxFit == BoxFit::kTight)) {
+    return refuse("settings.boxFit", static_cast<double>(s.boxFit), "0 (sphere) or 1 (tight)");
+  }
+  if (!(s.lightStepDeg >= 0.0 && s.lightStepDeg <= 10.0)) {
+    return refuse("settings.lightStepDeg", s.lightStepDeg, "an angle in degrees in [0, 10]");
+  }
   if (!(s.minCasterTexels >= 0.0f && s.minCasterTexels <= 1e6f)) {
     return refuse("settings.minCasterTexels", s.minCasterTexels,
                   "a number of texels in [0, 1e6] (0 turns the test off)");
