@@ -64,12 +64,10 @@ std::vector<Motion> motions() {
        16},
       {"sun", 600,
        [](csm::Camera&, csm::ShadowSettings&, csm::DirectionalLight& l, double t) {
-         // The test light turned by 10 degrees about the vertical axis... and raised: a sun
-         // path of 10 degrees of arc.
-         const double a = glm::radians(-5.0 + 10.0 * t);
+         // The test light turned through 10 degrees of arc (toward the zenith): a sun path.
          const glm::dvec3 d = testLight().directionWs;
-         l.directionWs = glm::dvec3(std::cos(a) * d.x - std::sin(a) * d.z, d.y,
-                                    std::sin(a) * d.x + std::cos(a) * d.z);
+         const glm::dvec3 axis = glm::normalize(glm::cross(d, glm::dvec3(0.0, 1.0, 0.0)));
+         l.directionWs = glm::angleAxis(glm::radians(-5.0 + 10.0 * t), axis) * d;
        },
        0},
   };

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -382,6 +383,95 @@ TEST(TightBox, RotationChangesTheSizeOnlyAtRungEvents) {
   // A full turn: each cascade's extent rises and falls twice, a few rungs each way.
   EXPECT_GT(events, 0u);
   EXPECT_LT(events, 4u * 40u);
+}
+
+}  // namespace
+}  // namespace csm
+
+namespace csm {
+namespace {
+
+TEST(ReceiverSplits, SplitsSpanTheVisibleRangeOnTheLadder) {
+  ShadowSettings s = baseSettings();
+  s.shadowDistanceM = 1500.0;
+  Camera cam = baseCamera(glm::dvec3(1e7, 0.0, 0.0));
+  cam.fovYRad = glm::radians(8.0);
+  cam.farM = 5000.0;
+  const DirectionalLight light{{0.75, -0.6, 0.3}};
+  const CascadeFrame full = test::computeOrDie(s, cam, light);
+  EXPECT_FALSE(full.receiverDriven);
+  EXPECT_EQ(full.splitsM[0], cam.nearM);
+  // A town between 900 and 1100 m: the splits cover it (with the margin) and nothing nearer.
+  const ReceiverDepthRange town{900.0, 1100.0};
+  CascadeHistory h;
+  const auto r = computeCascades(s, cam, light, nullptr, &h, &town);
+  ASSERT_TRUE(r.ok());
+  const CascadeFrame& f = r.value();
+  EXPECT_TRUE(f.receiverDriven);
+  EXPECT_LE(f.splitsM[0], 900.0 * (1.0 - s.receiverDepthMargin));
+  EXPECT_GT(f.splitsM[0], 900.0 * (1.0 - s.receiverDepthMargin) * std::exp2(-1.0 / 8.0));
+  EXPECT_EQ(ladderValue(ladderRungUp(f.splitsM[0], 8.0), 8.0), f.splitsM[0]);  // a rung
+  EXPECT_GE(f.splitsM[4], 1100.0 * (1.0 + s.receiverDepthMargin));
+  EXPECT_LE(f.splitsM[4], 1100.0 * (1.0 + s.receiverDepthMargin) * std::exp2(1.0 / 16.0) + 1e-9);
+  // The cascade holding the town has far smaller texels than with the full range.
+  auto holding = [](const CascadeFrame& fr, double d) {
+    for (std::uint32_t c = 0; c < fr.cascadeCount; ++c)
+      if (d >= fr.splitsM[c] && d < fr.splitsM[c + 1]) return fr.cascades[c].texelSizeM();
+    return 0.0;
+  };
+  EXPECT_LT(holding(f, 1000.0), holding(full, 1000.0) / 3.0);
+  // The range moving by a few percent moves nothing (ladder + hysteresis).
+  for (int k = 0; k < 50; ++k) {
+    const ReceiverDepthRange jitter{900.0 * (1.0 + 0.02 * std::sin(k)),
+                                    1100.0 * (1.0 + 0.02 * std::cos(k))};
+    const auto g = computeCascades(s, cam, light, nullptr, &h, &jitter);
+    ASSERT_TRUE(g.ok());
+    for (std::uint32_t c = 0; c < 4; ++c) {
+      EXPECT_EQ(g.value().cascades[c].texelSizeLs, f.cascades[c].texelSizeLs) << k;
+    }
+    EXPECT_EQ(g.value().splitsM[0], f.splitsM[0]) << k;
+  }
+  // No range (a camera cut, or no result yet): the full range again.
+  const CascadeFrame cut = test::computeOrDie(s, cam, light, nullptr, &h);
+  EXPECT_EQ(cut.splitsM[0], cam.nearM);
+  EXPECT_EQ(cut.shadowFarM, full.shadowFarM);
+  // A range nearer than the camera's near plane, or too thin: splits start at the near plane.
+  const ReceiverDepthRange close{0.0, 0.05};
+  const auto n = computeCascades(s, cam, light, nullptr, nullptr, &close);
+  ASSERT_TRUE(n.ok());
+  EXPECT_EQ(n.value().splitsM[0], cam.nearM);
+  EXPECT_GT(n.value().shadowFarM, cam.nearM);
+}
+
+TEST(ReceiverSplits, BadRangesAreRefusedByName) {
+  const ShadowSettings s;
+  const Camera cam;
+  const DirectionalLight light;
+  const ReceiverDepthRange bad[] = {{-1.0, 5.0},
+                                    {10.0, 5.0},
+                                    {std::nan(""), 5.0},
+                                    {1.0, std::numeric_limits<double>::infinity()}};
+  const char* field[] = {"receivers.minM", "receivers.maxM", "receivers.minM", "receivers.maxM"};
+  for (int i = 0; i < 4; ++i) {
+    const auto r = computeCascades(s, cam, light, nullptr, nullptr, &bad[i]);
+    ASSERT_FALSE(r.ok()) << i;
+    EXPECT_EQ(r.error().field, field[i]);
+  }
+  ShadowSettings m;
+  m.receiverDepthMargin = 1.5;
+  EXPECT_EQ(validate(m)->field, "settings.receiverDepthMargin");
+  m = ShadowSettings{};
+  m.ladderStepsPerOctave = 0.5;
+  EXPECT_EQ(validate(m)->field, "settings.ladderStepsPerOctave");
+  m = ShadowSettings{};
+  m.ladderHysteresisSteps = -1.0;
+  EXPECT_EQ(validate(m)->field, "settings.ladderHysteresisSteps");
+  m = ShadowSettings{};
+  m.lightStepDeg = std::nan("");
+  EXPECT_EQ(validate(m)->field, "settings.lightStepDeg");
+  m = ShadowSettings{};
+  m.boxFit = static_cast<BoxFit>(7);
+  EXPECT_EQ(validate(m)->field, "settings.boxFit");
 }
 
 }  // namespace

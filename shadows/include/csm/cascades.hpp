@@ -73,6 +73,8 @@ struct CascadeFrame {
   /// The camera this frame was computed for (the origin of camera-relative space).
   glm::dvec3 cameraPositionWs{0.0};
   glm::dvec3 cameraForwardWs{0.0, 0.0, -1.0};
+  /// The splits were fitted to a receiver depth range (computeCascades got one).
+  bool receiverDriven = false;
   /// The light direction used this frame was advanced (settings.lightStepDeg > 0 with a history).
   bool lightStepped = false;
 };
@@ -99,6 +101,8 @@ struct CascadeHistory {
   std::array<int, kMaxCascades> sizeRung = detail::noRungs<kMaxCascades>();
   std::array<int, kMaxCascades> depthRung = detail::noRungs<kMaxCascades>();
   std::array<int, kMaxCascades + 1> splitRung = detail::noRungs<kMaxCascades + 1>();
+  /// Rung of the receiver-driven near end of the splits (kNoRung without a receiver range).
+  int receiverNearRung = INT_MIN;
   /// Rung events counted since the history started (never reset): changes of each cascade's
   /// box size (texel size) and of each interior split (splitRungEvents[i] counts split i + 1).
   std::array<std::uint32_t, kMaxCascades> sizeRungEvents{};
@@ -114,12 +118,17 @@ struct CascadeHistory {
 /// invalid field instead of computing. `sceneBounds` (optional) bounds every receiver and
 /// caster: splits end at its farthest point, cascades that contain none of it are marked empty,
 /// and depth ranges extend toward the light to cover it. `history` (optional, updated in place)
-/// makes size changes quantised and hysteretic across frames. Allocates nothing.
+/// makes size changes quantised and hysteretic across frames. `receivers` (optional): the view
+/// depths of the visible receivers; the splits then span only that range (widened by
+/// settings.receiverDepthMargin, its near end on the ladder with hysteresis), as in
+/// sample-distribution shadow maps; pass nothing when no range is known (first frames, after a
+/// camera cut) and the splits span the full range. Allocates nothing.
 [[nodiscard]] Result<CascadeFrame> computeCascades(const ShadowSettings& settings,
                                                    const Camera& camera,
                                                    const DirectionalLight& light,
                                                    const AabbWs* sceneBounds = nullptr,
-                                                   CascadeHistory* history = nullptr);
+                                                   CascadeHistory* history = nullptr,
+                                                   const ReceiverDepthRange* receivers = nullptr);
 
 /// Shadow-map coordinates of a world point in one cascade, in double precision:
 /// x, y in texels (0 .. resolution across the box), z the depth in [0, 1].

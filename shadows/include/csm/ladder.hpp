@@ -24,6 +24,11 @@ inline constexpr int kNoRung = INT_MIN;
 [[nodiscard]] int ladderRungUpHysteretic(double lengthM, double stepsPerOctave, int previous,
                                          double hysteresisSteps) noexcept;
 
+/// A rung <= lengthM with hysteresis, the mirror of ladderRungUpHysteretic: keeps `previous`
+/// while its value is still <= lengthM and less than (1 + hysteresisSteps) steps below it.
+[[nodiscard]] int ladderRungDownHysteretic(double lengthM, double stepsPerOctave, int previous,
+                                           double hysteresisSteps) noexcept;
+
 /// The nearest rung with hysteresis: keeps `previous` while lengthM lies within
 /// (0.5 + hysteresisSteps) steps of it (in log space); otherwise the nearest rung.
 [[nodiscard]] int ladderRungNearestHysteretic(double lengthM, double stepsPerOctave, int previous,

@@ -74,6 +74,17 @@ struct ShadowSettings {
   /// (kept in CascadeHistory), so a moving sun changes the maps only at steps. 0 = follow the
   /// light exactly. Degrees, [0, 10].
   double lightStepDeg = 0.0;
+  /// Receiver-driven splits (when computeCascades is given a ReceiverDepthRange): the range is
+  /// widened by this fraction on each side for camera motion before the splits are fitted to it,
+  /// [0, 1].
+  double receiverDepthMargin = 0.15;
+};
+
+/// The view-depth range [minM, maxM] of the receivers visible this frame (as a depth-buffer
+/// reduction reports it, typically one or two frames late). 0 <= minM <= maxM, finite.
+struct ReceiverDepthRange {
+  double minM = 0.0;
+  double maxM = 0.0;
 };
 
 /// A perspective camera. Looks down its local -Z with +Y up (the GLM/Vulkan view convention).
@@ -113,6 +124,7 @@ struct AabbWs {
 [[nodiscard]] std::optional<ValidationError> validate(const Camera& camera);
 [[nodiscard]] std::optional<ValidationError> validate(const DirectionalLight& light);
 [[nodiscard]] std::optional<ValidationError> validate(const AabbWs& box, const char* field);
+[[nodiscard]] std::optional<ValidationError> validate(const ReceiverDepthRange& range);
 /// The checks that involve more than one struct (shadow distance > camera near).
 [[nodiscard]] std::optional<ValidationError> validate(const ShadowSettings& settings,
                                                       const Camera& camera,

@@ -12,6 +12,8 @@ namespace csm {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// Receiver-driven splits span at least this ratio of far to near.
+constexpr double kMinSpanRatio = 1.1;
 
 std::array<glm::dvec3, 8> aabbCorners(const AabbWs& b) noexcept {
   std::array<glm::dvec3, 8> c{};
@@ -97,8 +99,11 @@ void ladderSplits(SplitArray& splitsM, std::uint32_t count, double steps, double
 
 Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camera& camera,
                                      const DirectionalLight& light, const AabbWs* sceneBounds,
-                                     CascadeHistory* history) {
+                                     CascadeHistory* history, const ReceiverDepthRange* receivers) {
   if (auto e = validate(settings, camera, light)) return *e;
+  if (receivers != nullptr) {
+    if (auto e = validate(*receivers)) return *e;
+  }
   if (sceneBounds != nullptr) {
     if (auto e = validate(*sceneBounds, "sceneBounds")) return *e;
   }
@@ -165,13 +170,44 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
     }
   }
   const bool sceneAhead = sceneMaxDepthM > camera.nearM;
-  // Splits end at the scene's far end, in quantised steps; never closer than 2 x near.
-  const double minFarM = std::min(maxFarM, 2.0 * camera.nearM);
-  const double neededFarM = sceneAhead ? std::min(maxFarM, sceneMaxDepthM) : maxFarM;
+  // Receiver-driven splits: start at the nearest visible receiver (widened, on the ladder, so
+  // the range moving a little moves nothing) and end at the farthest.
+  double splitNearM = camera.nearM;
+  double receiverFarM = kInf;
+  if (receivers != nullptr) {
+    const double margin = settings.receiverDepthMargin;
+    const double wantNearM = receivers->minM * (1.0 - margin);
+    receiverFarM = std::max(receivers->maxM * (1.0 + margin), 2.0 * camera.nearM);
+    // (If that range is thinner than kMinSpanRatio, the splits keep the camera's near.)
+    int rung = kNoRung;
+    if (wantNearM > camera.nearM) {
+      rung = ladderRungDownHysteretic(wantNearM, settings.ladderStepsPerOctave,
+                                      history != nullptr ? history->receiverNearRung : kNoRung,
+                                      settings.ladderHysteresisSteps);
+      const double rungNearM =
+          ladder ? ladderValue(rung, settings.ladderStepsPerOctave) : wantNearM;
+      // Keep at least 10% of depth for the splits, and never before the camera's near.
+      if (rungNearM > camera.nearM && rungNearM * kMinSpanRatio < std::min(receiverFarM, maxFarM)) {
+        splitNearM = rungNearM;
+      } else {
+        rung = kNoRung;
+      }
+    }
+    if (history != nullptr) history->receiverNearRung = rung;
+    frame.receiverDriven = true;
+  } else if (history != nullptr) {
+    history->receiverNearRung = kNoRung;
+  }
+  // Splits end at the scene's (or the visible receivers') far end, in quantised steps; never
+  // closer than 2 x their near end.
+  const double minFarM =
+      std::min(maxFarM, (splitNearM > camera.nearM ? kMinSpanRatio : 2.0) * splitNearM);
+  const double neededFarM =
+      std::min(sceneAhead ? std::min(maxFarM, sceneMaxDepthM) : maxFarM, receiverFarM);
   frame.shadowFarM = quantizedShadowFar(neededFarM, maxFarM, minFarM,
                                         history != nullptr ? history->shadowFarM : 0.0);
   if (history != nullptr) history->shadowFarM = frame.shadowFarM;
-  frame.splitsM = practicalSplits(camera.nearM, frame.shadowFarM, count, settings.splitLambda);
+  frame.splitsM = practicalSplits(splitNearM, frame.shadowFarM, count, settings.splitLambda);
   std::array<int, kMaxCascades + 1> splitRungs = detail::noRungs<kMaxCascades + 1>();
   if (ladder) ladderSplits(frame.splitsM, count, steps, hysteresis, history, splitRungs);
 

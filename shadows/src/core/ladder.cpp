@@ -29,6 +29,15 @@ int ladderRungUpHysteretic(double lengthM, double stepsPerOctave, int previous,
   return stepsBelow < 1.0 + hysteresisSteps ? previous : up;
 }
 
+int ladderRungDownHysteretic(double lengthM, double stepsPerOctave, int previous,
+                             double hysteresisSteps) noexcept {
+  int down = ladderRungUp(lengthM, stepsPerOctave);
+  if (ladderValue(down, stepsPerOctave) > lengthM) --down;
+  if (previous == kNoRung || previous > down) return down;
+  const double stepsAbove = std::log2(lengthM) * stepsPerOctave - static_cast<double>(previous);
+  return stepsAbove < 1.0 + hysteresisSteps ? previous : down;
+}
+
 int ladderRungNearestHysteretic(double lengthM, double stepsPerOctave, int previous,
                                 double hysteresisSteps) noexcept {
   const double u = std::log2(lengthM) * stepsPerOctave;
