@@ -226,7 +226,8 @@ csm::CascadeFrame Harness::computeFrame(const csm::Camera& camera,
                                         const csm::DirectionalLight& light,
                                         csm::CascadeHistory& history) {
   csm::Result<csm::CascadeFrame> frame =
-      csm::computeCascades(settings_, camera, light, &sceneBounds_, &history);
+      csm::computeCascades(settings_, camera, light, &sceneBounds_, &history,
+                           receiverRange_ ? &*receiverRange_ : nullptr);
   if (!frame.ok()) throw std::runtime_error("computeCascades: " + frame.error().message());
   csm::cullCasters(casterSet_, frame.value(), settings_.minCasterTexels, cull_);
   return frame.value();

@@ -18,6 +18,7 @@
 #include <array>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -102,6 +103,10 @@ class Harness {
                             const csm::vk::RendererOptions& options = {});
   const csm::ShadowSettings& settings() const { return settings_; }
 
+  /// The visible receivers' view-depth range computeFrame (and timeFrame) pass to
+  /// computeCascades for receiver-driven splits; nothing (the default) = the full range.
+  void setReceiverRange(std::optional<csm::ReceiverDepthRange> range) { receiverRange_ = range; }
+
   /// computeCascades (scene bounds, `history`) and culling; throws std::runtime_error naming the
   /// refused field on invalid input.
   csm::CascadeFrame computeFrame(const csm::Camera& camera, const csm::DirectionalLight& light,
@@ -142,6 +147,7 @@ class Harness {
   void ensureAccuracyTargets(VkExtent2D extent);
   void ensureTimingTarget(VkExtent2D extent);
 
+  std::optional<csm::ReceiverDepthRange> receiverRange_;
   std::unique_ptr<engine::Context> ctx_;
   std::unique_ptr<engine::MeshStore> meshes_;
   std::unique_ptr<csm::vk::ShadowRenderer> renderer_;
