@@ -7,8 +7,9 @@
 //   sees, over a few frames of the path.
 // Axes: cascade count 1..6 x resolution 512..8192 x caster LODs on/off (each cascade draws the
 // sample world's simplified caster meshes at the fly-through's default LOD for it: 0, 1, 2, 2...),
-// then split lambda, PCF kernel, blend band and depth format one at a time around the defaults
-// (4 cascades, 2048^2, lambda 0.75, tent3x3, band 0.1, D32, LODs on).
+// then split lambda, PCF kernel, blend band, depth format, box fit, size-ladder step (or off) and
+// receiver-driven splits one at a time around the defaults (4 cascades, 2048^2, lambda 0.75,
+// tent3x3, band 0.1, D32, LODs on, sphere box, ladder 2^(1/8), full split range).
 // Timing per pose: one warm-up frame, then the fastest of two. Full mode: world of 8000 trees,
 // 5 poses, 8 shimmer frames, timing view 640x360, accuracy view 320x180 (sized to finish in
 // about 10 minutes on 2-core lavapipe). --quick: 3000 trees, 2 poses,
@@ -64,11 +65,28 @@ struct Config {
   /// Caster LODs: cascade c draws the sample world's simplified meshes at the fly-through's
   /// default LOD for it (world::AppSettings::cascadeLod: 0, 1, 2, 2, ...).
   bool lods = true;
+  /// Box fit, size ladder (rungs per octave, 0 = off) and receiver-driven splits (the range of
+  /// the pose's full-range frame, as the depth reduction would report it).
+  csm::BoxFit fit = csm::BoxFit::kSphere;
+  double ladderSteps = 8.0;
+  bool receivers = false;
   [[nodiscard]] bool isDefault() const {
     const csm::ShadowSettings d;
     return cascades == d.cascadeCount && resolution == d.resolution && lambda == d.splitLambda &&
            kernel == csm::PcfKernel::kTent3 && blendBand == d.blendBand &&
-           format == VK_FORMAT_D32_SFLOAT && lods;
+           format == VK_FORMAT_D32_SFLOAT && lods && fit == d.boxFit &&
+           ladderSteps == d.ladderStepsPerOctave && !receivers;
+  }
+  [[nodiscard]] std::string fitLabel() const {
+    std::string s;
+    if (fit == csm::BoxFit::kTight) s += " tight";
+    if (ladderSteps == 0.0) {
+      s += " noLadder";
+    } else if (ladderSteps != 8.0) {
+      s += " ladder" + std::to_string(int(ladderSteps));
+    }
+    if (receivers) s += " rcv";
+    return s;
   }
   /// The label without the fields at their default (for the plot).
   [[nodiscard]] std::string shortLabel() const {
@@ -87,14 +105,14 @@ struct Config {
     }
     if (format == VK_FORMAT_D16_UNORM) s += " D16";
     if (!lods) s += " noLOD";
-    return s;
+    return s + fitLabel();
   }
   [[nodiscard]] std::string label() const {
     char buf[160];
     std::snprintf(buf, sizeof buf, "c%u r%u l%.2f %s b%.2f %s %s", cascades, resolution, lambda,
                   csm::kernelName(kernel), blendBand, format == VK_FORMAT_D16_UNORM ? "D16" : "D32",
                   lods ? "LOD" : "noLOD");
-    return buf;
+    return buf + fitLabel();
   }
 };
 
@@ -205,7 +223,10 @@ std::vector<Row> readCsv(const std::string& path) {
       f.push_back(line.substr(p, q - p));
     }
     f.push_back(line.substr(p));
-    if (f.size() != 20) throw std::runtime_error("--replot: bad line in " + path + ": " + line);
+    // 20 columns before the fit axes were added, 23 since.
+    if (f.size() != 20 && f.size() != 23) {
+      throw std::runtime_error("--replot: bad line in " + path + ": " + line);
+    }
     Row r;
     r.config.cascades = uint32_t(std::stoul(f[0]));
     r.config.resolution = uint32_t(std::stoul(f[1]));
@@ -232,6 +253,11 @@ std::vector<Row> readCsv(const std::string& path) {
     r.shimmerMax = std::stod(f[15]);
     r.triangles = std::stod(f[16]);
     r.pixels = std::stoull(f[17]);
+    if (f.size() == 23) {
+      r.config.fit = f[20] == "tight" ? csm::BoxFit::kTight : csm::BoxFit::kSphere;
+      r.config.ladderSteps = std::stod(f[21]);
+      r.config.receivers = f[22] == "1";
+    }
     rows.push_back(r);
   }
   return rows;
@@ -523,6 +549,20 @@ int run(int argc, char** argv) {
       cfg.format = VK_FORMAT_D16_UNORM;
       configs.push_back(cfg);
     }
+    // The fit axes (issue 10): box fit, ladder step (0 = off), receiver-driven splits.
+    for (int k = 0; k < 6; ++k) {
+      Config cfg;
+      if (k == 0) cfg.fit = csm::BoxFit::kTight;
+      if (k == 1) cfg.ladderSteps = 0.0;
+      if (k == 2) cfg.ladderSteps = 4.0;
+      if (k == 3) cfg.ladderSteps = 16.0;
+      if (k == 4) cfg.receivers = true;
+      if (k == 5) {
+        cfg.fit = csm::BoxFit::kTight;
+        cfg.receivers = true;
+      }
+      configs.push_back(cfg);
+    }
 
     const int poses = o.quick ? 2 : 5;
     const int shimmerFrames = o.quick ? 4 : 8;
@@ -539,6 +579,10 @@ int run(int argc, char** argv) {
       s.resolution = cfg.resolution;
       s.splitLambda = cfg.lambda;
       s.blendBand = cfg.blendBand;
+      s.boxFit = cfg.fit;
+      s.sizeLadder = cfg.ladderSteps > 0.0;
+      if (cfg.ladderSteps > 0.0) s.ladderStepsPerOctave = cfg.ladderSteps;
+      harness.setReceiverRange(std::nullopt);
       csm::vk::RendererOptions ro;
       ro.depthFormat = cfg.format;
       const csm::vk::Status st = harness.configure(s, ro);
@@ -555,6 +599,25 @@ int run(int argc, char** argv) {
       for (int p = 0; p < poses; ++p) {
         const double t = (p + 0.5) / poses;
         const csm::Camera cam = cameraAt(path->at(t), aspect);
+        if (cfg.receivers) {
+          // The receiver range of this pose's full-range frame (what the depth reduction reports
+          // for the frame before).
+          harness.setReceiverRange(std::nullopt);
+          csm::Camera rc = cam;
+          rc.aspect = double(accuracyView.width) / accuracyView.height;
+          csm::CascadeHistory hr;
+          const csm::CascadeFrame fr = harness.computeFrame(rc, light, hr);
+          double lo = 1e300, hi = 0.0;
+          for (const csm_measure::PixelSample& p :
+               harness.renderAccuracy(rc, fr, accuracyView, cfg.kernel)) {
+            const double d = glm::dot(p.posWs - rc.positionWs, rc.forwardWs());
+            lo = std::min(lo, d);
+            hi = std::max(hi, d);
+          }
+          harness.setReceiverRange(hi >= lo ? std::optional<csm::ReceiverDepthRange>(
+                                                  csm::ReceiverDepthRange{std::max(0.0, lo), hi})
+                                            : std::nullopt);
+        }
         csm::CascadeHistory h;
         // Timing: one warm-up frame, then the fastest of kTimedFrames (lavapipe's timings vary by
         // tens of percent from frame to frame with the host's scheduling; the minimum is stable).
@@ -625,18 +688,20 @@ int run(int argc, char** argv) {
     std::ofstream f(csv);
     f << "cascades,resolution,lambda,kernel,blend_band,format,lods,shadow_gpu_ms,lit_gpu_ms,"
          "gpu_ms,cpu_ms,memory_mib,misclassification,mean_abs_error,shimmer_mean,shimmer_max,"
-         "shadow_triangles,pixels,pareto,default\n";
+         "shadow_triangles,pixels,pareto,default,box_fit,ladder_steps,receiver_splits\n";
     for (const Row& r : rows) {
       const Config& c = r.config;
       char line[512];
       std::snprintf(line, sizeof line,
                     "%u,%u,%.2f,%s,%.2f,%s,%d,%.3f,%.3f,%.3f,%.3f,%.1f,%.5f,%.5f,%.3e,%.4f,%.0f,"
-                    "%llu,%d,%d\n",
+                    "%llu,%d,%d,%s,%.0f,%d\n",
                     c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
                     c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lods ? 1 : 0, r.shadowMs,
                     r.litMs, r.gpuMs(), r.cpuMs, r.memoryMiB, r.misclassification, r.meanError,
                     r.shimmerMean, r.shimmerMax, r.triangles, (unsigned long long)r.pixels,
-                    r.pareto ? 1 : 0, c.isDefault() ? 1 : 0);
+                    r.pareto ? 1 : 0, c.isDefault() ? 1 : 0,
+                    c.fit == csm::BoxFit::kTight ? "tight" : "sphere", c.ladderSteps,
+                    c.receivers ? 1 : 0);
       f << line;
     }
   }
@@ -644,16 +709,17 @@ int run(int argc, char** argv) {
   std::printf("%s\n\n", info.c_str());
   std::printf(
       "| cascades | resolution | lambda | kernel | band | format | LODs | shadow ms | lit ms | "
-      "CPU ms | MiB | misclassified | mean err | shimmer max | shadow tris | front |\n"
-      "|---:|---:|---:|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
+      "CPU ms | MiB | misclassified | mean err | shimmer max | shadow tris | fit | front |\n"
+      "|---:|---:|---:|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n");
   for (const Row& r : rows) {
     const Config& c = r.config;
     std::printf(
         "| %u | %u | %.2f | %s | %.2f | %s | %s | %.2f | %.2f | %.2f | %.0f | %.3f%% | %.4f | "
-        "%.4f | %.0f | %s |\n",
+        "%.4f | %.0f | %s | %s |\n",
         c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
         c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lods ? "on" : "off", r.shadowMs, r.litMs,
         r.cpuMs, r.memoryMiB, 100.0 * r.misclassification, r.meanError, r.shimmerMax, r.triangles,
+        c.fitLabel().empty() ? "-" : c.fitLabel().c_str() + 1,
         r.pareto ? (c.isDefault() ? "yes (default)" : "yes") : (c.isDefault() ? "(default)" : ""));
   }
   // The plot: every configuration (LODs on filled, off hollow), the front (sorted by time) as a
