@@ -8,13 +8,25 @@ target_sources(csm_core PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src/core/gpu_layout.
 csm_compile_shaders(csm_depth_shaders SOURCE_DIR ${CMAKE_CURRENT_SOURCE_DIR}/shaders
                     csm_depth.vert csm_depth_layered.vert)
 
+# The depth-range reduction (receiver-driven splits) is compiled for SPIR-V 1.5 (Vulkan 1.2):
+# glslang's SPIR-V 1.6 output of a compute shader uses LocalSizeId, which needs maintenance4.
+set(_csm_range_hdr ${CSM_SHADER_OUT}/csm_shaders/csm_depth_range.comp.spv.h)
+add_custom_command(OUTPUT ${_csm_range_hdr}
+  COMMAND ${GLSLANG_VALIDATOR} --quiet --target-env vulkan1.2 -I${CSM_MODULE_SHADER_DIR}
+          -I${CSM_SHARED_INCLUDE_DIR} --vn csm_depth_range_comp_spv -o ${_csm_range_hdr}
+          ${CSM_MODULE_SHADER_DIR}/csm_depth_range.comp
+  DEPENDS ${CSM_MODULE_SHADER_DIR}/csm_depth_range.comp
+  COMMENT "glslang csm_depth_range.comp" VERBATIM)
+add_custom_target(csm_depth_range_shader DEPENDS ${_csm_range_hdr})
+
 add_library(csm_vulkan STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer.cpp
-  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_view.cpp)
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_view.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/depth_range.cpp)
 add_library(csm::vulkan ALIAS csm_vulkan)
 target_link_libraries(csm_vulkan PUBLIC csm::core Vulkan::Vulkan)
 # The embedded shaders are a build-time dependency only (no link or install interface).
-add_dependencies(csm_vulkan csm_depth_shaders)
+add_dependencies(csm_vulkan csm_depth_shaders csm_depth_range_shader)
 target_include_directories(csm_vulkan PRIVATE ${CSM_SHADER_OUT})
 set_target_properties(csm_vulkan PROPERTIES POSITION_INDEPENDENT_CODE ON)
 csm_target_warnings(csm_vulkan)

@@ -117,6 +117,8 @@ constexpr std::array<std::pair<const char*, SplitScheme>, 3> kSchemes{{
     {"uniform", SplitScheme::kUniform},
     {"log", SplitScheme::kLogarithmic},
 }};
+constexpr std::array<std::pair<const char*, csm::BoxFit>, 2> kBoxFits{
+    {{"sphere", csm::BoxFit::kSphere}, {"tight", csm::BoxFit::kTight}}};
 constexpr std::array<std::pair<const char*, bool>, 2> kDepthFormats{
     {{"d32", false}, {"d16", true}}};
 
@@ -152,6 +154,16 @@ const std::vector<Entry>& table() {
                     [](AppSettings& s) -> float& { return s.shadow.minCasterTexels; }),
       choice("shadow.depthFormat", "one of d32, d16", kDepthFormats,
              [](AppSettings& s) -> bool& { return s.depth16; }),
+      // The size ladder, the box fit and the stepped sun (issue 10).
+      boolean("shadow.ladder", [](AppSettings& s) -> bool& { return s.shadow.sizeLadder; }),
+      number<double>("shadow.ladderSteps", "rungs per doubling in [1, 64]", 1, 64, false,
+                     [](AppSettings& s) -> double& { return s.shadow.ladderStepsPerOctave; }),
+      number<double>("shadow.ladderHysteresis", "rungs in [0, 8]", 0, 8, false,
+                     [](AppSettings& s) -> double& { return s.shadow.ladderHysteresisSteps; }),
+      choice("shadow.boxFit", "one of sphere, tight", kBoxFits,
+             [](AppSettings& s) -> csm::BoxFit& { return s.shadow.boxFit; }),
+      number<double>("shadow.lightStep", "degrees in [0, 10] (0 = the exact sun)", 0, 10, false,
+                     [](AppSettings& s) -> double& { return s.shadow.lightStepDeg; }),
       boolean("lod.enabled", [](AppSettings& s) -> bool& { return s.casterLods; }),
       {"lod.cascades", "comma-separated LOD indices in [0, 2], one per cascade (e.g. 0,1,2,2)",
        [](AppSettings& s, const std::string& v) -> std::optional<std::string> {
@@ -212,6 +224,8 @@ AppSettings::AppSettings() {
   shadow.resolution = 2048;
   shadow.shadowDistanceM = 1500.0;
   shadow.splitLambda = 0.8;
+  // A moving sun changes the maps only every quarter degree (issue 10).
+  shadow.lightStepDeg = 0.25;
   cascadeLod = {0, 1, 2, 2, 2, 2, 2, 2};
 }
 

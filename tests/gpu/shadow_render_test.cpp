@@ -125,7 +125,9 @@ TEST(ShadowRuntimeChanges, ResolutionCountAndFormatChangesStayCorrect) {
       scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
       const Rendered r = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
       const Agreement a = compareWithAnalytic(scene, r);
-      EXPECT_GT(a.shadowed, 200u);
+      // 184 at 1 cascade of 512^2: the size ladder rounds the box up (up to 2^(2/8) in length),
+      // and the 2-texel band excluded along the shadow edges widens with it.
+      EXPECT_GT(a.shadowed, 150u);
       EXPECT_GE(a.ratio(), 0.995);
     }
   }

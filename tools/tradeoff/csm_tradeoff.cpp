@@ -7,8 +7,9 @@
 //   sees, over a few frames of the path.
 // Axes: cascade count 1..6 x resolution 512..8192 x caster LODs on/off (each cascade draws the
 // sample world's simplified caster meshes at the fly-through's default LOD for it: 0, 1, 2, 2...),
-// then split lambda, PCF kernel, blend band and depth format one at a time around the defaults
-// (4 cascades, 2048^2, lambda 0.75, tent3x3, band 0.1, D32, LODs on).
+// then split lambda, PCF kernel, blend band, depth format, box fit, size-ladder step (or off) and
+// receiver-driven splits one at a time around the defaults (4 cascades, 2048^2, lambda 0.75,
+// tent3x3, band 0.1, D32, LODs on, sphere box, ladder 2^(1/8), full split range).
 // Timing per pose: one warm-up frame, then the fastest of two. Full mode: world of 8000 trees,
 // 5 poses, 8 shimmer frames, timing view 640x360, accuracy view 320x180 (sized to finish in
 // about 10 minutes on 2-core lavapipe). --quick: 3000 trees, 2 poses,
@@ -48,6 +49,8 @@ struct Options {
   std::string out = "tradeoff";
   /// Re-draw the table, plot and recommendations from OUT/tradeoff.csv without measuring.
   bool replot = false;
+  /// --fit-study: box fit and receiver-driven splits on the zoom and forest paths.
+  bool fitStudy = false;
   std::vector<double> budgetsMs;  ///< --budget-ms (may be repeated)
   uint32_t width = 640, height = 360;
 };
@@ -62,11 +65,28 @@ struct Config {
   /// Caster LODs: cascade c draws the sample world's simplified meshes at the fly-through's
   /// default LOD for it (world::AppSettings::cascadeLod: 0, 1, 2, 2, ...).
   bool lods = true;
+  /// Box fit, size ladder (rungs per octave, 0 = off) and receiver-driven splits (the range of
+  /// the pose's full-range frame, as the depth reduction would report it).
+  csm::BoxFit fit = csm::BoxFit::kSphere;
+  double ladderSteps = 8.0;
+  bool receivers = false;
   [[nodiscard]] bool isDefault() const {
     const csm::ShadowSettings d;
     return cascades == d.cascadeCount && resolution == d.resolution && lambda == d.splitLambda &&
            kernel == csm::PcfKernel::kTent3 && blendBand == d.blendBand &&
-           format == VK_FORMAT_D32_SFLOAT && lods;
+           format == VK_FORMAT_D32_SFLOAT && lods && fit == d.boxFit &&
+           ladderSteps == d.ladderStepsPerOctave && !receivers;
+  }
+  [[nodiscard]] std::string fitLabel() const {
+    std::string s;
+    if (fit == csm::BoxFit::kTight) s += " tight";
+    if (ladderSteps == 0.0) {
+      s += " noLadder";
+    } else if (ladderSteps != 8.0) {
+      s += " ladder" + std::to_string(int(ladderSteps));
+    }
+    if (receivers) s += " rcv";
+    return s;
   }
   /// The label without the fields at their default (for the plot).
   [[nodiscard]] std::string shortLabel() const {
@@ -85,14 +105,14 @@ struct Config {
     }
     if (format == VK_FORMAT_D16_UNORM) s += " D16";
     if (!lods) s += " noLOD";
-    return s;
+    return s + fitLabel();
   }
   [[nodiscard]] std::string label() const {
     char buf[160];
     std::snprintf(buf, sizeof buf, "c%u r%u l%.2f %s b%.2f %s %s", cascades, resolution, lambda,
                   csm::kernelName(kernel), blendBand, format == VK_FORMAT_D16_UNORM ? "D16" : "D32",
                   lods ? "LOD" : "noLOD");
-    return buf;
+    return buf + fitLabel();
   }
 };
 
@@ -203,7 +223,10 @@ std::vector<Row> readCsv(const std::string& path) {
       f.push_back(line.substr(p, q - p));
     }
     f.push_back(line.substr(p));
-    if (f.size() != 20) throw std::runtime_error("--replot: bad line in " + path + ": " + line);
+    // 20 columns before the fit axes were added, 23 since.
+    if (f.size() != 20 && f.size() != 23) {
+      throw std::runtime_error("--replot: bad line in " + path + ": " + line);
+    }
     Row r;
     r.config.cascades = uint32_t(std::stoul(f[0]));
     r.config.resolution = uint32_t(std::stoul(f[1]));
@@ -230,6 +253,11 @@ std::vector<Row> readCsv(const std::string& path) {
     r.shimmerMax = std::stod(f[15]);
     r.triangles = std::stod(f[16]);
     r.pixels = std::stoull(f[17]);
+    if (f.size() == 23) {
+      r.config.fit = f[20] == "tight" ? csm::BoxFit::kTight : csm::BoxFit::kSphere;
+      r.config.ladderSteps = std::stod(f[21]);
+      r.config.receivers = f[22] == "1";
+    }
     rows.push_back(r);
   }
   return rows;
@@ -255,6 +283,8 @@ void usage(std::FILE* out) {
       "fits X.\n"
       "  --replot: re-draw table, plot and recommendations from DIR/tradeoff.csv, no "
       "measuring.\n"
+      "  --fit-study: sphere vs tight box x full range vs receiver-driven splits on the zoom "
+      "path\n  at 8 degrees and the forest path at 60 degrees; writes DIR/fit_study.json.\n"
       "  sweeps cascades 1..6 x resolution 512..8192 x caster LODs on/off, then split "
       "lambda,\n  PCF kernel, blend band and depth format around the defaults; writes "
       "DIR/tradeoff.csv and\n  DIR/tradeoff.png (Pareto front of GPU ms vs "
@@ -264,6 +294,140 @@ void usage(std::FILE* out) {
       "and resolutions (under a minute).\n  paths:");
   for (const std::string& n : world::pathNames()) std::fprintf(out, " %s", n.c_str());
   std::fprintf(out, "\n");
+}
+
+// --fit-study: what the tight box and receiver-driven splits buy where the sphere loses (the
+// zoom path at 8 degrees) and what they cost where it does not (the forest path at 60 degrees),
+// at the fly-through's shadow settings. Per pose and configuration: shadow-pass GPU ms (warm-up,
+// fastest of 2), misclassified receiver pixels against Embree, and the texel size of the cascade
+// that holds the median receiver depth (the town, on the zoom path). The receiver range is the
+// min/max view depth of the receiver pixels of the pose's full-range frame: what the depth
+// reduction (csm::vk::DepthRangeReducer) returns for the frame before.
+struct FitConfig {
+  const char* name;
+  csm::BoxFit fit;
+  bool receivers;
+};
+
+int runFitStudy(const Options& o) {
+  std::filesystem::create_directories(o.out);
+  world::WorldDesc wd;
+  wd.treeCount = o.quick ? 3000 : 8000;
+  wd.rockCount = 400;
+  wd.buildingCount = 40;
+  nlohmann::json report;
+  const FitConfig configs[] = {{"sphere, full range (before)", csm::BoxFit::kSphere, false},
+                               {"tight box", csm::BoxFit::kTight, false},
+                               {"receiver splits", csm::BoxFit::kSphere, true},
+                               {"tight box + receiver splits", csm::BoxFit::kTight, true}};
+  struct Study {
+    const char* path;
+    std::vector<double> poses;
+  };
+  const Study studies[] = {{"zoom", {1.0}}, {"forest", {0.2, 0.5, 0.8}}};
+  const VkExtent2D accuracyView = o.quick ? VkExtent2D{240, 135} : VkExtent2D{320, 180};
+  const csm::DirectionalLight light{glm::normalize(glm::dvec3(0.45, -0.8, -0.35))};
+  const double aspect = double(o.width) / double(o.height);
+  std::printf(
+      "| path | pose | configuration | texel of the median receiver's cascade (m) | "
+      "misclassified pixels | of receiver pixels | shadow pass GPU ms |\n"
+      "|---|---|---|---|---|---|---|\n");
+  for (const Study& st : studies) {
+    wd.originWs = world::pathWorldOrigin(st.path, wd.sizeM);
+    world::WorldError err;
+    std::optional<world::World> w = world::generateWorld(wd, &err);
+    if (!w) throw std::runtime_error("generateWorld: " + err.message);
+    std::optional<world::FlightPath> path = world::FlightPath::make(st.path, *w, 60.0);
+    if (!path) throw std::runtime_error(std::string("unknown path ") + st.path);
+    const WorldScene worldScene = sceneFromWorld(*w);
+    const csm_measure::RayTracer tracer(worldScene.scene);
+    csm_measure::HarnessDesc hd;
+    hd.validation = false;
+    hd.appName = "csm_tradeoff";
+    csm_measure::Harness harness(hd);
+    harness.setScene(worldScene.scene);
+    const world::AppSettings app;
+    harness.setCasterLods(worldScene.lodMeshes, app.cascadeLod);
+    for (double t : st.poses) {
+      csm::Camera cam = cameraAt(path->at(t), aspect);
+      cam.nearM = 0.5;  // as the fly-through
+      csm::Camera accCam = cam;
+      accCam.aspect = double(accuracyView.width) / accuracyView.height;
+      std::optional<csm::ReceiverDepthRange> range;
+      double medianDepthM = 0.0;
+      for (const FitConfig& fc : configs) {
+        csm::ShadowSettings s = app.shadow;
+        s.boxFit = fc.fit;
+        if (!harness.configure(s).ok()) throw std::runtime_error("configure failed");
+        harness.setReceiverRange(fc.receivers ? range : std::nullopt);
+        csm::CascadeHistory h;
+        harness.timeFrame(cam, light, h, {o.width, o.height}, app.kernel);
+        double shadowMs = 1e30;
+        for (int k = 0; k < 2; ++k) {
+          shadowMs = std::min(
+              shadowMs,
+              harness.timeFrame(cam, light, h, {o.width, o.height}, app.kernel).shadowGpuMs);
+        }
+        csm::CascadeHistory ha;
+        const csm::CascadeFrame frame = harness.computeFrame(accCam, light, ha);
+        const std::vector<csm_measure::PixelSample> px =
+            harness.renderAccuracy(accCam, frame, accuracyView, app.kernel);
+        const csm_measure::AccuracyStats acc =
+            csm_measure::measureAccuracy(px, frame, tracer, light);
+        if (!range) {
+          // The receivers of this (first, full-range) frame: their view depths.
+          std::vector<double> depths;
+          for (const csm_measure::PixelSample& p : px) {
+            depths.push_back(glm::dot(p.posWs - accCam.positionWs, accCam.forwardWs()));
+          }
+          std::sort(depths.begin(), depths.end());
+          if (!depths.empty()) {
+            range = csm::ReceiverDepthRange{std::max(0.0, depths.front()), depths.back()};
+            medianDepthM = depths[depths.size() / 2];
+          }
+        }
+        double texel = 0.0;
+        for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+          if (medianDepthM >= frame.splitsM[c] && medianDepthM < frame.splitsM[c + 1]) {
+            texel = frame.cascades[c].texelSizeM();
+          }
+        }
+        std::printf("| %s | t=%.1f, fov %.0f deg | %s | %.4f | %llu | %llu | %.2f |\n", st.path, t,
+                    glm::degrees(cam.fovYRad), fc.name, texel,
+                    (unsigned long long)acc.overall.misclassified,
+                    (unsigned long long)acc.overall.pixels, shadowMs);
+        std::fflush(stdout);
+        nlohmann::json j;
+        j["path"] = st.path;
+        j["t"] = t;
+        j["fov_deg"] = glm::degrees(cam.fovYRad);
+        j["configuration"] = fc.name;
+        j["receiver_range_m"] = range ? nlohmann::json({range->minM, range->maxM}) : nullptr;
+        j["median_receiver_depth_m"] = medianDepthM;
+        j["texel_of_median_cascade_m"] = texel;
+        j["splits_m"] = std::vector<double>(frame.splitsM.begin(),
+                                            frame.splitsM.begin() + frame.cascadeCount + 1);
+        std::vector<double> texels;
+        for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+          texels.push_back(frame.cascades[c].texelSizeM());
+        }
+        j["texel_m"] = texels;
+        j["misclassified"] = acc.overall.misclassified;
+        j["receiver_pixels"] = acc.overall.pixels;
+        j["shadow_gpu_ms"] = shadowMs;
+        j["device"] = harness.context().properties().deviceName;
+        report["rows"].push_back(j);
+      }
+    }
+  }
+  report["what"] =
+      "csm_tradeoff --fit-study: fly-through shadow settings (4 x 2048^2, 1500 m, lambda 0.8, "
+      "near 0.5 m), accuracy view " +
+      std::to_string(accuracyView.width) + "x" + std::to_string(accuracyView.height) +
+      ", timing view " + std::to_string(o.width) + "x" + std::to_string(o.height);
+  csm_measure::writeJson(o.out + "/fit_study.json", report);
+  std::fprintf(stderr, "wrote %s/fit_study.json\n", o.out.c_str());
+  return 0;
 }
 
 int run(int argc, char** argv) {
@@ -278,6 +442,8 @@ int run(int argc, char** argv) {
       o.quick = true;
     } else if (a == "--replot") {
       o.replot = true;
+    } else if (a == "--fit-study") {
+      o.fitStudy = true;
     } else if (a == "--path") {
       o.path = next();
     } else if (a == "--out") {
@@ -300,6 +466,7 @@ int run(int argc, char** argv) {
     o.width = 320;
     o.height = 180;
   }
+  if (o.fitStudy) return runFitStudy(o);
   std::filesystem::create_directories(o.out);
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] {
@@ -382,6 +549,20 @@ int run(int argc, char** argv) {
       cfg.format = VK_FORMAT_D16_UNORM;
       configs.push_back(cfg);
     }
+    // The fit axes (issue 10): box fit, ladder step (0 = off), receiver-driven splits.
+    for (int k = 0; k < 6; ++k) {
+      Config cfg;
+      if (k == 0) cfg.fit = csm::BoxFit::kTight;
+      if (k == 1) cfg.ladderSteps = 0.0;
+      if (k == 2) cfg.ladderSteps = 4.0;
+      if (k == 3) cfg.ladderSteps = 16.0;
+      if (k == 4) cfg.receivers = true;
+      if (k == 5) {
+        cfg.fit = csm::BoxFit::kTight;
+        cfg.receivers = true;
+      }
+      configs.push_back(cfg);
+    }
 
     const int poses = o.quick ? 2 : 5;
     const int shimmerFrames = o.quick ? 4 : 8;
@@ -398,6 +579,10 @@ int run(int argc, char** argv) {
       s.resolution = cfg.resolution;
       s.splitLambda = cfg.lambda;
       s.blendBand = cfg.blendBand;
+      s.boxFit = cfg.fit;
+      s.sizeLadder = cfg.ladderSteps > 0.0;
+      if (cfg.ladderSteps > 0.0) s.ladderStepsPerOctave = cfg.ladderSteps;
+      harness.setReceiverRange(std::nullopt);
       csm::vk::RendererOptions ro;
       ro.depthFormat = cfg.format;
       const csm::vk::Status st = harness.configure(s, ro);
@@ -414,6 +599,25 @@ int run(int argc, char** argv) {
       for (int p = 0; p < poses; ++p) {
         const double t = (p + 0.5) / poses;
         const csm::Camera cam = cameraAt(path->at(t), aspect);
+        if (cfg.receivers) {
+          // The receiver range of this pose's full-range frame (what the depth reduction reports
+          // for the frame before).
+          harness.setReceiverRange(std::nullopt);
+          csm::Camera rc = cam;
+          rc.aspect = double(accuracyView.width) / accuracyView.height;
+          csm::CascadeHistory hr;
+          const csm::CascadeFrame fr = harness.computeFrame(rc, light, hr);
+          double lo = 1e300, hi = 0.0;
+          for (const csm_measure::PixelSample& p :
+               harness.renderAccuracy(rc, fr, accuracyView, cfg.kernel)) {
+            const double d = glm::dot(p.posWs - rc.positionWs, rc.forwardWs());
+            lo = std::min(lo, d);
+            hi = std::max(hi, d);
+          }
+          harness.setReceiverRange(hi >= lo ? std::optional<csm::ReceiverDepthRange>(
+                                                  csm::ReceiverDepthRange{std::max(0.0, lo), hi})
+                                            : std::nullopt);
+        }
         csm::CascadeHistory h;
         // Timing: one warm-up frame, then the fastest of kTimedFrames (lavapipe's timings vary by
         // tens of percent from frame to frame with the host's scheduling; the minimum is stable).
@@ -484,18 +688,20 @@ int run(int argc, char** argv) {
     std::ofstream f(csv);
     f << "cascades,resolution,lambda,kernel,blend_band,format,lods,shadow_gpu_ms,lit_gpu_ms,"
          "gpu_ms,cpu_ms,memory_mib,misclassification,mean_abs_error,shimmer_mean,shimmer_max,"
-         "shadow_triangles,pixels,pareto,default\n";
+         "shadow_triangles,pixels,pareto,default,box_fit,ladder_steps,receiver_splits\n";
     for (const Row& r : rows) {
       const Config& c = r.config;
       char line[512];
       std::snprintf(line, sizeof line,
                     "%u,%u,%.2f,%s,%.2f,%s,%d,%.3f,%.3f,%.3f,%.3f,%.1f,%.5f,%.5f,%.3e,%.4f,%.0f,"
-                    "%llu,%d,%d\n",
+                    "%llu,%d,%d,%s,%.0f,%d\n",
                     c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
                     c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lods ? 1 : 0, r.shadowMs,
                     r.litMs, r.gpuMs(), r.cpuMs, r.memoryMiB, r.misclassification, r.meanError,
                     r.shimmerMean, r.shimmerMax, r.triangles, (unsigned long long)r.pixels,
-                    r.pareto ? 1 : 0, c.isDefault() ? 1 : 0);
+                    r.pareto ? 1 : 0, c.isDefault() ? 1 : 0,
+                    c.fit == csm::BoxFit::kTight ? "tight" : "sphere", c.ladderSteps,
+                    c.receivers ? 1 : 0);
       f << line;
     }
   }
@@ -503,16 +709,17 @@ int run(int argc, char** argv) {
   std::printf("%s\n\n", info.c_str());
   std::printf(
       "| cascades | resolution | lambda | kernel | band | format | LODs | shadow ms | lit ms | "
-      "CPU ms | MiB | misclassified | mean err | shimmer max | shadow tris | front |\n"
-      "|---:|---:|---:|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|\n");
+      "CPU ms | MiB | misclassified | mean err | shimmer max | shadow tris | fit | front |\n"
+      "|---:|---:|---:|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n");
   for (const Row& r : rows) {
     const Config& c = r.config;
     std::printf(
         "| %u | %u | %.2f | %s | %.2f | %s | %s | %.2f | %.2f | %.2f | %.0f | %.3f%% | %.4f | "
-        "%.4f | %.0f | %s |\n",
+        "%.4f | %.0f | %s | %s |\n",
         c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
         c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lods ? "on" : "off", r.shadowMs, r.litMs,
         r.cpuMs, r.memoryMiB, 100.0 * r.misclassification, r.meanError, r.shimmerMax, r.triangles,
+        c.fitLabel().empty() ? "-" : c.fitLabel().c_str() + 1,
         r.pareto ? (c.isDefault() ? "yes (default)" : "yes") : (c.isDefault() ? "(default)" : ""));
   }
   // The plot: every configuration (LODs on filled, off hollow), the front (sorted by time) as a

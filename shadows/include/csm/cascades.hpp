@@ -2,6 +2,7 @@
 #pragma once
 
 #include <array>
+#include <climits>
 #include <cstdint>
 
 #include "csm/splits.hpp"
@@ -35,6 +36,22 @@ struct Cascade {
   /// True when no receiver of the scene lies in this cascade: neither rendered nor sampled.
   bool empty = false;
 
+  // ---- The size ladder (set in stabilised mode with settings.sizeLadder; else kNoRung) ----
+  /// Rung of the box half side (halfExtentLs = ladderValue(sizeRung)), of the depth range's far
+  /// side (depthFarLs = ladderValue(depthRung)) and of this cascade's far split (kNoRung for the
+  /// last cascade, which ends at the shadow far distance).
+  int sizeRung = INT_MIN;
+  int depthRung = INT_MIN;
+  int splitFarRung = INT_MIN;
+  /// The box this frame was sized by the slice's light-space extent (BoxFit::kTight won).
+  bool tightFit = false;
+  /// Half side the box needed this frame before the ladder rounded it up (sphere or tight
+  /// extent plus the half-texel snap margin); halfExtentLs.x / neededHalfExtentM is what the
+  /// ladder and its hysteresis cost in length (its square in area).
+  double neededHalfExtentM = 0.0;
+  /// The texel size changed this frame (a rung event of the box size) against the history.
+  bool sizeRungChanged = false;
+
   /// Largest texel side in metres (both sides are equal when stabilised).
   [[nodiscard]] double texelSizeM() const noexcept {
     return glm::max(texelSizeLs.x, texelSizeLs.y);
@@ -60,7 +77,20 @@ struct CascadeFrame {
   /// renderer refuses a frame whose values differ from those given to its update()).
   double blendBand = 0.0;
   float normalOffsetTexels = 0.0f;
+  /// The splits were fitted to a receiver depth range (computeCascades got one).
+  bool receiverDriven = false;
+  /// The light direction used this frame was advanced (settings.lightStepDeg > 0 with a history).
+  bool lightStepped = false;
 };
+
+namespace detail {
+template <std::size_t N>
+constexpr std::array<int, N> noRungs() noexcept {
+  std::array<int, N> a{};
+  a.fill(INT_MIN);
+  return a;
+}
+}  // namespace detail
 
 /// What carries over between frames so that sizes change only in quantised steps with
 /// hysteresis (shadow far distance, depth extension toward the light). Keep one per view;
@@ -70,18 +100,39 @@ struct CascadeHistory {
   double shadowFarMaxM = 0.0;
   std::array<double, kMaxCascades> depthNearLs{};
   std::uint32_t cascadeCount = 0;
+
+  // The ladder's state (settings.sizeLadder): last frame's rungs, kNoRung before the first.
+  std::array<int, kMaxCascades> sizeRung = detail::noRungs<kMaxCascades>();
+  std::array<int, kMaxCascades> depthRung = detail::noRungs<kMaxCascades>();
+  std::array<int, kMaxCascades + 1> splitRung = detail::noRungs<kMaxCascades + 1>();
+  /// Rung of the receiver-driven near end of the splits (kNoRung without a receiver range).
+  int receiverNearRung = INT_MIN;
+  /// Rung events counted since the history started (never reset): changes of each cascade's
+  /// box size (texel size) and of each interior split (splitRungEvents[i] counts split i + 1).
+  std::array<std::uint32_t, kMaxCascades> sizeRungEvents{};
+  std::array<std::uint32_t, kMaxCascades> splitRungEvents{};
+  /// The light direction used for shadows (settings.lightStepDeg > 0); zero before the first.
+  glm::dvec3 heldLightDirectionWs{0.0};
+  std::uint32_t lightStepEvents = 0;
+  /// Frames computed through this history.
+  std::uint64_t frames = 0;
 };
 
 /// Computes the cascades of one frame. Validates every input first and returns the first
 /// invalid field instead of computing. `sceneBounds` (optional) bounds every receiver and
 /// caster: splits end at its farthest point, cascades that contain none of it are marked empty,
 /// and depth ranges extend toward the light to cover it. `history` (optional, updated in place)
-/// makes size changes quantised and hysteretic across frames. Allocates nothing.
+/// makes size changes quantised and hysteretic across frames. `receivers` (optional): the view
+/// depths of the visible receivers; the splits then span only that range (widened by
+/// settings.receiverDepthMargin, its near end on the ladder with hysteresis), as in
+/// sample-distribution shadow maps; pass nothing when no range is known (first frames, after a
+/// camera cut) and the splits span the full range. Allocates nothing.
 [[nodiscard]] Result<CascadeFrame> computeCascades(const ShadowSettings& settings,
                                                    const Camera& camera,
                                                    const DirectionalLight& light,
                                                    const AabbWs* sceneBounds = nullptr,
-                                                   CascadeHistory* history = nullptr);
+                                                   CascadeHistory* history = nullptr,
+                                                   const ReceiverDepthRange* receivers = nullptr);
 
 /// Shadow-map coordinates of a world point in one cascade, in double precision:
 /// x, y in texels (0 .. resolution across the box), z the depth in [0, 1].

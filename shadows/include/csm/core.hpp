@@ -5,6 +5,7 @@
 #include "csm/culling.hpp"
 #include "csm/error.hpp"
 #include "csm/frustum.hpp"
+#include "csm/ladder.hpp"
 #include "csm/light_space.hpp"
 #include "csm/selection.hpp"
 #include "csm/splits.hpp"

@@ -18,6 +18,16 @@ inline constexpr std::uint32_t kMaxCascades = CSM_MAX_CASCADES;
 inline constexpr std::uint32_t kMinResolution = 256;
 inline constexpr std::uint32_t kMaxResolution = 16384;
 
+/// How a stabilised cascade's box is sized.
+enum class BoxFit : std::uint8_t {
+  /// Around the slice's minimal bounding sphere: independent of the camera's orientation.
+  kSphere = 0,
+  /// The smaller of the sphere's box and the slice's light-space extent (square): tighter when
+  /// the light is near the view axis or the field of view is narrow; rotation changes the size,
+  /// but only at rung events of the ladder.
+  kTight = 1,
+};
+
 /// What a host sets once and changes rarely. Every field is checked by validate(); nothing is
 /// clamped silently.
 struct ShadowSettings {
@@ -60,6 +70,36 @@ struct ShadowSettings {
     }
     return false;
   }
+
+  // ---- The size ladder (stabilised mode only) ----
+  /// Every length that sets a cascade's extent or texel size (box half side, depth range, the
+  /// interior split distances) takes only values 2^(k / ladderStepsPerOctave) metres,
+  /// with hysteresis kept in CascadeHistory, so a zoom, a resize, a near-plane or a lambda change
+  /// changes a texel size only at rare rung events. Off: sizes follow their inputs continuously
+  /// (kept for comparison; the texel size changes on every frame such an input moves).
+  bool sizeLadder = true;
+  /// Rungs per doubling, [1, 64]: 8 gives steps of 2^(1/8) = 9.05%.
+  double ladderStepsPerOctave = 8.0;
+  /// How far, in rungs, a length must move past a rung before the ladder leaves it, [0, 8].
+  double ladderHysteresisSteps = 1.0;
+  /// Box fit: the sphere's box, or the slice's own light-space extent where that is smaller
+  /// (light near the view axis, narrow fields of view). Both on the ladder and snapped.
+  BoxFit boxFit = BoxFit::kSphere;
+  /// Light direction used for shadows advances in steps of this angle and holds in between
+  /// (kept in CascadeHistory), so a moving sun changes the maps only at steps. 0 = follow the
+  /// light exactly. Degrees, [0, 10].
+  double lightStepDeg = 0.0;
+  /// Receiver-driven splits (when computeCascades is given a ReceiverDepthRange): the range is
+  /// widened by this fraction on each side for camera motion before the splits are fitted to it,
+  /// [0, 1].
+  double receiverDepthMargin = 0.15;
+};
+
+/// The view-depth range [minM, maxM] of the receivers visible this frame (as a depth-buffer
+/// reduction reports it, typically one or two frames late). 0 <= minM <= maxM, finite.
+struct ReceiverDepthRange {
+  double minM = 0.0;
+  double maxM = 0.0;
 };
 
 /// A perspective camera. Looks down its local -Z with +Y up (the GLM/Vulkan view convention).
@@ -99,6 +139,7 @@ struct AabbWs {
 [[nodiscard]] std::optional<ValidationError> validate(const Camera& camera);
 [[nodiscard]] std::optional<ValidationError> validate(const DirectionalLight& light);
 [[nodiscard]] std::optional<ValidationError> validate(const AabbWs& box, const char* field);
+[[nodiscard]] std::optional<ValidationError> validate(const ReceiverDepthRange& range);
 /// The checks that involve more than one struct (shadow distance > camera near).
 [[nodiscard]] std::optional<ValidationError> validate(const ShadowSettings& settings,
                                                       const Camera& camera,

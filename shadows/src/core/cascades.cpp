@@ -5,12 +5,15 @@
 #include <limits>
 
 #include "csm/frustum.hpp"
+#include "csm/ladder.hpp"
 #include "csm/light_space.hpp"
 
 namespace csm {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+// Receiver-driven splits span at least this ratio of far to near.
+constexpr double kMinSpanRatio = 1.1;
 
 std::array<glm::dvec3, 8> aabbCorners(const AabbWs& b) noexcept {
   std::array<glm::dvec3, 8> c{};
@@ -46,12 +49,61 @@ glm::mat4 cameraRelativeViewProj(const glm::dmat3& basis, const glm::dvec3& came
   return m;
 }
 
+// The light direction used for shadows: with settings.lightStepDeg > 0 and a history, the
+// direction last used holds until the light has turned more than the step away from it.
+glm::dvec3 heldLightDirection(const ShadowSettings& settings, const glm::dvec3& directionWs,
+                              CascadeHistory* history, bool& stepped) noexcept {
+  stepped = false;
+  if (history == nullptr || !(settings.lightStepDeg > 0.0)) return directionWs;
+  const glm::dvec3 held = history->heldLightDirectionWs;
+  const bool haveHeld = glm::dot(held, held) > 0.5;
+  const double cosStep = std::cos(glm::radians(settings.lightStepDeg));
+  if (haveHeld && glm::dot(held, directionWs) >= cosStep) return held;
+  if (haveHeld) {
+    stepped = true;
+    ++history->lightStepEvents;
+  }
+  history->heldLightDirectionWs = directionWs;
+  return directionWs;
+}
+
+// Puts the interior splits on the ladder (nearest rung, with hysteresis). If two would meet
+// (a span too short for the ladder's step), the splits stay as computed this frame.
+void ladderSplits(SplitArray& splitsM, std::uint32_t count, double steps, double hysteresis,
+                  CascadeHistory* history, std::array<int, kMaxCascades + 1>& rungs) noexcept {
+  SplitArray laddered = splitsM;
+  for (std::uint32_t i = 1; i < count; ++i) {
+    const int prev = history != nullptr ? history->splitRung[i] : kNoRung;
+    rungs[i] = ladderRungNearestHysteretic(splitsM[i], steps, prev, hysteresis);
+    laddered[i] = ladderValue(rungs[i], steps);
+  }
+  for (std::uint32_t i = 1; i <= count; ++i) {
+    if (!(laddered[i] > laddered[i - 1])) {
+      rungs = detail::noRungs<kMaxCascades + 1>();
+      break;
+    }
+  }
+  if (rungs[1] != kNoRung || count == 1) splitsM = laddered;
+  if (history != nullptr) {
+    for (std::uint32_t i = 1; i < count; ++i) {
+      const int prev = history->splitRung[i];
+      if (prev != kNoRung && rungs[i] != kNoRung && prev != rungs[i]) {
+        ++history->splitRungEvents[i - 1];
+      }
+      history->splitRung[i] = rungs[i];
+    }
+  }
+}
+
 }  // namespace
 
 Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camera& camera,
                                      const DirectionalLight& light, const AabbWs* sceneBounds,
-                                     CascadeHistory* history) {
+                                     CascadeHistory* history, const ReceiverDepthRange* receivers) {
   if (auto e = validate(settings, camera, light)) return *e;
+  if (receivers != nullptr) {
+    if (auto e = validate(*receivers)) return *e;
+  }
   if (sceneBounds != nullptr) {
     if (auto e = validate(*sceneBounds, "sceneBounds")) return *e;
   }
@@ -62,7 +114,8 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   frame.resolution = settings.resolution;
   frame.blendBand = settings.blendBand;
   frame.normalOffsetTexels = settings.normalOffsetTexels;
-  frame.lightDirectionWs = glm::normalize(light.directionWs);
+  frame.lightDirectionWs =
+      heldLightDirection(settings, glm::normalize(light.directionWs), history, frame.lightStepped);
   frame.lightBasisWs = lightBasisWs(frame.lightDirectionWs);
   frame.cameraPositionWs = camera.positionWs;
   const glm::dquat orientation = glm::normalize(camera.orientationWs);
@@ -70,13 +123,39 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   const glm::dmat3& basis = frame.lightBasisWs;
   const glm::dmat3 basisT = glm::transpose(basis);
 
-  // Reset the history when what it quantises against has changed.
+  // The ladder: every length that sets a size moves between its rungs only, with hysteresis.
+  const bool ladder = settings.stabilize && settings.sizeLadder;
+  const double steps = settings.ladderStepsPerOctave;
+  const double hysteresis = settings.ladderHysteresisSteps;
+  // Steps a size up with hysteresis against the history's rung; counts the events.
+  auto rungUp = [&](double lengthM, int* previous, std::uint32_t* events) {
+    const int prev = previous != nullptr ? *previous : kNoRung;
+    const int rung = ladderRungUpHysteretic(lengthM, steps, prev, hysteresis);
+    if (previous != nullptr) {
+      if (prev != kNoRung && prev != rung && events != nullptr) ++*events;
+      *previous = rung;
+    }
+    return rung;
+  };
+
+  // The farthest shadows may reach is the host's setting, exact: where shadows end is not a
+  // size (the last cascade's box is on the ladder), so dragging it moves no texel.
   const double maxFarM = std::min(settings.shadowDistanceM, camera.farM);
+
+  // Reset what was quantised against a maximum or a cascade count that has changed (the rung
+  // event counters and the held light direction carry on).
   if (history != nullptr && (history->shadowFarMaxM != maxFarM || history->cascadeCount != count)) {
-    *history = CascadeHistory{};
+    if (history->cascadeCount != count) {
+      history->sizeRung = detail::noRungs<kMaxCascades>();
+      history->depthRung = detail::noRungs<kMaxCascades>();
+      history->splitRung = detail::noRungs<kMaxCascades + 1>();
+    }
+    history->shadowFarM = 0.0;
+    history->depthNearLs = {};
     history->shadowFarMaxM = maxFarM;
     history->cascadeCount = count;
   }
+  if (history != nullptr) ++history->frames;
 
   // How far receivers reach along the view: the scene's depth interval.
   double sceneMinDepthM = -kInf;
@@ -93,22 +172,59 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
     }
   }
   const bool sceneAhead = sceneMaxDepthM > camera.nearM;
-  // Splits end at the scene's far end, in quantised steps; never closer than 2 x near.
-  const double minFarM = std::min(maxFarM, 2.0 * camera.nearM);
-  const double neededFarM = sceneAhead ? std::min(maxFarM, sceneMaxDepthM) : maxFarM;
+  // Receiver-driven splits: start at the nearest visible receiver (widened, on the ladder, so
+  // the range moving a little moves nothing) and end at the farthest.
+  double splitNearM = camera.nearM;
+  double receiverFarM = kInf;
+  if (receivers != nullptr) {
+    const double margin = settings.receiverDepthMargin;
+    const double wantNearM = receivers->minM * (1.0 - margin);
+    receiverFarM = std::max(receivers->maxM * (1.0 + margin), 2.0 * camera.nearM);
+    // (If that range is thinner than kMinSpanRatio, the splits keep the camera's near.)
+    int rung = kNoRung;
+    if (wantNearM > camera.nearM) {
+      rung = ladderRungDownHysteretic(wantNearM, settings.ladderStepsPerOctave,
+                                      history != nullptr ? history->receiverNearRung : kNoRung,
+                                      settings.ladderHysteresisSteps);
+      const double rungNearM =
+          ladder ? ladderValue(rung, settings.ladderStepsPerOctave) : wantNearM;
+      // Keep at least 10% of depth for the splits, and never before the camera's near.
+      if (rungNearM > camera.nearM && rungNearM * kMinSpanRatio < std::min(receiverFarM, maxFarM)) {
+        splitNearM = rungNearM;
+      } else {
+        rung = kNoRung;
+      }
+    }
+    if (history != nullptr) history->receiverNearRung = rung;
+    frame.receiverDriven = true;
+  } else if (history != nullptr) {
+    history->receiverNearRung = kNoRung;
+  }
+  // Splits end at the scene's (or the visible receivers') far end, in quantised steps; never
+  // closer than 2 x their near end.
+  const double minFarM =
+      std::min(maxFarM, (splitNearM > camera.nearM ? kMinSpanRatio : 2.0) * splitNearM);
+  const double neededFarM =
+      std::min(sceneAhead ? std::min(maxFarM, sceneMaxDepthM) : maxFarM, receiverFarM);
   frame.shadowFarM = quantizedShadowFar(neededFarM, maxFarM, minFarM,
                                         history != nullptr ? history->shadowFarM : 0.0);
   if (history != nullptr) history->shadowFarM = frame.shadowFarM;
   frame.splitsM =
       settings.explicitSplits()
-          ? explicitSplits(camera.nearM, frame.shadowFarM, count, settings.splitPositions)
-          : practicalSplits(camera.nearM, frame.shadowFarM, count, settings.splitLambda);
+          ? explicitSplits(splitNearM, frame.shadowFarM, count, settings.splitPositions)
+          : practicalSplits(splitNearM, frame.shadowFarM, count, settings.splitLambda);
+  std::array<int, kMaxCascades + 1> splitRungs = detail::noRungs<kMaxCascades + 1>();
+  if (ladder) ladderSplits(frame.splitsM, count, steps, hysteresis, history, splitRungs);
 
   const double res = static_cast<double>(settings.resolution);
+  // A box of whole texels whose half side leaves room for the half-texel snap:
+  // h - texel / 2 >= e  <=>  h >= e * res / (res - 1).
+  const double snapMargin = res / (res - 1.0);
   for (std::uint32_t i = 0; i < count; ++i) {
     Cascade& c = frame.cascades[i];
     c.splitNearM = frame.splitsM[i];
     c.splitFarM = frame.splitsM[i + 1];
+    c.splitFarRung = i + 1 < count ? splitRungs[i + 1] : kNoRung;
 
     const SliceSphere sphere =
         minimalSliceSphere(camera.fovYRad, camera.aspect, c.splitNearM, c.splitFarM);
@@ -117,21 +233,52 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
 
     double depthNearLs = 0.0;
     if (settings.stabilize) {
-      // A box of whole texels whose half side leaves room for the half-texel snap:
-      // h - texel / 2 >= r  <=>  h >= r * res / (res - 1).
-      const double half = quantizeLengthUp(c.sphereRadiusM * res / (res - 1.0));
+      // The box's centre before snapping (light space about the world origin) and the half
+      // side it needs: the sphere's, or the slice's own extent where that is smaller.
+      glm::dvec3 centerLs = basisT * c.sphereCenterWs;
+      double neededHalf = c.sphereRadiusM * snapMargin;
+      if (settings.boxFit == BoxFit::kTight) {
+        const auto corners = sliceCornersCr(camera, c.splitNearM, c.splitFarM);
+        glm::dvec2 lo(kInf), hi(-kInf);
+        for (const glm::dvec3& p : corners) {
+          const glm::dvec3 q = basisT * p;
+          lo = glm::min(lo, glm::dvec2(q));
+          hi = glm::max(hi, glm::dvec2(q));
+        }
+        const double tightHalf = 0.5 * std::max(hi.x - lo.x, hi.y - lo.y) * snapMargin;
+        if (tightHalf < neededHalf) {
+          neededHalf = tightHalf;
+          const glm::dvec3 cameraLs = basisT * camera.positionWs;
+          centerLs.x = cameraLs.x + 0.5 * (lo.x + hi.x);
+          centerLs.y = cameraLs.y + 0.5 * (lo.y + hi.y);
+          c.tightFit = true;
+        }
+      }
+      c.neededHalfExtentM = neededHalf;
+      double half = 0.0;
+      if (ladder) {
+        const int prev = history != nullptr ? history->sizeRung[i] : kNoRung;
+        c.sizeRung = rungUp(neededHalf, history != nullptr ? &history->sizeRung[i] : nullptr,
+                            history != nullptr ? &history->sizeRungEvents[i] : nullptr);
+        c.sizeRungChanged = prev != kNoRung && prev != c.sizeRung;
+        half = ladderValue(c.sizeRung, steps);
+        c.depthRung =
+            rungUp(c.sphereRadiusM, history != nullptr ? &history->depthRung[i] : nullptr, nullptr);
+        c.depthFarLs = ladderValue(c.depthRung, steps);
+      } else {
+        half = quantizeLengthUp(neededHalf);
+        c.depthFarLs = c.sphereRadiusM;
+      }
       const double texel = 2.0 * half / res;
       c.halfExtentLs = glm::dvec2(half);
       c.texelSizeLs = glm::dvec2(texel);
       // Snap the centre on the light-space grid anchored at the world origin, in double.
-      const glm::dvec3 centerLs = basisT * c.sphereCenterWs;
       const glm::dvec3 snappedLs(std::round(centerLs.x / texel) * texel,
                                  std::round(centerLs.y / texel) * texel, centerLs.z);
       c.boxCenterWs = basis * snappedLs;
       // Make the box centre's depth exactly the sphere centre's (only x, y are snapped).
       c.boxCenterWs += basis[2] * (centerLs.z - glm::dot(basis[2], c.boxCenterWs));
-      c.depthFarLs = c.sphereRadiusM;
-      depthNearLs = -c.sphereRadiusM;
+      depthNearLs = -c.depthFarLs;
     } else {
       // Tight fit to the slice's light-space bounds; no snapping (the comparison mode).
       const auto corners = sliceCornersCr(camera, c.splitNearM, c.splitFarM);
@@ -146,6 +293,7 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
       c.halfExtentLs = glm::max(glm::dvec2(0.5 * (hi - lo)), glm::dvec2(1e-9));
       c.texelSizeLs = 2.0 * c.halfExtentLs / res;
       c.depthFarLs = std::max(0.5 * (hi.z - lo.z), 1e-9);
+      c.neededHalfExtentM = std::max(c.halfExtentLs.x, c.halfExtentLs.y);
       depthNearLs = -c.depthFarLs;
     }
 

@@ -69,6 +69,24 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
   if (!(s.normalOffsetTexels >= 0.0f) || !std::isfinite(s.normalOffsetTexels)) {
     return refuse("settings.normalOffsetTexels", s.normalOffsetTexels, "a finite number >= 0");
   }
+  if (!(s.ladderStepsPerOctave >= 1.0 && s.ladderStepsPerOctave <= 64.0)) {
+    return refuse("settings.ladderStepsPerOctave", s.ladderStepsPerOctave,
+                  "rungs per doubling in [1, 64]");
+  }
+  if (!(s.ladderHysteresisSteps >= 0.0 && s.ladderHysteresisSteps <= 8.0)) {
+    return refuse("settings.ladderHysteresisSteps", s.ladderHysteresisSteps,
+                  "a number of rungs in [0, 8]");
+  }
+  if (!(s.boxFit == BoxFit::kSphere || s.boxFit == BoxFit::kTight)) {
+    return refuse("settings.boxFit", static_cast<double>(s.boxFit), "0 (sphere) or 1 (tight)");
+  }
+  if (!(s.lightStepDeg >= 0.0 && s.lightStepDeg <= 10.0)) {
+    return refuse("settings.lightStepDeg", s.lightStepDeg, "an angle in degrees in [0, 10]");
+  }
+  if (!(s.receiverDepthMargin >= 0.0 && s.receiverDepthMargin <= 1.0)) {
+    return refuse("settings.receiverDepthMargin", s.receiverDepthMargin,
+                  "a fraction of the range in [0, 1]");
+  }
   if (!(s.minCasterTexels >= 0.0f && s.minCasterTexels <= 1e6f)) {
     return refuse("settings.minCasterTexels", s.minCasterTexels,
                   "a number of texels in [0, 1e6] (0 turns the test off)");
@@ -104,6 +122,16 @@ std::optional<ValidationError> validate(const DirectionalLight& l) {
   const double len = glm::length(l.directionWs);
   if (!(len > 1e-12)) {
     return refuse("light.directionWs (length)", len, "a non-zero direction (length > 1e-12)");
+  }
+  return std::nullopt;
+}
+
+std::optional<ValidationError> validate(const ReceiverDepthRange& r) {
+  if (!(r.minM >= 0.0) || !std::isfinite(r.minM)) {
+    return refuse("receivers.minM", r.minM, "a finite view depth in metres >= 0");
+  }
+  if (!(r.maxM >= r.minM) || !std::isfinite(r.maxM)) {
+    return refuse("receivers.maxM", r.maxM, "a finite view depth in metres >= receivers.minM");
   }
   return std::nullopt;
 }

@@ -106,7 +106,8 @@ Result<CascadeFrame> ShadowView::computeFrame(const Camera& camera, const Direct
                                               CascadeHistory* history) const {
   CascadeHistory own = history_;
   return computeCascades(settings_, camera, light, hasSceneBounds_ ? &sceneBounds_ : nullptr,
-                         history != nullptr ? history : &own);
+                         history != nullptr ? history : &own,
+                         receiverRange_ ? &*receiverRange_ : nullptr);
 }
 
 Status ShadowView::record(VkCommandBuffer cmd, const CascadeFrame& frame) {

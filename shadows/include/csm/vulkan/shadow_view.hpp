@@ -18,6 +18,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -86,6 +87,13 @@ class ShadowView {
   /// Records the pending clear of a new image (hosts without DeviceInfo::queue; see
   /// ShadowRenderer::prepare).
   Status prepare(VkCommandBuffer cmd) { return renderer_->prepare(cmd); }
+  /// The view-depth range of the receivers visible from the camera (as DepthRangeReducer reports
+  /// it, a frame or two late), for receiver-driven splits; nothing (the default, and what a host
+  /// passes after a camera cut or while no result is ready) = the full range. Invalid ranges are
+  /// refused by the next compute, naming the field.
+  void setReceiverDepthRange(std::optional<ReceiverDepthRange> range) noexcept {
+    receiverRange_ = range;
+  }
   /// Forgets the history (after a camera cut, so sizes need not shrink step by step).
   void resetHistory() noexcept { history_ = {}; }
   /// Per-cascade hook of the pass (GPU timestamps, labels): see CascadeHook.
@@ -122,6 +130,7 @@ class ShadowView {
   std::vector<CasterInstance> instances_;
   AabbWs sceneBounds_{};
   bool hasSceneBounds_ = false;
+  std::optional<ReceiverDepthRange> receiverRange_;
   CascadeHistory history_{};
   CascadeFrame frame_{};
   bool computed_ = false;  // frame_ and cull_ hold compute()'s result for recordPass()

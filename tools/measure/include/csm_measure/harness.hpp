@@ -19,6 +19,7 @@
 #include <array>
 #include <map>
 #include <memory>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -105,6 +106,12 @@ class Harness {
   csm::vk::Status configure(const csm::ShadowSettings& settings,
                             const csm::vk::RendererOptions& options = {});
   const csm::ShadowSettings& settings() const { return view_->settings(); }
+
+  /// The visible receivers' view-depth range computeFrame (and timeFrame) pass to
+  /// computeCascades for receiver-driven splits; nothing (the default) = the full range.
+  void setReceiverRange(std::optional<csm::ReceiverDepthRange> range) {
+    view_->setReceiverDepthRange(range);
+  }
 
   /// The view's frame for `camera` with the caller's `history` (scene bounds applied); throws
   /// std::runtime_error naming the refused field on invalid input.

@@ -1,0 +1,308 @@
+#include "csm/vulkan/depth_range.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <string>
+
+#include <csm_shaders/csm_depth_range.comp.spv.h>
+
+namespace csm::vk {
+namespace {
+
+constexpr std::uint32_t kGroup = 16;  // local size of csm_depth_range.comp
+constexpr std::uint32_t kFltMaxBits = 0x7f7fffffu;
+
+struct PushConstants {
+  std::uint32_t extent[2];
+  float p22;
+  float p32;
+  float clearDepth;
+  std::uint32_t slot;
+};
+static_assert(sizeof(PushConstants) == 24);
+
+template <class T>
+std::uint64_t handleBits(T h) {
+  return reinterpret_cast<std::uint64_t>(h);
+}
+
+Status vkError(VkResult r, const char* what) {
+  return Status(
+      ErrorCode::kVulkan,
+      std::string("DepthRangeReducer: ") + what + " failed (" + std::to_string(int(r)) + ")", r);
+}
+
+#define CSM_DR_TRY(call)                                             \
+  do {                                                               \
+    const VkResult csmResult_ = (call);                              \
+    if (csmResult_ != VK_SUCCESS) return vkError(csmResult_, #call); \
+  } while (false)
+
+bool readableLayout(VkImageLayout l) {
+  return l == VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL ||
+         l == VK_IMAGE_LAYOUT_DEPTH_STENCIL_READ_ONLY_OPTIMAL ||
+         l == VK_IMAGE_LAYOUT_READ_ONLY_OPTIMAL || l == VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+}
+
+}  // namespace
+
+std::unique_ptr<DepthRangeReducer> DepthRangeReducer::create(const DeviceInfo& device,
+                                                             std::uint32_t slots, Status* status) {
+  std::unique_ptr<DepthRangeReducer> r(new DepthRangeReducer());
+  const Status s = r->init(device, slots);
+  if (status) *status = s;
+  if (!s.ok()) return nullptr;
+  return r;
+}
+
+void DepthRangeReducer::setName(std::uint64_t handle, VkObjectType type, const char* name) const {
+  if (!setObjectName_ || handle == 0) return;
+  VkDebugUtilsObjectNameInfoEXT info{};
+  info.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT;
+  info.objectType = type;
+  info.objectHandle = handle;
+  info.pObjectName = name;
+  (void)setObjectName_(device_, &info);  // best effort
+}
+
+Status DepthRangeReducer::init(const DeviceInfo& device, std::uint32_t slots) {
+  if (device.physicalDevice == VK_NULL_HANDLE || device.device == VK_NULL_HANDLE) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "DeviceInfo: physicalDevice and device are required");
+  }
+  if (!(slots >= 1 && slots <= kMaxSlots)) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "DepthRangeReducer: slots = " + std::to_string(slots) +
+                      " is invalid: allowed an integer in [1, " + std::to_string(kMaxSlots) + "]");
+  }
+  device_ = device.device;
+  slots_ = slots;
+  const VkDevice dev = device_;
+  if (device.debugUtilsEnabled) {
+    setObjectName_ = reinterpret_cast<PFN_vkSetDebugUtilsObjectNameEXT>(
+        vkGetDeviceProcAddr(dev, "vkSetDebugUtilsObjectNameEXT"));
+  }
+
+  // Set layout: the depth buffer (combined image sampler) and the result slots.
+  {
+    VkDescriptorSetLayoutBinding b[2]{};
+    b[0].binding = 0;
+    b[0].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    b[0].descriptorCount = 1;
+    b[0].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+    b[1].binding = 1;
+    b[1].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    b[1].descriptorCount = 1;
+    b[1].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+    VkDescriptorSetLayoutCreateInfo ci{};
+    ci.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
+    ci.bindingCount = 2;
+    ci.pBindings = b;
+    CSM_DR_TRY(vkCreateDescriptorSetLayout(dev, &ci, nullptr, &setLayout_));
+    setName(handleBits(setLayout_), VK_OBJECT_TYPE_DESCRIPTOR_SET_LAYOUT,
+            "csm depth range set layout");
+  }
+  {
+    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(PushConstants)};
+    VkPipelineLayoutCreateInfo ci{};
+    ci.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
+    ci.setLayoutCount = 1;
+    ci.pSetLayouts = &setLayout_;
+    ci.pushConstantRangeCount = 1;
+    ci.pPushConstantRanges = &range;
+    CSM_DR_TRY(vkCreatePipelineLayout(dev, &ci, nullptr, &pipelineLayout_));
+    setName(handleBits(pipelineLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT,
+            "csm depth range pipeline layout");
+  }
+  {
+    VkShaderModuleCreateInfo ci{};
+    ci.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
+    ci.codeSize = sizeof(csm_depth_range_comp_spv);
+    ci.pCode = csm_depth_range_comp_spv;
+    CSM_DR_TRY(vkCreateShaderModule(dev, &ci, nullptr, &module_));
+    setName(handleBits(module_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth_range.comp");
+    VkComputePipelineCreateInfo pci{};
+    pci.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
+    pci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    pci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    pci.stage.module = module_;
+    pci.stage.pName = "main";
+    pci.layout = pipelineLayout_;
+    CSM_DR_TRY(vkCreateComputePipelines(dev, device.pipelineCache, 1, &pci, nullptr, &pipeline_));
+    setName(handleBits(pipeline_), VK_OBJECT_TYPE_PIPELINE, "csm depth range pipeline");
+  }
+  {
+    VkSamplerCreateInfo ci{};
+    ci.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+    ci.magFilter = VK_FILTER_NEAREST;
+    ci.minFilter = VK_FILTER_NEAREST;
+    ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+    ci.addressModeU = ci.addressModeV = ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+    ci.maxLod = 0.0f;
+    CSM_DR_TRY(vkCreateSampler(dev, &ci, nullptr, &sampler_));
+    setName(handleBits(sampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth range sampler");
+  }
+  // The result buffer: one uvec4 per slot, host-visible and coherent (read back by the CPU).
+  {
+    VkBufferCreateInfo ci{};
+    ci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
+    ci.size = VkDeviceSize(16) * slots;
+    ci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    CSM_DR_TRY(vkCreateBuffer(dev, &ci, nullptr, &buffer_));
+    setName(handleBits(buffer_), VK_OBJECT_TYPE_BUFFER, "csm depth range results");
+    VkMemoryRequirements req{};
+    vkGetBufferMemoryRequirements(dev, buffer_, &req);
+    VkPhysicalDeviceMemoryProperties mem{};
+    vkGetPhysicalDeviceMemoryProperties(device.physicalDevice, &mem);
+    const VkMemoryPropertyFlags want =
+        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    std::uint32_t type = UINT32_MAX;
+    for (std::uint32_t i = 0; i < mem.memoryTypeCount; ++i) {
+      if ((req.memoryTypeBits & (1u << i)) && (mem.memoryTypes[i].propertyFlags & want) == want) {
+        type = i;
+        break;
+      }
+    }
+    if (type == UINT32_MAX) {
+      return Status(ErrorCode::kDeviceLimit,
+                    "DepthRangeReducer: no host-visible coherent memory for the results");
+    }
+    VkMemoryAllocateInfo ai{};
+    ai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
+    ai.allocationSize = req.size;
+    ai.memoryTypeIndex = type;
+    CSM_DR_TRY(vkAllocateMemory(dev, &ai, nullptr, &memory_));
+    setName(handleBits(memory_), VK_OBJECT_TYPE_DEVICE_MEMORY, "csm depth range results memory");
+    CSM_DR_TRY(vkBindBufferMemory(dev, buffer_, memory_, 0));
+    CSM_DR_TRY(vkMapMemory(dev, memory_, 0, VK_WHOLE_SIZE, 0, &mapped_));
+    std::memset(mapped_, 0, std::size_t(16) * slots);
+  }
+  {
+    VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, slots},
+                                     {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, slots}};
+    VkDescriptorPoolCreateInfo ci{};
+    ci.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+    ci.maxSets = slots;
+    ci.poolSizeCount = 2;
+    ci.pPoolSizes = sizes;
+    CSM_DR_TRY(vkCreateDescriptorPool(dev, &ci, nullptr, &pool_));
+    setName(handleBits(pool_), VK_OBJECT_TYPE_DESCRIPTOR_POOL, "csm depth range pool");
+    VkDescriptorSetLayout layouts[kMaxSlots];
+    for (std::uint32_t i = 0; i < slots; ++i) layouts[i] = setLayout_;
+    VkDescriptorSetAllocateInfo ai{};
+    ai.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    ai.descriptorPool = pool_;
+    ai.descriptorSetCount = slots;
+    ai.pSetLayouts = layouts;
+    CSM_DR_TRY(vkAllocateDescriptorSets(dev, &ai, sets_));
+    for (std::uint32_t i = 0; i < slots; ++i) {
+      const std::string name = "csm depth range set " + std::to_string(i);
+      setName(handleBits(sets_[i]), VK_OBJECT_TYPE_DESCRIPTOR_SET, name.c_str());
+    }
+  }
+  return {};
+}
+
+DepthRangeReducer::~DepthRangeReducer() {
+  if (device_ == VK_NULL_HANDLE) return;
+  if (pool_) vkDestroyDescriptorPool(device_, pool_, nullptr);
+  if (memory_) {
+    if (mapped_) vkUnmapMemory(device_, memory_);
+    vkFreeMemory(device_, memory_, nullptr);
+  }
+  if (buffer_) vkDestroyBuffer(device_, buffer_, nullptr);
+  if (sampler_) vkDestroySampler(device_, sampler_, nullptr);
+  if (pipeline_) vkDestroyPipeline(device_, pipeline_, nullptr);
+  if (module_) vkDestroyShaderModule(device_, module_, nullptr);
+  if (pipelineLayout_) vkDestroyPipelineLayout(device_, pipelineLayout_, nullptr);
+  if (setLayout_) vkDestroyDescriptorSetLayout(device_, setLayout_, nullptr);
+}
+
+Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkImageLayout layout,
+                                 VkExtent2D extent, const DepthProjection& projection,
+                                 std::uint32_t slot) {
+  if (!(slot < slots_)) {
+    return Status(ErrorCode::kIndexOutOfRange,
+                  "DepthRangeReducer::record: slot = " + std::to_string(slot) +
+                      " is invalid: allowed [0, " + std::to_string(slots_ - 1) + "]");
+  }
+  if (depthView == VK_NULL_HANDLE || extent.width == 0 || extent.height == 0 ||
+      !readableLayout(layout)) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "DepthRangeReducer::record: a depth view, a non-zero extent and a read-only "
+                  "layout (DEPTH_READ_ONLY, DEPTH_STENCIL_READ_ONLY, READ_ONLY or "
+                  "SHADER_READ_ONLY) are required");
+  }
+  if (!std::isfinite(projection.p22) || !std::isfinite(projection.p32) || projection.p32 == 0.0f) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "DepthRangeReducer::record: projection.p22 and p32 must be finite, p32 != 0");
+  }
+  // The slot's previous submission has completed (the caller's contract): rewrite its set.
+  VkDescriptorImageInfo image{sampler_, depthView, layout};
+  VkDescriptorBufferInfo buffer{buffer_, 0, VK_WHOLE_SIZE};
+  VkWriteDescriptorSet w[2]{};
+  for (int i = 0; i < 2; ++i) {
+    w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    w[i].dstSet = sets_[slot];
+    w[i].dstBinding = std::uint32_t(i);
+    w[i].descriptorCount = 1;
+  }
+  w[0].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  w[0].pImageInfo = &image;
+  w[1].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  w[1].pBufferInfo = &buffer;
+  vkUpdateDescriptorSets(device_, 2, w, 0, nullptr);
+
+  // Reset the slot (min = FLT_MAX, max = count = 0), then reduce.
+  const VkDeviceSize offset = VkDeviceSize(16) * slot;
+  vkCmdFillBuffer(cmd, buffer_, offset, 4, kFltMaxBits);
+  vkCmdFillBuffer(cmd, buffer_, offset + 4, 12, 0u);
+  VkMemoryBarrier2 toCompute{};
+  toCompute.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2;
+  toCompute.srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT | VK_PIPELINE_STAGE_2_COPY_BIT;
+  toCompute.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  toCompute.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  toCompute.dstAccessMask =
+      VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+  VkDependencyInfo dep{};
+  dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  dep.memoryBarrierCount = 1;
+  dep.pMemoryBarriers = &toCompute;
+  vkCmdPipelineBarrier2(cmd, &dep);
+
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout_, 0, 1, &sets_[slot],
+                          0, nullptr);
+  const PushConstants push{
+      {extent.width, extent.height}, projection.p22, projection.p32, projection.clearDepth, slot};
+  vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
+  vkCmdDispatch(cmd, (extent.width + kGroup - 1) / kGroup, (extent.height + kGroup - 1) / kGroup,
+                1);
+
+  VkMemoryBarrier2 toHost{};
+  toHost.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2;
+  toHost.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  toHost.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+  toHost.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
+  toHost.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
+  dep.pMemoryBarriers = &toHost;
+  vkCmdPipelineBarrier2(cmd, &dep);
+  slotGeneration_[slot] = generation_;
+  return {};
+}
+
+std::optional<ReceiverDepthRange> DepthRangeReducer::read(std::uint32_t slot) const {
+  if (!(slot < slots_) || slotGeneration_[slot] != generation_) return std::nullopt;
+  std::uint32_t v[4];
+  std::memcpy(v, static_cast<const char*>(mapped_) + std::size_t(16) * slot, sizeof v);
+  if (v[2] == 0) return std::nullopt;  // no receiver pixel
+  float lo = 0.0f, hi = 0.0f;
+  std::memcpy(&lo, &v[0], 4);
+  std::memcpy(&hi, &v[1], 4);
+  if (!(lo > 0.0f) || !(hi >= lo) || !std::isfinite(hi)) return std::nullopt;
+  return ReceiverDepthRange{double(lo), double(hi)};
+}
+
+}  // namespace csm::vk

@@ -1,0 +1,10 @@
+# Runs ${EXE} ${ARGS} and fails unless it exits with status 2 and names the flag on stderr.
+execute_process(COMMAND ${EXE} ${ARGS} RESULT_VARIABLE rc ERROR_VARIABLE err OUTPUT_QUIET)
+list(GET ARGS 0 flag)
+if(NOT rc EQUAL 2)
+  message(FATAL_ERROR "${EXE} ${ARGS}: exit status ${rc}, expected 2")
+endif()
+string(FIND "${err}" "${flag}" at)
+if(at EQUAL -1)
+  message(FATAL_ERROR "${EXE} ${ARGS}: message does not name ${flag}: ${err}")
+endif()
