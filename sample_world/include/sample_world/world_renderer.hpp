@@ -14,6 +14,7 @@
 
 #include "csm/cascades.hpp"
 #include "csm/culling.hpp"
+#include "csm/vulkan/depth_range.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
 #include "engine/camera.hpp"
 #include "engine/context.hpp"
@@ -93,6 +94,7 @@ class WorldRenderer {
     VkDescriptorSet frameSet = VK_NULL_HANDLE;
   };
   void buildLitPipeline();
+  void recordDepthRange(const engine::Frame& f);
   void buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& tris,
                     std::vector<OverlayVertex>& lines) const;
 
@@ -109,6 +111,9 @@ class WorldRenderer {
   csm::CasterSet casterSet_;
   csm::CullResult cull_;
   csm::CascadeHistory history_{};
+  // Receiver-driven splits (settings.receiverSplits): the depth reduction and its last result.
+  std::unique_ptr<csm::vk::DepthRangeReducer> depthRange_;
+  std::optional<csm::ReceiverDepthRange> receiverRange_;
   csm::CascadeFrame frame_{};
   engine::Camera camera_{};
 
