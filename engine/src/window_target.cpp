@@ -199,7 +199,9 @@ void WindowTarget::createSwapchain() {
     setDebugName(device, sem, name + ".render_done");
   }
   depth_ = Image(*ctx_,
-                 ImageDesc{depthFormat_, extent, 1, 1, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
+                 ImageDesc{depthFormat_, extent, 1, 1,
+                           // Sampled: a host's depth reduction reads it (receiver-driven splits).
+                           VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
                            VK_IMAGE_VIEW_TYPE_2D},
                  prefix + ".depth");
 }

@@ -547,6 +547,13 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
       ImGui::SliderFloat("normal offset", &s.shadow.normalOffsetTexels, 0.0f, 4.0f, "%.2f texels");
   changed |= ImGui::SliderFloat("ambient", &s.ambient, 0.0f, 1.0f);
   changed |= ImGui::Checkbox("stabilise", &s.shadow.stabilize);
+  changed |= ImGui::Checkbox("size ladder", &s.shadow.sizeLadder);
+  bool tight = s.shadow.boxFit == csm::BoxFit::kTight;
+  if (ImGui::Checkbox("tight box", &tight)) {
+    s.shadow.boxFit = tight ? csm::BoxFit::kTight : csm::BoxFit::kSphere;
+    changed = true;
+  }
+  changed |= ImGui::Checkbox("receiver splits", &s.receiverSplits);
   changed |= ImGui::Checkbox("caster LODs", &s.casterLods);
   for (std::uint32_t c = 0; c < s.shadow.cascadeCount; ++c) {
     int lod = static_cast<int>(s.cascadeLod[c]);

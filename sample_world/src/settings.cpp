@@ -162,6 +162,7 @@ const std::vector<Entry>& table() {
                      [](AppSettings& s) -> double& { return s.shadow.ladderHysteresisSteps; }),
       choice("shadow.boxFit", "one of sphere, tight", kBoxFits,
              [](AppSettings& s) -> csm::BoxFit& { return s.shadow.boxFit; }),
+      boolean("shadow.receiverSplits", [](AppSettings& s) -> bool& { return s.receiverSplits; }),
       number<double>("shadow.lightStep", "degrees in [0, 10] (0 = the exact sun)", 0, 10, false,
                      [](AppSettings& s) -> double& { return s.shadow.lightStepDeg; }),
       boolean("lod.enabled", [](AppSettings& s) -> bool& { return s.casterLods; }),

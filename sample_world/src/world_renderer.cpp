@@ -270,8 +270,14 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   const bool resetHistory = !applied_ ||
                             settings.shadow.cascadeCount != settings_.shadow.cascadeCount ||
                             settings.shadow.stabilize != settings_.shadow.stabilize;
+  const bool rangeCut = resetHistory || settings.receiverSplits != settings_.receiverSplits;
   settings_ = settings;
   applied_ = true;
+  if (rangeCut) {
+    // A cut for the receiver range too: earlier depth ranges are dropped.
+    if (depthRange_) depthRange_->invalidate();
+    receiverRange_.reset();
+  }
   if (resetHistory) shadow_->resetHistory();
   buildLitPipeline();
   return std::nullopt;
@@ -290,6 +296,7 @@ std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, 
 
   // The shadows: cascades for this camera, and the casters culled into them.
   auto t0 = Clock::now();
+  shadow_->setReceiverDepthRange(settings_.receiverSplits ? receiverRange_ : std::nullopt);
   const csm::vk::Status r = shadow_->compute(c, light);
   stats.cpuSetupMs = msSince(t0);
   if (!r.ok()) return r.message();
@@ -363,6 +370,9 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
   const auto t0 = Clock::now();
   VkCommandBuffer cmd = f.cmd;
   Slot& slot = slots_[f.slot];
+  // This slot's last depth-range result is complete (its fence passed in beginFrame): the next
+  // prepare() uses it. Nothing (first frames, after a cut, only sky): the full split range.
+  if (settings_.receiverSplits && depthRange_) receiverRange_ = depthRange_->read(f.slot);
 
   // ---- Shadow pass: each cascade draws its culled clusters at its LOD (the module's LODs) -----
   shadow_->setUniformOptions({settings_.debug, settings_.worldSpaceKernel});
@@ -462,7 +472,41 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
     timer.end(cmd, "overlay");
   }
   vkCmdEndRendering(cmd);
+  if (settings_.receiverSplits) recordDepthRange(f);
   stats.cpuRecordMs = msSince(t0);
+}
+
+void WorldRenderer::recordDepthRange(const engine::Frame& f) {
+  // Receiver-driven splits: reduce this frame's depth buffer to the visible receivers' view-depth
+  // range; the frame that next reuses this slot (its fence passed) reads it for the following
+  // prepare(), so the splits follow the depth of a frame kFramesInFlight + 1 frames old.
+  if (!depthRange_) {
+    csm::vk::Status st;
+    depthRange_ =
+        csm::vk::DepthRangeReducer::create(shadowDeviceInfo(*ctx_), engine::kFramesInFlight, &st);
+    if (!depthRange_) throw std::runtime_error("DepthRangeReducer::create: " + st.message());
+  }
+  VkCommandBuffer cmd = f.cmd;
+  const VkImageAspectFlags aspect = VK_IMAGE_ASPECT_DEPTH_BIT;
+  engine::imageBarrier(
+      cmd, f.depthImage, aspect,
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+      VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+      VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
+  const glm::mat4 proj = camera_.projection();
+  const csm::vk::DepthProjection dp{proj[2][2], proj[3][2], 1.0f};
+  const csm::vk::Status s = depthRange_->record(
+      cmd, f.depthView, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, f.extent, dp, f.slot);
+  if (!s.ok()) throw std::runtime_error("DepthRangeReducer::record: " + s.message());
+  // Back to the layout the render target expects at endFrame.
+  engine::imageBarrier(
+      cmd, f.depthImage, aspect, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+      VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
 }
 
 void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& tris,

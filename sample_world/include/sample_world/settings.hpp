@@ -34,6 +34,9 @@ struct AppSettings {
   float ambient = 0.3f;
   /// Far cascades draw simplified caster meshes: cascade c draws LOD cascadeLod[c].
   bool casterLods = true;
+  /// Receiver-driven splits: the splits follow the visible receivers' depth range, reduced on
+  /// the GPU from the lit pass's depth buffer (csm::vk::DepthRangeReducer) a few frames late.
+  bool receiverSplits = false;
   std::array<std::uint32_t, csm::kMaxCascades> cascadeLod{};
   csm::DebugMode debug = csm::DebugMode::kNone;
   /// The cascade-visualisation overlay and its parts.
