@@ -1,0 +1,240 @@
+// Bias against the ray-traced truth: acne (false shadow on lit surfaces facing the light, away
+// from true shadow edges) and leaks (false light within 2 texels of contact lines), over light
+// elevations from 1 to 90 degrees, several azimuths, D32 and D16, every PCF kernel and
+// resolutions 512-4096 (8192 with CSM_BIAS_FULL=1), on the rolling-terrain test scene (buildings,
+// poles, crates, floating spheres) and on an analytic field of thin poles on flat ground.
+// Writes test_artefacts/stability/bias.json ({"cases":[...]}) and a few PNGs with the errors.
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <string>
+
+#include <csm_measure/bias_metrics.hpp>
+
+#include "stability_common.hpp"
+
+namespace csm_stability {
+namespace {
+
+constexpr VkExtent2D kView{320, 180};
+
+// Acne bound of the issue: 0.05% of the interior lit facing pixels, at default bias settings.
+constexpr double kMaxAcne = 0.0005;
+
+/// Direction the light travels for a sun `elevationDeg` above the horizon, from `azimuthDeg`
+/// (0 = from +z, 90 = from +x). Exactly straight down at 90.
+glm::dvec3 sunDirection(double elevationDeg, double azimuthDeg) {
+  if (elevationDeg >= 90.0) return glm::dvec3(0.0, -1.0, 0.0);
+  const double e = glm::radians(elevationDeg);
+  const double a = glm::radians(azimuthDeg);
+  const glm::dvec3 toLight(std::cos(e) * std::sin(a), std::sin(e), std::cos(e) * std::cos(a));
+  return -toLight;
+}
+
+/// Flat ground with a field of thin square poles (8 to 50 cm wide, 1.5 to 6 m tall): their flat
+/// tops face a vertical sun head-on, their feet make contact lines at every elevation.
+csm_measure::Scene makePoleScene() {
+  csm_measure::Scene scene;
+  const uint32_t ground = scene.addMesh(csm_measure::makeGroundMesh(false, 80.0, 8, 0.0, -10.0));
+  const uint32_t cube = scene.addMesh(csm_measure::makeCubeMesh());
+  scene.addInstance({ground,
+                     glm::dvec3(0.0),
+                     glm::mat3(1.0f),
+                     {0.6f, 0.6f, 0.55f, 1.0f},
+                     csm_measure::InstanceKind::kGround});
+  const double widths[] = {0.08, 0.12, 0.2, 0.3, 0.5};
+  for (int row = 0; row < 6; ++row) {
+    for (int col = 0; col < 7; ++col) {
+      const double w = widths[size_t((row + col) % 5)];
+      const double h = 1.5 + 0.75 * double((row * 3 + col) % 7);
+      const glm::dvec3 c(-9.0 + 3.0 * col + 0.7 * (row % 2), 0.5 * h, 4.0 - 4.0 * row);
+      glm::mat3 m(1.0f);
+      m[0][0] = float(w);
+      m[1][1] = float(h);
+      m[2][2] = float(w);
+      scene.addInstance({cube, c, m, {0.35f, 0.35f, 0.4f, 1.0f}, csm_measure::InstanceKind::kPole});
+    }
+  }
+  return scene;
+}
+
+csm::Camera poleCamera() {
+  engine::Camera e;
+  e.positionWs = glm::dvec3(0.0, 8.0, 12.0);
+  e.lookAt(glm::dvec3(0.0, 0.0, -6.0));
+  csm::Camera c;
+  c.positionWs = e.positionWs;
+  c.orientationWs = e.orientation;
+  c.fovYRad = glm::radians(60.0);
+  c.aspect = double(kView.width) / kView.height;
+  c.nearM = 0.1;
+  c.farM = 1000.0;
+  return c;
+}
+
+struct Variant {
+  VkFormat format;
+  csm::PcfKernel kernel;
+};
+
+const char* formatName(VkFormat f) {
+  return f == VK_FORMAT_D16_UNORM ? "D16" : "D32";
+}
+
+struct View {
+  double elevation;
+  double azimuth;
+  uint32_t resolution;
+  std::vector<Variant> variants;
+};
+
+constexpr double kElevations[] = {1.0, 2.0, 5.0, 10.0, 30.0, 60.0, 89.0, 89.999, 90.0};
+
+// The matrix (about 130 renders per scene at 320x180; see README):
+//  - every elevation x azimuths {30, 210} at 1024^2: tent 3x3 (the default kernel), D32 and D16;
+//  - elevations {1, 10, 60, 90} at azimuth 30, 1024^2, D32 and D16: the other four kernels;
+//  - elevations {2, 30, 89.999} at azimuth 30: 512^2 and 4096^2 (and 8192^2 with CSM_BIAS_FULL),
+//    tent 3x3, D32 and D16.
+std::vector<View> viewMatrix() {
+  const bool full = std::getenv("CSM_BIAS_FULL") != nullptr;
+  const VkFormat formats[] = {VK_FORMAT_D32_SFLOAT, VK_FORMAT_D16_UNORM};
+  std::vector<View> views;
+  for (double e : kElevations) {
+    for (double az : {30.0, 210.0}) {
+      View v{e, az, 1024, {}};
+      for (VkFormat f : formats) v.variants.push_back({f, csm::PcfKernel::kTent3});
+      if (az == 30.0 && (e == 1.0 || e == 10.0 || e == 60.0 || e == 90.0)) {
+        for (csm::PcfKernel k : {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent5,
+                                 csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16}) {
+          for (VkFormat f : formats) v.variants.push_back({f, k});
+        }
+      }
+      views.push_back(v);
+    }
+  }
+  std::vector<uint32_t> resolutions = {512u, 4096u};
+  if (full) resolutions.push_back(8192u);
+  for (uint32_t res : resolutions) {
+    for (double e : {2.0, 30.0, 89.999}) {
+      View v{e, 30.0, res, {}};
+      for (VkFormat f : formats) v.variants.push_back({f, csm::PcfKernel::kTent3});
+      views.push_back(v);
+    }
+  }
+  return views;
+}
+
+struct Totals {
+  uint64_t litInterior = 0, litInteriorDark = 0, contact = 0, contactLit = 0;
+};
+
+TEST(StabilityBias, NoAcneAndBoundedLeaksAtEveryElevationFormatKernelAndResolution) {
+  nlohmann::json report;
+  report["cases"] = nlohmann::json::array();
+  // Worst acne and leaks per elevation (over azimuths, formats, kernels, resolutions, scenes).
+  std::map<double, double> worstAcne, worstLeak;
+  std::map<double, Totals> perElevation;
+  {
+    CSM_MAKE_HARNESS(harness);
+    struct SceneSetup {
+      const char* name;
+      csm_measure::Scene scene;
+      csm::Camera camera;
+    };
+    std::vector<SceneSetup> scenes;
+    {
+      csm_measure::TestSceneDesc td;  // rolling terrain, buildings, poles, crates, spheres
+      scenes.push_back({"terrain", csm_measure::Scene::makeTestScene(td),
+                        baseCamera(td.originWs, double(kView.width) / kView.height)});
+      scenes.push_back({"poles", makePoleScene(), poleCamera()});
+    }
+    for (SceneSetup& sc : scenes) {
+      harness->setScene(sc.scene);
+      const csm_measure::RayTracer tracer(sc.scene);
+      for (const View& view : viewMatrix()) {
+        csm::DirectionalLight light;
+        light.directionWs = sunDirection(view.elevation, view.azimuth);
+        csm::ShadowSettings settings = testSettings(true);
+        settings.resolution = view.resolution;
+        csm_measure::BiasTruth truth;
+        bool haveTruth = false;
+        for (const Variant& var : view.variants) {
+          csm::vk::RendererOptions opt;
+          opt.depthFormat = var.format;
+          CSM_ASSERT_STATUS(harness->configure(settings, opt));
+          csm::CascadeHistory history;
+          const csm::CascadeFrame frame = harness->computeFrame(sc.camera, light, history);
+          engine::CpuImage image;
+          const auto pixels =
+              harness->renderAccuracy(sc.camera, frame, kView, var.kernel, true, &image);
+          if (!haveTruth) {
+            truth = csm_measure::computeBiasTruth(pixels, kView.width, kView.height, frame, tracer,
+                                                  light);
+            haveTruth = true;
+          }
+          const csm_measure::BiasStats st = csm_measure::scoreBias(pixels, truth);
+          EXPECT_EQ(st.nonFinite, 0u);
+          EXPECT_EQ(st.unmatched, 0u);
+          nlohmann::json j = {{"scene", sc.name},
+                              {"elevation_deg", view.elevation},
+                              {"azimuth_deg", view.azimuth},
+                              {"format", formatName(var.format)},
+                              {"kernel", csm::kernelName(var.kernel)},
+                              {"resolution", view.resolution},
+                              {"false_shadow_lit_facing", st.acne()},
+                              {"false_shadow_lit_facing_incl_edges", st.acneRaw()},
+                              {"false_lit_near_contact", st.leaks()},
+                              {"counts", st.toJson()}};
+          report["cases"].push_back(j);
+          std::printf(
+              "%-7s elev %7.3f az %5.1f %s %-9s %4u: acne %.4f%% (%llu/%llu) raw %.3f%% leaks "
+              "%.2f%% (%llu/%llu)\n",
+              sc.name, view.elevation, view.azimuth, formatName(var.format),
+              csm::kernelName(var.kernel), view.resolution, 100.0 * st.acne(),
+              (unsigned long long)st.litInteriorDark, (unsigned long long)st.litInterior,
+              100.0 * st.acneRaw(), 100.0 * st.leaks(), (unsigned long long)st.contactLit,
+              (unsigned long long)st.contact);
+          std::fflush(stdout);
+          worstAcne[view.elevation] = std::max(worstAcne[view.elevation], st.acne());
+          worstLeak[view.elevation] = std::max(worstLeak[view.elevation], st.leaks());
+          Totals& t = perElevation[view.elevation];
+          t.litInterior += st.litInterior;
+          t.litInteriorDark += st.litInteriorDark;
+          t.contact += st.contact;
+          t.contactLit += st.contactLit;
+          EXPECT_GT(st.litInterior, 1000u) << sc.name << " elevation " << view.elevation;
+          EXPECT_LE(st.acne(), kMaxAcne)
+              << sc.name << " elevation " << view.elevation << " azimuth " << view.azimuth << " "
+              << formatName(var.format) << " " << csm::kernelName(var.kernel) << " "
+              << view.resolution;
+          // One picture per scene and elevation (default kernel and format, 1024^2, azimuth 30).
+          if (var.format == VK_FORMAT_D32_SFLOAT && var.kernel == csm::PcfKernel::kTent3 &&
+              view.resolution == 1024 && view.azimuth == 30.0) {
+            csm_measure::paintBiasErrors(image, pixels, truth);
+            char name[128];
+            std::snprintf(name, sizeof(name), "/bias_%s_elev%g.png", sc.name, view.elevation);
+            engine::writePng(artefactDir() + name, image);
+          }
+        }
+      }
+    }
+  }
+  EXPECT_EQ(engine::validationMessageCount(), 0u);
+  std::printf("elevation  worst acne   worst leaks   pooled acne   pooled leaks\n");
+  for (const auto& [e, t] : perElevation) {
+    std::printf("%9.3f  %9.4f%%  %10.2f%%  %10.4f%%  %11.2f%%\n", e, 100.0 * worstAcne[e],
+                100.0 * worstLeak[e],
+                t.litInterior ? 100.0 * double(t.litInteriorDark) / double(t.litInterior) : 0.0,
+                t.contact ? 100.0 * double(t.contactLit) / double(t.contact) : 0.0);
+  }
+  report["what"] =
+      "false_shadow_lit_facing: among receiver pixels (320x180) facing the light (N.L > 0.1) that "
+      "Embree says are lit and that have no true shadow within 6 texels across the light, the "
+      "fraction shaded < 0.5 (acne); _incl_edges: the same over every lit facing pixel (PCF "
+      "edge blur included). false_lit_near_contact: among pixels Embree says are shadowed with "
+      "other geometry within 2 texels along their surface, the fraction shaded > 0.5 (leaks).";
+  csm_measure::writeJson(artefactDir() + "/bias.json", report);
+}
+
+}  // namespace
+}  // namespace csm_stability
