@@ -8,6 +8,7 @@ namespace csm_measure {
 namespace {
 
 constexpr int kDirections = 8;
+constexpr int kDiskPoints = 64;
 
 bool finitePixel(const PixelSample& p) {
   return std::isfinite(p.posWs.x) && std::isfinite(p.posWs.y) && std::isfinite(p.posWs.z) &&
@@ -59,8 +60,10 @@ BiasTruth computeBiasTruth(std::span<const PixelSample> pixels, uint32_t width, 
   std::vector<float> vis(pos.size());
   tracer.visibility(pos, nrm, light.directionWs, vis);
 
-  // Lit facing pixels: probe the truth around them, kDirections points edgeRadius texels away
-  // across the light, each moved along the light back onto the pixel's tangent plane.
+  // Lit facing pixels: probe the truth over the disk of edgeRadius texels around them across the
+  // light (a Vogel spiral of kDiskPoints: neighbours about 1.3 texels apart, so that thin shadows,
+  // a pole's, cannot slip between them), each point moved along the light back onto the pixel's
+  // tangent plane (what a PCF tap compares against, with a perfect receiver-plane bias).
   std::vector<glm::dvec3> ringPos;
   std::vector<glm::vec3> ringNrm;
   std::vector<size_t> ringOwner;
@@ -70,9 +73,10 @@ BiasTruth computeBiasTruth(std::span<const PixelSample> pixels, uint32_t width, 
     const double nl = glm::dot(n, toLight);
     if (vis[k] < 0.5f || !(nl > desc.minFacing)) continue;
     const double r = desc.edgeRadiusTexels * pixelTexel(p, frame);
-    for (int d = 0; d < kDirections; ++d) {
-      const double a = 6.283185307179586 * d / kDirections;
-      const glm::dvec3 step = r * (std::cos(a) * lu + std::sin(a) * lv);
+    for (int d = 0; d < kDiskPoints; ++d) {
+      const double a = 2.399963229728653 * d;  // golden angle
+      const double rd = r * std::sqrt((d + 0.5) / kDiskPoints);
+      const glm::dvec3 step = rd * (std::cos(a) * lu + std::sin(a) * lv);
       const double t = -glm::dot(n, step) / nl;
       ringPos.push_back(p.posWs + step + t * toLight);
       ringNrm.push_back(glm::vec3(n));

@@ -30,8 +30,9 @@ struct BiasTruthDesc {
   /// Smallest N.L of a pixel that counts as facing the light (the 0.1).
   double minFacing = 0.1;
   /// A lit pixel with a true shadow within this many texels (of its cascade, measured across the
-  /// light in light space) is "near an edge": PCF blurs edges by the kernel's reach, so darkening
-  /// there is filtering, not acne. 6 = the widest kernel (tent 7x7, 3.5) + bilinear (1) + margin.
+  /// light in light space; 64 points over the disk) is "near an edge": PCF blurs edges by the
+  /// kernel's reach, so darkening there is filtering, not acne. 6 = the widest kernel (tent
+  /// 7x7, 3.5) + bilinear (1) + margin.
   double edgeRadiusTexels = 6.0;
   /// Contact lines: a shadowed pixel with other geometry within this many texels along its own
   /// surface (8 directions in the tangent plane) lies next to a contact line.
