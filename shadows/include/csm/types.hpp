@@ -34,8 +34,11 @@ struct ShadowSettings {
   double blendBand = 0.1;
   /// Constant depth bias, in units of the depth format's minimum resolvable difference, >= 0.
   float depthBiasConstant = 1.0f;
-  /// Slope-scaled depth bias (depthBiasSlopeFactor), >= 0.
-  float depthBiasSlope = 1.5f;
+  /// Slope-scaled depth bias of the depth pass (depthBiasSlopeFactor), >= 0. 0 by default: the
+  /// shader's normal offset already covers the receiver's slope over the kernel's reach, and a
+  /// raster slope bias only pushes steep casters (walls under a high sun) away from their
+  /// receivers, which lights the ground next to them (measured: README, "Bias").
+  float depthBiasSlope = 0.0f;
   /// Normal-offset bias, as a multiple of the PCF kernel's reach: the shader moves the receiver
   /// along its normal by normalOffsetTexels x reach (texels: the kernel's radius, at least 1) x
   /// the cascade's texel size (m) x sin(angle between normal and light). That puts the receiver

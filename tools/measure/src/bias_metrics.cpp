@@ -121,8 +121,10 @@ BiasTruth computeBiasTruth(std::span<const PixelSample> pixels, uint32_t width, 
   return truth;
 }
 
-BiasStats scoreBias(std::span<const PixelSample> pixels, const BiasTruth& truth) {
+BiasStats scoreBias(std::span<const PixelSample> pixels, const BiasTruth& truth,
+                    const csm::DirectionalLight& light, double minFacing) {
   BiasStats st;
+  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
   std::vector<uint8_t> seen(truth.cls.size(), 0);
   for (const PixelSample& p : pixels) {
     if (p.x >= truth.width || p.y >= truth.height) continue;
@@ -138,6 +140,7 @@ BiasStats scoreBias(std::span<const PixelSample> pixels, const BiasTruth& truth)
       case BiasClass::kLitInterior:
         ++st.litInterior;
         st.litInteriorDark += dark ? 1 : 0;
+        st.litInteriorDimmed += p.shadow < 0.9f ? 1 : 0;
         [[fallthrough]];
       case BiasClass::kLitNearEdge:
         ++st.litFacing;
@@ -146,6 +149,10 @@ BiasStats scoreBias(std::span<const PixelSample> pixels, const BiasTruth& truth)
       case BiasClass::kShadowContact:
         ++st.contact;
         st.contactLit += p.shadow > 0.5f ? 1 : 0;
+        if (glm::dot(glm::normalize(glm::dvec3(p.normalWs)), toLight) > minFacing) {
+          ++st.contactFacing;
+          st.contactFacingLit += p.shadow > 0.5f ? 1 : 0;
+        }
         break;
       default:
         break;
@@ -158,10 +165,17 @@ BiasStats scoreBias(std::span<const PixelSample> pixels, const BiasTruth& truth)
 }
 
 nlohmann::json BiasStats::toJson() const {
-  return {{"lit_facing", litFacing},     {"lit_facing_dark", litFacingDark},
-          {"lit_interior", litInterior}, {"lit_interior_dark", litInteriorDark},
-          {"contact", contact},          {"contact_lit", contactLit},
-          {"non_finite", nonFinite},     {"unmatched", unmatched}};
+  return {{"lit_facing", litFacing},
+          {"lit_facing_dark", litFacingDark},
+          {"lit_interior", litInterior},
+          {"lit_interior_dark", litInteriorDark},
+          {"lit_interior_dimmed", litInteriorDimmed},
+          {"contact", contact},
+          {"contact_lit", contactLit},
+          {"contact_facing", contactFacing},
+          {"contact_facing_lit", contactFacingLit},
+          {"non_finite", nonFinite},
+          {"unmatched", unmatched}};
 }
 
 void paintBiasErrors(engine::CpuImage& image, std::span<const PixelSample> pixels,

@@ -59,13 +59,23 @@ struct BiasStats {
   uint64_t litFacingDark = 0;  ///< of those, shaded < 0.5 (the issue's raw definition)
   uint64_t litInterior = 0;
   uint64_t litInteriorDark = 0;  ///< acne: interior lit pixels shaded < 0.5
-  uint64_t contact = 0;          ///< kShadowContact
-  uint64_t contactLit = 0;       ///< leaks: of those, shaded > 0.5
-  uint64_t nonFinite = 0;        ///< shadow factors that are NaN / inf
-  uint64_t unmatched = 0;        ///< pixels whose truth class is missing (different raster)
+  /// Interior lit pixels shaded < 0.9: faint acne (dots of 0.8) that the 0.5 threshold misses.
+  uint64_t litInteriorDimmed = 0;
+  uint64_t contact = 0;     ///< kShadowContact
+  uint64_t contactLit = 0;  ///< leaks: of those, shaded > 0.5
+  /// Contact pixels that face the light (N.L > minFacing), where shading can show a leak, and
+  /// those of them shaded > 0.5.
+  uint64_t contactFacing = 0;
+  uint64_t contactFacingLit = 0;
+  uint64_t nonFinite = 0;  ///< shadow factors that are NaN / inf
+  uint64_t unmatched = 0;  ///< pixels whose truth class is missing (different raster)
   /// Acne as a fraction of the interior lit pixels.
   [[nodiscard]] double acne() const noexcept {
     return litInterior ? double(litInteriorDark) / double(litInterior) : 0.0;
+  }
+  /// Faint acne: interior lit pixels shaded < 0.9.
+  [[nodiscard]] double dimmed() const noexcept {
+    return litInterior ? double(litInteriorDimmed) / double(litInterior) : 0.0;
   }
   /// The raw "false_shadow_lit_facing" (edges included).
   [[nodiscard]] double acneRaw() const noexcept {
@@ -75,11 +85,16 @@ struct BiasStats {
   [[nodiscard]] double leaks() const noexcept {
     return contact ? double(contactLit) / double(contact) : 0.0;
   }
+  /// Leaks where the surface faces the light (N.L > 0.1).
+  [[nodiscard]] double leaksFacing() const noexcept {
+    return contactFacing ? double(contactFacingLit) / double(contactFacing) : 0.0;
+  }
   [[nodiscard]] nlohmann::json toJson() const;
 };
 
 /// Scores a rendered view against its truth.
-BiasStats scoreBias(std::span<const PixelSample> pixels, const BiasTruth& truth);
+BiasStats scoreBias(std::span<const PixelSample> pixels, const BiasTruth& truth,
+                    const csm::DirectionalLight& light, double minFacing = 0.1);
 
 /// Paints the view's misclassifications over `image` (from renderAccuracy): acne red, leaks
 /// blue, near-edge darkening dark red (not counted as acne), contact pixels a faint cyan.
