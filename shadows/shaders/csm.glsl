@@ -39,6 +39,7 @@ layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniform
   vec4 lightDirection;  // xyz direction the light travels
   vec4 params;          // x blend band, y normal offset (texels), z resolution, w 1 / resolution
   uvec4 counts;         // x cascade count, y non-empty mask, z debug mode
+  vec4 biasParams;      // x depth floor (texels), y depth floor (units of stored depth)
 } csmU;
 
 #ifndef CSM_UNIFORMS_ONLY
@@ -176,17 +177,28 @@ float csmPcfPoisson(vec2 t, float scale, float layer, float depth, vec2 pixel) {
   return sum / 16.0;
 }
 
-/// Shadow-map coordinates of a receiver in cascade i, normal offset applied: xy in texels, z the
-/// depth to compare. The offset grows with the cascade's texel size, the kernel's radius and the
-/// sine of the angle between normal and light (zero when the light hits head-on).
+/// Shadow-map coordinates of a receiver in cascade i, bias applied: xy in texels, z the depth to
+/// compare. The bias needs no tuning per scene, light angle, resolution or depth format:
+///  - normal offset: the receiver moves along its normal by params.y x reach x texel x sin(theta)
+///    (theta: angle between normal and light; reach: how far the kernel reads, in texels). That
+///    puts it reach x texel x tan(theta) in front of its own plane along the light, which is how
+///    much the plane's stored depth varies over the texels the kernel reads; moved sideways by at
+///    most reach x texel (bounded even at grazing light, unlike a depth-only tan(theta) bias);
+///  - depth floor: biasParams.x texels of the cascade (metres) plus biasParams.y units of stored
+///    depth (the format's quantum: a D16 step or 16 ulp of D32), toward the light. It is all that
+///    remains when the light hits a surface head-on (theta = 0).
+/// Receivers facing away from the light (cos theta <= 0) get the largest normal offset; csmShadow
+/// does not sample for them at all. Usable by any kernel (the offset follows csmKernelRadius()).
 vec3 csmShadowCoord(int i, vec3 posCr, vec3 normalWs) {
   const vec4 st = csmU.cascades[i].splitTexel;
-  const float cosTheta = clamp(dot(normalWs, -csmU.lightDirection.xyz), -1.0, 1.0);
+  const float cosTheta = clamp(dot(normalWs, -csmU.lightDirection.xyz), 0.0, 1.0);
   const float sinTheta = sqrt(max(1.0 - cosTheta * cosTheta, 0.0));
-  const float radiusTexels = max(csmKernelRadius() * st.w, 1.0);
-  const float offsetM = csmU.params.y * st.z * radiusTexels * sinTheta;
+  const float reachTexels = max(csmKernelRadius() * st.w, 1.0);
+  const float offsetM = csmU.params.y * st.z * reachTexels * sinTheta;
   const vec4 clip = csmU.cascades[i].viewProjCr * vec4(posCr + normalWs * offsetM, 1.0);
-  return vec3((clip.xy * 0.5 + 0.5) * csmU.params.z, clip.z);
+  const float metresPerDepth = max(csmU.cascades[i].depthInfo.y, 1e-30);
+  const float floorDepth = csmU.biasParams.x * st.z / metresPerDepth + csmU.biasParams.y;
+  return vec3((clip.xy * 0.5 + 0.5) * csmU.params.z, clip.z - floorDepth);
 }
 
 /// Filtered shadow factor of cascade i at a receiver: 1 lit, 0 in shadow.
@@ -199,9 +211,14 @@ float csmSampleCascade(int i, vec3 posCr, vec3 normalWs, vec2 pixel) {
   return csmPcfTent(c.xy, scale, layer, c.z);
 }
 
-/// The shadow factor of a receiver: 1 lit, 0 in shadow; outside every cascade 1. `pixel` seeds
+/// The shadow factor of a receiver: 1 lit, 0 in shadow; outside every cascade 1; 0 where the
+/// normal faces away from the light (N.L <= 0), inside or outside the cascades. `pixel` seeds
 /// the Poisson rotation (gl_FragCoord.xy in a fragment shader, the invocation's 2D id elsewhere).
 float csmShadow(vec3 posCr, vec3 normalWs, vec2 pixel) {
+  // Facing away from the light: in shadow by its own shading. 0 without sampling, so that the
+  // shadow test can neither light such a surface nor add noise to it (the map holds the
+  // surface's own depth there, or that of the lit side in front of it: a near tie).
+  if (!(dot(normalWs, -csmU.lightDirection.xyz) > 0.0)) return 0.0;
   const CsmSelection sel = csmSelectCascade(csmViewDepth(posCr));
   if (sel.index < 0) return 1.0;
   float s = csmSampleCascade(sel.index, posCr, normalWs, pixel);

@@ -66,6 +66,10 @@ struct CsmUniforms {
   glm::vec4 params{0.0f};
   /// x: cascade count, y: bit mask of non-empty cascades, z: debug mode (DebugMode), w: 0.
   glm::uvec4 counts{0u};
+  /// Bias of the shadow test beyond the normal offset (params.y): x depth floor in texels of the
+  /// receiver's cascade (ShadowSettings::depthFloorTexels), y depth floor in units of stored
+  /// depth (the depth format's quantum, depthQuantum()), z, w: 0.
+  glm::vec4 biasParams{0.0f};
 };
 
 /// Per-frame choices that go into the block besides the cascades and the settings.
@@ -75,7 +79,16 @@ struct UniformOptions {
   /// Keep the PCF kernel the same size in metres in every cascade (that of cascade 0): tap
   /// spacing in cascade i becomes texel_0 / texel_i texels. Off: the same size in texels.
   bool worldSpaceKernel = false;
+  /// Bits of the shadow map's depth format (16: D16_UNORM, 32: D32_SFLOAT): sets the depth floor
+  /// the shader adds for the format's quantisation (depthQuantum()). The renderer fills it in.
+  std::uint32_t depthBits = 32;
 };
+
+/// The smallest depth difference (units of stored depth, [0, 1]) that the shadow test can trust
+/// with a depth format of `depthBits` bits: one step of D16_UNORM (the map rounds to nearest, the
+/// receiver does not), 16 ulp at depth 1 of D32_SFLOAT (float error of the receiver's
+/// camera-relative position and of the light matrix, and of the caster's rasteriser).
+[[nodiscard]] float depthQuantum(std::uint32_t depthBits) noexcept;
 
 /// Packs one frame's cascades for the shader. `frame` must come from computeCascades() with the
 /// same `settings` (blend band, normal offset and resolution are taken from `settings`). Empty

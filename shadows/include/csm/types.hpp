@@ -45,11 +45,23 @@ struct ShadowSettings {
   double blendBand = 0.1;
   /// Constant depth bias, in units of the depth format's minimum resolvable difference, >= 0.
   float depthBiasConstant = 1.0f;
-  /// Slope-scaled depth bias (depthBiasSlopeFactor), >= 0.
-  float depthBiasSlope = 1.5f;
-  /// Normal-offset bias in texels of the receiver's cascade (scaled in the shader by the
-  /// cascade's texel size and the kernel radius), >= 0.
-  float normalOffsetTexels = 1.0f;
+  /// Slope-scaled depth bias of the depth pass (depthBiasSlopeFactor), >= 0. 0 by default: the
+  /// shader's normal offset already covers the receiver's slope over the kernel's reach, and a
+  /// raster slope bias only pushes steep casters (walls under a high sun) away from their
+  /// receivers, which lights the ground next to them (measured: README, "Bias").
+  float depthBiasSlope = 0.0f;
+  /// Normal-offset bias, as a multiple of the PCF kernel's reach: the shader moves the receiver
+  /// along its normal by normalOffsetTexels x reach (texels: the kernel's radius, at least 1) x
+  /// the cascade's texel size (m) x sin(angle between normal and light). That puts the receiver
+  /// in front of its own plane, along the light, by reach x texel x tan(angle): exactly how far
+  /// the plane's stored depth varies across the kernel's footprint, so 1 is the least that has no
+  /// acne on planes; the default adds margin for texels on the footprint's diagonal. [0, 16].
+  float normalOffsetTexels = 1.5f;
+  /// Constant depth floor of the shadow test in texels of the receiver's cascade (metres =
+  /// depthFloorTexels x texel size), subtracted along the light in the shader on top of the
+  /// depth format's own quantum (added automatically: one step of D16, 16 ulp of D32). It is the
+  /// only bias left where the light meets a surface head-on (no slope, no normal offset). [0, 16].
+  float depthFloorTexels = 0.25f;
   /// Stabilised cascades (bounding sphere, whole-texel snapping). Off: tight fit, no snap
   /// (shimmers; kept for comparison).
   bool stabilize = true;

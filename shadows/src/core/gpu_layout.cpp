@@ -16,7 +16,8 @@ static_assert(offsetof(CsmUniforms, cameraForward) == 96 * CSM_MAX_CASCADES);
 static_assert(offsetof(CsmUniforms, lightDirection) == 96 * CSM_MAX_CASCADES + 16);
 static_assert(offsetof(CsmUniforms, params) == 96 * CSM_MAX_CASCADES + 32);
 static_assert(offsetof(CsmUniforms, counts) == 96 * CSM_MAX_CASCADES + 48);
-static_assert(sizeof(CsmUniforms) == 96 * CSM_MAX_CASCADES + 64);
+static_assert(offsetof(CsmUniforms, biasParams) == 96 * CSM_MAX_CASCADES + 64);
+static_assert(sizeof(CsmUniforms) == 96 * CSM_MAX_CASCADES + 80);
 static_assert(sizeof(CsmUniforms) <= 16384, "must fit the minimum maxUniformBufferRange");
 static_assert(sizeof(CsmUniforms) % 4 == 0, "vkCmdUpdateBuffer needs a multiple of 4 bytes");
 static_assert(CSM_MAX_CASCADES <= 32, "the non-empty mask is one 32-bit word");
@@ -51,6 +52,11 @@ float kernelRadiusTexels(PcfKernel kernel) noexcept {
       return float(CSM_KERNEL_RADIUS_POISSON16);
   }
   return float(CSM_KERNEL_RADIUS_1TAP);
+}
+
+float depthQuantum(std::uint32_t depthBits) noexcept {
+  if (depthBits <= 16) return 1.0f / 65535.0f;
+  return 16.0f * 0x1p-24f;
 }
 
 namespace {
@@ -93,6 +99,7 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
   u.params = glm::vec4(finiteOr0(band), settings.normalOffsetTexels, finiteOr0(res),
                        res > 0.0 ? finiteOr0(1.0 / res) : 0.0f);
   u.counts = glm::uvec4(count, nonEmpty, static_cast<std::uint32_t>(options.debugMode), 0u);
+  u.biasParams = glm::vec4(settings.depthFloorTexels, depthQuantum(options.depthBits), 0.0f, 0.0f);
   return u;
 }
 

@@ -66,8 +66,12 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
   if (!(s.depthBiasSlope >= 0.0f) || !std::isfinite(s.depthBiasSlope)) {
     return refuse("settings.depthBiasSlope", s.depthBiasSlope, "a finite number >= 0");
   }
-  if (!(s.normalOffsetTexels >= 0.0f) || !std::isfinite(s.normalOffsetTexels)) {
-    return refuse("settings.normalOffsetTexels", s.normalOffsetTexels, "a finite number >= 0");
+  if (!(s.normalOffsetTexels >= 0.0f && s.normalOffsetTexels <= 16.0f)) {
+    return refuse("settings.normalOffsetTexels", s.normalOffsetTexels,
+                  "a multiple of the kernel's reach in [0, 16]");
+  }
+  if (!(s.depthFloorTexels >= 0.0f && s.depthFloorTexels <= 16.0f)) {
+    return refuse("settings.depthFloorTexels", s.depthFloorTexels, "a number of texels in [0, 16]");
   }
   if (!(s.ladderStepsPerOctave >= 1.0 && s.ladderStepsPerOctave <= 64.0)) {
     return refuse("settings.ladderStepsPerOctave", s.ladderStepsPerOctave,

@@ -859,7 +859,9 @@ void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame)
   collectRetired(false);
   pendingClear_ = false;  // the pass below leaves every layer written and sampleable
   uniformsCleared_ = true;
-  uniforms_ = packUniforms(frame, settings_, uniformOptions_);
+  UniformOptions uniformOptions = uniformOptions_;
+  uniformOptions.depthBits = options_.depthFormat == VK_FORMAT_D16_UNORM ? 16u : 32u;
+  uniforms_ = packUniforms(frame, settings_, uniformOptions);
   if (beginLabel_) {
     auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
     label.pLabelName = "csm shadow pass";

@@ -1,0 +1,52 @@
+// The bias data packed for csm.glsl (biasParams) and the depth quantum per format: what the
+// shader's depth floor is made of. The floor must exceed one D16 step and the float noise of D32
+// at every cascade, and nothing that is not finite may reach the GPU.
+#include <gtest/gtest.h>
+
+#include <csm/core.hpp>
+#include <csm/gpu_layout.hpp>
+
+#include <cmath>
+#include <cstddef>
+
+namespace {
+
+TEST(BiasUniforms, BiasParamsIsAppendedAfterCountsAndSoftParamsCanFollow) {
+  EXPECT_EQ(offsetof(csm::CsmUniforms, biasParams), offsetof(csm::CsmUniforms, counts) + 16);
+  EXPECT_EQ(sizeof(csm::CsmUniforms), offsetof(csm::CsmUniforms, biasParams) + 16);
+}
+
+TEST(BiasUniforms, DepthQuantumIsOneD16StepAndSixteenD32UlpsAtDepthOne) {
+  EXPECT_FLOAT_EQ(csm::depthQuantum(16), 1.0f / 65535.0f);
+  EXPECT_FLOAT_EQ(csm::depthQuantum(32), 16.0f * std::ldexp(1.0f, -24));
+  // 16 ulp of depths in [0.5, 1) (2^-24 each): above the float noise of the receiver's depth.
+  EXPECT_GE(csm::depthQuantum(32), 8.0f * std::ldexp(1.0f, -24));
+  EXPECT_LT(csm::depthQuantum(32), csm::depthQuantum(16));
+}
+
+TEST(BiasUniforms, PackUniformsCarriesTheFloorAndTheFormatQuantum) {
+  csm::ShadowSettings s;
+  s.depthFloorTexels = 0.4f;
+  const csm::CascadeFrame frame{};
+  csm::UniformOptions o;
+  o.depthBits = 16;
+  csm::CsmUniforms u = csm::packUniforms(frame, s, o);
+  EXPECT_FLOAT_EQ(u.biasParams.x, 0.4f);
+  EXPECT_FLOAT_EQ(u.biasParams.y, csm::depthQuantum(16));
+  EXPECT_EQ(u.biasParams.z, 0.0f);
+  EXPECT_EQ(u.biasParams.w, 0.0f);
+  o.depthBits = 32;
+  u = csm::packUniforms(frame, s, o);
+  EXPECT_FLOAT_EQ(u.biasParams.y, csm::depthQuantum(32));
+  EXPECT_FLOAT_EQ(u.params.y, s.normalOffsetTexels);
+}
+
+TEST(BiasUniforms, DefaultsAreValidAndNeedNoRasterSlopeBias) {
+  const csm::ShadowSettings s;
+  EXPECT_FALSE(csm::validate(s).has_value());
+  EXPECT_GT(s.depthFloorTexels, 0.0f);
+  EXPECT_GE(s.normalOffsetTexels, 1.0f) << "below 1 the offset does not cover the kernel's reach";
+  EXPECT_EQ(s.depthBiasSlope, 0.0f);
+}
+
+}  // namespace

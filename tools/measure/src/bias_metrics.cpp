@@ -1,0 +1,203 @@
+// Acne and leak metrics against Embree shadow rays (see bias_metrics.hpp).
+#include "csm_measure/bias_metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace csm_measure {
+namespace {
+
+constexpr int kDirections = 8;
+constexpr int kDiskPoints = 64;
+
+bool finitePixel(const PixelSample& p) {
+  return std::isfinite(p.posWs.x) && std::isfinite(p.posWs.y) && std::isfinite(p.posWs.z) &&
+         std::isfinite(p.normalWs.x) && std::isfinite(p.normalWs.y) && std::isfinite(p.normalWs.z);
+}
+
+// Two unit vectors orthogonal to unit `n` (and to each other).
+void basis(const glm::dvec3& n, glm::dvec3& u, glm::dvec3& v) {
+  const glm::dvec3 a = std::abs(n.y) < 0.9 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
+  u = glm::normalize(glm::cross(a, n));
+  v = glm::cross(n, u);
+}
+
+// The larger texel of the pixel's cascade and of the cascade blended in (metres).
+double pixelTexel(const PixelSample& p, const csm::CascadeFrame& frame) {
+  double t = frame.cascades[size_t(p.cascade)].texelSizeM();
+  if (p.blendCascade >= 0 && p.blendCascade < int(frame.cascadeCount) && p.blendWeight > 0.0f) {
+    t = std::max(t, frame.cascades[size_t(p.blendCascade)].texelSizeM());
+  }
+  return t;
+}
+
+}  // namespace
+
+BiasTruth computeBiasTruth(std::span<const PixelSample> pixels, uint32_t width, uint32_t height,
+                           const csm::CascadeFrame& frame, const RayTracer& tracer,
+                           const csm::DirectionalLight& light, const BiasTruthDesc& desc) {
+  BiasTruth truth;
+  truth.width = width;
+  truth.height = height;
+  truth.cls.assign(size_t(width) * height, BiasClass::kIgnored);
+  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
+  glm::dvec3 lu, lv;
+  basis(toLight, lu, lv);
+
+  // Candidate pixels and their own visibility.
+  std::vector<size_t> idx;
+  std::vector<glm::dvec3> pos;
+  std::vector<glm::vec3> nrm;
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    const PixelSample& p = pixels[i];
+    if (!finitePixel(p) || p.cascade < 0 || p.cascade >= int(frame.cascadeCount)) continue;
+    if (p.x >= width || p.y >= height) continue;
+    if (!(glm::dot(glm::dvec3(p.normalWs), toLight) > 0.0)) continue;
+    idx.push_back(i);
+    pos.push_back(p.posWs);
+    nrm.push_back(p.normalWs);
+  }
+  std::vector<float> vis(pos.size());
+  tracer.visibility(pos, nrm, light.directionWs, vis);
+
+  // Lit facing pixels: probe the truth over the disk of edgeRadius texels around them across the
+  // light (a Vogel spiral of kDiskPoints: neighbours about 1.3 texels apart, so that thin shadows,
+  // a pole's, cannot slip between them), each point moved along the light back onto the pixel's
+  // tangent plane (what a PCF tap compares against, with a perfect receiver-plane bias).
+  std::vector<glm::dvec3> ringPos;
+  std::vector<glm::vec3> ringNrm;
+  std::vector<size_t> ringOwner;
+  for (size_t k = 0; k < idx.size(); ++k) {
+    const PixelSample& p = pixels[idx[k]];
+    const glm::dvec3 n = glm::normalize(glm::dvec3(p.normalWs));
+    const double nl = glm::dot(n, toLight);
+    if (vis[k] < 0.5f || !(nl > desc.minFacing)) continue;
+    const double r = desc.edgeRadiusTexels * pixelTexel(p, frame);
+    for (int d = 0; d < kDiskPoints; ++d) {
+      const double a = 2.399963229728653 * d;  // golden angle
+      const double rd = r * std::sqrt((d + 0.5) / kDiskPoints);
+      const glm::dvec3 step = rd * (std::cos(a) * lu + std::sin(a) * lv);
+      const double t = -glm::dot(n, step) / nl;
+      ringPos.push_back(p.posWs + step + t * toLight);
+      ringNrm.push_back(glm::vec3(n));
+      ringOwner.push_back(k);
+    }
+  }
+  std::vector<float> ringVis(ringPos.size());
+  tracer.visibility(ringPos, ringNrm, light.directionWs, ringVis);
+  std::vector<uint8_t> nearEdge(idx.size(), 0);
+  for (size_t j = 0; j < ringPos.size(); ++j) {
+    if (ringVis[j] < 0.5f) nearEdge[ringOwner[j]] = 1;
+  }
+
+  for (size_t k = 0; k < idx.size(); ++k) {
+    const PixelSample& p = pixels[idx[k]];
+    BiasClass& c = truth.cls[size_t(p.y) * width + p.x];
+    const glm::dvec3 n = glm::normalize(glm::dvec3(p.normalWs));
+    if (vis[k] >= 0.5f) {
+      if (glm::dot(n, toLight) > desc.minFacing) {
+        c = nearEdge[k] ? BiasClass::kLitNearEdge : BiasClass::kLitInterior;
+      }
+      continue;
+    }
+    // Shadowed: is other geometry within contactTexels along the surface?
+    const double texel = pixelTexel(p, frame);
+    const double lift = std::min(0.01, 0.25 * texel);
+    const double reach = desc.contactTexels * texel;
+    glm::dvec3 tu, tv;
+    basis(n, tu, tv);
+    const glm::dvec3 origin = p.posWs + lift * n;
+    bool contact = false;
+    for (int d = 0; d < kDirections && !contact; ++d) {
+      const double a = 6.283185307179586 * d / kDirections;
+      const glm::dvec3 dir = std::cos(a) * tu + std::sin(a) * tv;
+      glm::dvec3 hit;
+      if (tracer.intersect(origin, dir, &hit, nullptr) && glm::length(hit - origin) <= reach) {
+        contact = true;
+      }
+    }
+    c = contact ? BiasClass::kShadowContact : BiasClass::kShadowOther;
+  }
+  return truth;
+}
+
+BiasStats scoreBias(std::span<const PixelSample> pixels, const BiasTruth& truth,
+                    const csm::DirectionalLight& light, double minFacing) {
+  BiasStats st;
+  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
+  std::vector<uint8_t> seen(truth.cls.size(), 0);
+  for (const PixelSample& p : pixels) {
+    if (p.x >= truth.width || p.y >= truth.height) continue;
+    seen[size_t(p.y) * truth.width + p.x] = 1;
+    const BiasClass c = truth.at(p.x, p.y);
+    if (c == BiasClass::kIgnored) continue;
+    if (!std::isfinite(p.shadow)) {
+      ++st.nonFinite;
+      continue;
+    }
+    const bool dark = p.shadow < 0.5f;
+    switch (c) {
+      case BiasClass::kLitInterior:
+        ++st.litInterior;
+        st.litInteriorDark += dark ? 1 : 0;
+        st.litInteriorDimmed += p.shadow < 0.9f ? 1 : 0;
+        [[fallthrough]];
+      case BiasClass::kLitNearEdge:
+        ++st.litFacing;
+        st.litFacingDark += dark ? 1 : 0;
+        break;
+      case BiasClass::kShadowContact:
+        ++st.contact;
+        st.contactLit += p.shadow > 0.5f ? 1 : 0;
+        if (glm::dot(glm::normalize(glm::dvec3(p.normalWs)), toLight) > minFacing) {
+          ++st.contactFacing;
+          st.contactFacingLit += p.shadow > 0.5f ? 1 : 0;
+        }
+        break;
+      default:
+        break;
+    }
+  }
+  for (size_t i = 0; i < seen.size(); ++i) {
+    if (!seen[i] && truth.cls[i] != BiasClass::kIgnored) ++st.unmatched;
+  }
+  return st;
+}
+
+nlohmann::json BiasStats::toJson() const {
+  return {{"lit_facing", litFacing},
+          {"lit_facing_dark", litFacingDark},
+          {"lit_interior", litInterior},
+          {"lit_interior_dark", litInteriorDark},
+          {"lit_interior_dimmed", litInteriorDimmed},
+          {"contact", contact},
+          {"contact_lit", contactLit},
+          {"contact_facing", contactFacing},
+          {"contact_facing_lit", contactFacingLit},
+          {"non_finite", nonFinite},
+          {"unmatched", unmatched}};
+}
+
+void paintBiasErrors(engine::CpuImage& image, std::span<const PixelSample> pixels,
+                     const BiasTruth& truth) {
+  for (const PixelSample& p : pixels) {
+    if (p.x >= image.width || p.y >= image.height) continue;
+    uint8_t* px = &image.rgba[4 * (size_t(p.y) * image.width + p.x)];
+    const BiasClass c = truth.at(p.x, p.y);
+    const bool dark = !(p.shadow >= 0.5f);
+    if (c == BiasClass::kLitInterior && dark) {
+      px[0] = 255, px[1] = 0, px[2] = 0;
+    } else if (c == BiasClass::kLitNearEdge && dark) {
+      px[0] = 120, px[1] = 0, px[2] = 0;
+    } else if (c == BiasClass::kShadowContact) {
+      if (p.shadow > 0.5f) {
+        px[0] = 0, px[1] = 0, px[2] = 255;
+      } else {
+        px[2] = uint8_t(std::min(255, px[2] + 60));
+        px[1] = uint8_t(std::min(255, px[1] + 30));
+      }
+    }
+  }
+}
+
+}  // namespace csm_measure
