@@ -209,8 +209,9 @@ std::vector<Row> readCsv(const std::string& path) {
     r.config.resolution = uint32_t(std::stoul(f[1]));
     r.config.lambda = std::stod(f[2]);
     bool known = false;
-    for (csm::PcfKernel k : {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
-                             csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16}) {
+    for (csm::PcfKernel k :
+         {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
+          csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
       if (f[3] == csm::kernelName(k)) {
         r.config.kernel = k;
         known = true;
@@ -367,7 +368,7 @@ int run(int argc, char** argv) {
       configs.push_back(cfg);
     }
     for (csm::PcfKernel k : {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent5, csm::PcfKernel::kTent7,
-                             csm::PcfKernel::kPoisson16}) {
+                             csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
       Config cfg;
       cfg.kernel = k;
       configs.push_back(cfg);

@@ -45,6 +45,12 @@ struct ShadowSettings {
   /// Casters whose bounds span fewer than this many texels of a cascade are not drawn into it
   /// (they cannot show there). 0 turns the test off. [0, 1e6].
   float minCasterTexels = 0.0f;
+  /// Angular diameter of the light (the sun: 0.53 degrees), in degrees, [0, 20]. Sets the
+  /// penumbra of the PCSS kernel: width = 2 tan(diameter / 2) x blocker-to-receiver distance.
+  double lightAngularDiameterDeg = 0.53;
+  /// Widest penumbra the PCSS kernel draws, metres, [0, 100]: bounds the blocker search and the
+  /// filter (a fixed number of taps spread wider shows more noise). 0 gives hard shadows.
+  double maxPenumbraM = 1.5;
 };
 
 /// A perspective camera. Looks down its local -Z with +Y up (the GLM/Vulkan view convention).
