@@ -271,8 +271,11 @@ float csmPcss(int i, vec3 c, vec3 normalWs) {
   // blocker may sit within the plane's tolerance).
   if (blockerM < 0.0) return csmTap(c.xy, layer, c.z);
   const float radiusM = min(blockerM * tanHalf, maxRadiusM);
-  // Half a texel at least: the hard edge of the bilinear comparison, not aliased.
-  const float radius = max(radiusM / texelM, 0.5);
+  // Each bilinear tap blurs by a tent of +-1 texel (variance 1/6 texel^2 per axis); a uniform
+  // disk of radius r has r^2 / 4. Shrink the disk so that the two together spread as far as the
+  // true penumbra; half a texel at least (the hard edge, not aliased).
+  const float radiusTexels = radiusM / texelM;
+  const float radius = sqrt(max(radiusTexels * radiusTexels - 0.6667, 0.25));
   float sum = 0.0;
   for (int k = 0; k < csmPcssTaps; ++k) {
     const vec2 o = csmVogel(k, csmPcssTaps, angle) * radius;
