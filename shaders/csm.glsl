@@ -262,10 +262,10 @@ float csmPcss(int i, vec3 c, vec3 normalWs) {
   const float maxRadiusM = csmU.softParams.y;
   const vec2 slope = csmPcssDepthSlope(i, normalWs);
   const float angle = csmPcssAngle(i, c.xy);
-  // Search as far as the widest penumbra a blocker could cast here: one at the near side of the
-  // cascade's depth range (which covers every caster), at most the largest penumbra.
-  const float reachM = max(c.z, 0.0) * csmU.cascades[i].depthInfo.y;
-  const float searchTexels = max(min(reachM * tanHalf, maxRadiusM) / texelM, 1.0);
+  // Search as far as the widest penumbra: the setting, in metres. (Not the distance to the near
+  // side of the cascade's depth range: that moves in steps as the camera turns, and the search
+  // with it, which shimmers.)
+  const float searchTexels = max(maxRadiusM / texelM, 1.0);
   const float blockerM = csmPcssBlockerDistance(i, c, slope, searchTexels, angle);
   // No blocker above the plane: what the bilinear comparison at the centre says (near contact a
   // blocker may sit within the plane's tolerance).

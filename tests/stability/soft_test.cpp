@@ -366,7 +366,8 @@ TEST(SoftShadows, PcssStabilisedShimmerStaysBelowOneStep) {
       harness->setScene(scene);
       const std::vector<csm_measure::Receiver> receivers =
           scene.sampleReceivers(4000, 0.3, {-45.0, -5.0, -100.0}, {45.0, 30.0, 15.0}, 7);
-      csm::ShadowSettings settings = softSettings();
+      csm::ShadowSettings settings = testSettings(true);  // 120 m, as the PCF shimmer test
+      settings.lightAngularDiameterDeg = kSunDeg;
       CSM_ASSERT_STATUS(harness->configure(settings));
       csm::CascadeHistory h;
       const csm::CascadeFrame f0 = harness->computeFrame(baseCamera(origin), light, h);
