@@ -194,6 +194,33 @@ TEST(SoftShadows, PcssBeatsEveryFixedKernelAgainstAreaLightTruth) {
     engine::writePng(artefactDir() + "/soft_strip.png",
                      strip({&truthImage, &images["pcss"], &images["tent3"]}));
     report.push_back(scene);
+
+    // A close-up of the box edge's shadow 8-12 m from contact (penumbra 9-12 cm), for a person.
+    const glm::dvec3 l = glm::normalize(light.directionWs);
+    const glm::dvec3 target =
+        soft.boxEdgeWs + soft.alongWs * (10.0 / -l.y * glm::length(glm::dvec2(l.x, l.z)));
+    engine::Camera e;
+    e.positionWs = target + glm::dvec3(0.0, 2.5, 0.0) - soft.acrossWs * 1.5;
+    e.lookAt(target);
+    csm::Camera close = camera;
+    close.positionWs = e.positionWs;
+    close.orientationWs = e.orientation;
+    csm::CascadeHistory closeHistory;
+    const csm::CascadeFrame closeFrame = harness->computeFrame(close, light, closeHistory);
+    engine::CpuImage closePcss, closeTent3;
+    const std::vector<csm_measure::PixelSample> closePixels =
+        harness->renderAccuracy(close, closeFrame, kView, csm::PcfKernel::kPcss, true, &closePcss);
+    harness->renderAccuracy(close, closeFrame, kView, csm::PcfKernel::kTent3, true, &closeTent3);
+    const std::vector<float> closeTruth =
+        csm_measure::softTruthOfPixels(closePixels, closeFrame, tracer, light, kSunDeg);
+    engine::CpuImage closeTruthImage = closePcss;
+    for (size_t i = 0; i < closePixels.size(); ++i) {
+      if (closeTruth[i] >= 0.0f) {
+        paintGrey(closeTruthImage, closePixels[i].x, closePixels[i].y, closeTruth[i]);
+      }
+    }
+    engine::writePng(artefactDir() + "/soft_strip_closeup.png",
+                     strip({&closeTruthImage, &closePcss, &closeTent3}));
   }
   EXPECT_EQ(engine::validationMessageCount(), 0u);
   csm_measure::writeJson(artefactDir() + "/soft.json", report);
