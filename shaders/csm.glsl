@@ -229,10 +229,13 @@ vec2 csmVogel(int k, int n, float a) {
 }
 
 /// Average distance (m) between the receiver's plane and the blockers found within `radius`
-/// texels of t (raw depths, 2x2 texels per gather); negative when there is none.
+/// texels of t (raw depths, 2x2 texels per gather) whose penumbra reaches t; negative when there
+/// is none.
 float csmPcssBlockerDistance(int i, vec3 c, vec2 slope, float radius, float angle) {
   const float layer = float(i);
   const float metresPerDepth = csmU.cascades[i].depthInfo.y;
+  // Texels of penumbra radius per metre between blocker and receiver.
+  const float reachPerMetre = csmU.softParams.x / max(csmU.cascades[i].splitTexel.z, 1e-9);
   // A blocker must lie a texel's width (in metres) above the plane: the raster bias keeps the
   // receiver's own surface behind it, this keeps curved receivers from finding themselves.
   const float minGap = csmU.cascades[i].splitTexel.z / max(metresPerDepth, 1e-6);
@@ -247,7 +250,15 @@ float csmPcssBlockerDistance(int i, vec3 c, vec2 slope, float radius, float angl
     const vec4 ref = c.z + vec4(dot(slope, o + vec2(0.0, 1.0)), dot(slope, o + vec2(1.0, 1.0)),
                                 dot(slope, o + vec2(1.0, 0.0)), dot(slope, o));
     const vec4 gap = ref - d;
-    const vec4 isBlocker = vec4(greaterThan(gap, vec4(minGap)));
+    // Only blockers whose penumbra cone reaches the receiver count: lateral distance (texels)
+    // within gap * tan(a), plus a texel of slack. A tall wall a few texels away does not widen
+    // the penumbra at its own foot.
+    const vec4 reach = gap * (metresPerDepth * reachPerMetre) + 1.0;
+    const vec4 dist2 = vec4(dot(o + vec2(0.0, 1.0), o + vec2(0.0, 1.0)),
+                            dot(o + vec2(1.0, 1.0), o + vec2(1.0, 1.0)),
+                            dot(o + vec2(1.0, 0.0), o + vec2(1.0, 0.0)), dot(o, o));
+    const vec4 isBlocker =
+        vec4(greaterThan(gap, vec4(minGap))) * vec4(lessThanEqual(dist2, reach * reach));
     count += dot(isBlocker, vec4(1.0));
     sum += dot(isBlocker, gap);
   }
@@ -273,9 +284,10 @@ float csmPcss(int i, vec3 c, vec3 normalWs) {
   const float radiusM = min(blockerM * tanHalf, maxRadiusM);
   // Each bilinear tap blurs by a tent of +-1 texel (variance 1/6 texel^2 per axis); a uniform
   // disk of radius r has r^2 / 4. Shrink the disk so that the two together spread as far as the
-  // true penumbra; half a texel at least (the hard edge, not aliased).
+  // true penumbra. A penumbra narrower than the bilinear tap's own is the single tap.
   const float radiusTexels = radiusM / texelM;
-  const float radius = sqrt(max(radiusTexels * radiusTexels - 0.6667, 0.25));
+  const float radius = sqrt(max(radiusTexels * radiusTexels - 0.6667, 0.0));
+  if (radius < 0.05) return csmTap(c.xy, layer, c.z);
   float sum = 0.0;
   for (int k = 0; k < csmPcssTaps; ++k) {
     const vec2 o = csmVogel(k, csmPcssTaps, angle) * radius;
