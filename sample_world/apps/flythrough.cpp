@@ -538,9 +538,15 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   changed |= ImGui::SliderFloat("blend band", &blend, 0.0f, 0.5f);
   s.shadow.blendBand = blend;
   int kernel = static_cast<int>(s.kernel);
-  changed |=
-      ImGui::Combo("PCF kernel", &kernel, "1 tap\0tent 3x3\0tent 5x5\0tent 7x7\0poisson 16\0");
+  changed |= ImGui::Combo("PCF kernel", &kernel,
+                          "1 tap\0tent 3x3\0tent 5x5\0tent 7x7\0poisson 16\0PCSS\0");
   s.kernel = static_cast<csm::PcfKernel>(kernel);
+  float lightAngle = static_cast<float>(s.shadow.lightAngularDiameterDeg);
+  changed |= ImGui::SliderFloat("light angle (PCSS)", &lightAngle, 0.0f, 20.0f, "%.2f deg");
+  s.shadow.lightAngularDiameterDeg = lightAngle;
+  float maxPenumbra = static_cast<float>(s.shadow.maxPenumbraM);
+  changed |= ImGui::SliderFloat("max penumbra (PCSS)", &maxPenumbra, 0.0f, 10.0f, "%.2f m");
+  s.shadow.maxPenumbraM = maxPenumbra;
   changed |= ImGui::SliderFloat("bias constant", &s.shadow.depthBiasConstant, 0.0f, 20.0f);
   changed |= ImGui::SliderFloat("bias slope", &s.shadow.depthBiasSlope, 0.0f, 10.0f);
   changed |=

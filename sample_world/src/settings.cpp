@@ -96,12 +96,13 @@ Entry choice(const char* key, const char* allowed,
           }};
 }
 
-constexpr std::array<std::pair<const char*, csm::PcfKernel>, 5> kKernels{{
+constexpr std::array<std::pair<const char*, csm::PcfKernel>, 6> kKernels{{
     {"1tap", csm::PcfKernel::k1Tap},
     {"tent3", csm::PcfKernel::kTent3},
     {"tent5", csm::PcfKernel::kTent5},
     {"tent7", csm::PcfKernel::kTent7},
     {"poisson16", csm::PcfKernel::kPoisson16},
+    {"pcss", csm::PcfKernel::kPcss},
 }};
 constexpr std::array<std::pair<const char*, csm::DebugMode>, 7> kDebugModes{{
     {"none", csm::DebugMode::kNone},
@@ -140,8 +141,12 @@ const std::vector<Entry>& table() {
                      [](AppSettings& s) -> double& { return s.shadow.shadowDistanceM; }),
       number<double>("shadow.blend", "a fraction in [0, 0.5]", 0, 0.5, false,
                      [](AppSettings& s) -> double& { return s.shadow.blendBand; }),
-      choice("shadow.kernel", "one of 1tap, tent3, tent5, tent7, poisson16", kKernels,
+      choice("shadow.kernel", "one of 1tap, tent3, tent5, tent7, poisson16, pcss", kKernels,
              [](AppSettings& s) -> csm::PcfKernel& { return s.kernel; }),
+      number<double>("shadow.lightAngleDeg", "degrees in [0, 20] (the sun: 0.53)", 0, 20, false,
+                     [](AppSettings& s) -> double& { return s.shadow.lightAngularDiameterDeg; }),
+      number<double>("shadow.maxPenumbra", "metres in [0, 100]", 0, 100, false,
+                     [](AppSettings& s) -> double& { return s.shadow.maxPenumbraM; }),
       boolean("shadow.worldKernel", [](AppSettings& s) -> bool& { return s.worldSpaceKernel; }),
       number<float>("shadow.biasConstant", "a number in [0, 1000]", 0, 1000, false,
                     [](AppSettings& s) -> float& { return s.shadow.depthBiasConstant; }),

@@ -10,8 +10,9 @@
 // normals (unit length). Resources (set CSM_SET): the CsmUniforms block at CSM_BINDING_UNIFORMS
 // (C++: csm/gpu_layout.hpp), the shadow map through a comparison sampler at
 // CSM_BINDING_SHADOW_MAP and through a plain nearest sampler at CSM_BINDING_SHADOW_DEPTH (debug
-// outputs only). Variants are specialization constants: CSM_SPEC_KERNEL (PCF kernel) and
-// CSM_SPEC_BLEND (0: hard switch at the split, 1: blend across the band).
+// outputs and the PCSS blocker search). Variants are specialization constants: CSM_SPEC_KERNEL
+// (PCF kernel), CSM_SPEC_BLEND (0: hard switch at the split, 1: blend across the band) and
+// CSM_SPEC_PCSS_TAPS (taps of the PCSS blocker search and filter).
 // Define CSM_UNIFORMS_ONLY to declare only the uniform block (the depth pass does).
 #ifndef CSM_GLSL
 #define CSM_GLSL
@@ -30,7 +31,8 @@
 struct CsmCascade {
   mat4 viewProjCr;  // camera-relative world -> shadow clip (xy in [-1, 1], z depth in [0, 1])
   vec4 splitTexel;  // x split near (m), y split far (m), z texel size (m), w kernel scale
-  vec4 depthInfo;   // x blend band start (view depth, m), y metres per unit of stored depth
+  vec4 depthInfo;   // x blend band start (view depth, m), y metres per unit of stored depth,
+                    // zw world-grid index of texel (0, 0) mod CSM_WORLD_TEXEL_PERIOD
 };
 
 layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniformBlock {
@@ -40,6 +42,7 @@ layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniform
   vec4 params;          // x blend band, y normal offset (texels), z resolution, w 1 / resolution
   uvec4 counts;         // x cascade count, y non-empty mask, z debug mode
   vec4 biasParams;      // x depth floor (texels), y depth floor (units of stored depth)
+  vec4 softParams;      // x tan(light angular diameter / 2), y largest penumbra radius (m)
 } csmU;
 
 #ifndef CSM_UNIFORMS_ONLY
@@ -49,6 +52,7 @@ layout(set = CSM_SET, binding = CSM_BINDING_SHADOW_DEPTH) uniform sampler2DArray
 
 layout(constant_id = CSM_SPEC_KERNEL) const int csmKernel = CSM_KERNEL_TENT3;
 layout(constant_id = CSM_SPEC_BLEND) const int csmBlend = 1;
+layout(constant_id = CSM_SPEC_PCSS_TAPS) const int csmPcssTaps = CSM_PCSS_DEFAULT_TAPS;
 
 /// Which cascade shades a receiver (mirror of csm::selectCascade): index -1 = lit.
 struct CsmSelection {
@@ -94,6 +98,7 @@ float csmKernelRadius() {
   if (csmKernel == CSM_KERNEL_TENT5) return CSM_KERNEL_RADIUS_TENT5;
   if (csmKernel == CSM_KERNEL_TENT7) return CSM_KERNEL_RADIUS_TENT7;
   if (csmKernel == CSM_KERNEL_POISSON16) return CSM_KERNEL_RADIUS_POISSON16;
+  if (csmKernel == CSM_KERNEL_PCSS) return CSM_KERNEL_RADIUS_PCSS;
   return CSM_KERNEL_RADIUS_1TAP;
 }
 
@@ -177,6 +182,121 @@ float csmPcfPoisson(vec2 t, float scale, float layer, float depth, vec2 pixel) {
   return sum / 16.0;
 }
 
+// ---- PCSS: percentage-closer soft shadows ---------------------------------------------------
+// The sun is a disk of angular radius a. Seen from a receiver, a blocker d metres nearer the light
+// hides the part of the disk that its outline covers inside a circle of radius d tan(a) about the
+// receiver's own texel (similar triangles, measured in light space, i.e. on the shadow map's
+// plane). So: (1) search the raw depths around the receiver for blockers and average their
+// distance d, (2) filter with comparison taps spread uniformly over a disk of radius d tan(a).
+// Radii are in metres and converted with each cascade's texel size, so the penumbra is the same
+// in every cascade and across a blend band. Every tap is compared against the receiver's plane
+// (from its normal, so it also works in compute shaders), not its centre depth: wide kernels on
+// slopes do not shadow themselves.
+
+/// Receiver plane in the map of cascade i: change of stored depth per texel of offset.
+vec2 csmPcssDepthSlope(int i, vec3 normalWs) {
+  const mat4 m = csmU.cascades[i].viewProjCr;
+  const vec3 rightWs = normalize(vec3(m[0][0], m[1][0], m[2][0]));
+  const vec3 upWs = normalize(vec3(m[0][1], m[1][1], m[2][1]));
+  // Light-space normal; lit surfaces face against the light (z < 0). Slopes beyond 1:8 from the
+  // light direction are clamped (grazing receivers are dark by shading anyway).
+  const vec3 nLs = vec3(dot(normalWs, rightWs), dot(normalWs, upWs),
+                        dot(normalWs, csmU.lightDirection.xyz));
+  const float nz = min(nLs.z, -0.125);
+  const float texelM = csmU.cascades[i].splitTexel.z;
+  const float metresPerDepth = max(csmU.cascades[i].depthInfo.y, 1e-6);
+  return -(nLs.xy / nz) * (texelM / metresPerDepth);
+}
+
+/// Rotation of the tap pattern at map texel t of cascade i: a hash of the WORLD texel (the map's
+/// texel index plus the world-grid index of its texel 0), so the pattern stays on the ground when
+/// the camera moves and the stabilised map slides by whole texels.
+float csmPcssAngle(int i, vec2 t) {
+  const vec2 g = mod(floor(t) + csmU.cascades[i].depthInfo.zw, CSM_WORLD_TEXEL_PERIOD);
+  uint h = uint(g.x) * 0x8da6b343u ^ uint(g.y) * 0xd8163841u ^ uint(i) * 0xcb1ab31fu;
+  h ^= h >> 16;
+  h *= 0x7feb352du;
+  h ^= h >> 15;
+  h *= 0x846ca68bu;
+  h ^= h >> 16;
+  return float(h) * (6.28318531 / 4294967296.0);
+}
+
+/// Point k of n on a unit disk, spread uniformly (Vogel's golden-angle spiral), rotated by `a`.
+vec2 csmVogel(int k, int n, float a) {
+  const float r = sqrt((float(k) + 0.5) / float(n));
+  const float phi = float(k) * 2.39996323 + a;
+  return r * vec2(cos(phi), sin(phi));
+}
+
+/// Average distance (m) between the receiver's plane and the blockers found within `radius`
+/// texels of t (raw depths, 2x2 texels per gather) whose penumbra reaches t; negative when there
+/// is none.
+float csmPcssBlockerDistance(int i, vec3 c, vec2 slope, float radius, float angle) {
+  const float layer = float(i);
+  const float metresPerDepth = csmU.cascades[i].depthInfo.y;
+  // Texels of penumbra radius per metre between blocker and receiver.
+  const float reachPerMetre = csmU.softParams.x / max(csmU.cascades[i].splitTexel.z, 1e-9);
+  // A blocker must lie a texel's width (in metres) above the plane: the raster bias keeps the
+  // receiver's own surface behind it, this keeps curved receivers from finding themselves.
+  const float minGap = csmU.cascades[i].splitTexel.z / max(metresPerDepth, 1e-6);
+  float count = 0.0;
+  float sum = 0.0;
+  for (int k = 0; k < csmPcssTaps; ++k) {
+    const vec2 p = c.xy + csmVogel(k, csmPcssTaps, angle) * radius;
+    const vec2 base = floor(p - 0.5);  // texel (i0, j0) of the 2x2 footprint about p
+    const vec4 d = textureGather(csmDepthMap, vec3((base + 1.0) * csmU.params.w, layer));
+    // Gather order: (i0, j1), (i1, j1), (i1, j0), (i0, j0); texel centres at index + 0.5.
+    const vec2 o = base + 0.5 - c.xy;
+    const vec4 ref = c.z + vec4(dot(slope, o + vec2(0.0, 1.0)), dot(slope, o + vec2(1.0, 1.0)),
+                                dot(slope, o + vec2(1.0, 0.0)), dot(slope, o));
+    const vec4 gap = ref - d;
+    // Only blockers whose penumbra cone reaches the receiver count: lateral distance (texels)
+    // within gap * tan(a), plus a texel of slack. A tall wall a few texels away does not widen
+    // the penumbra at its own foot.
+    const vec4 reach = gap * (metresPerDepth * reachPerMetre) + 1.0;
+    const vec4 dist2 = vec4(dot(o + vec2(0.0, 1.0), o + vec2(0.0, 1.0)),
+                            dot(o + vec2(1.0, 1.0), o + vec2(1.0, 1.0)),
+                            dot(o + vec2(1.0, 0.0), o + vec2(1.0, 0.0)), dot(o, o));
+    const vec4 isBlocker =
+        vec4(greaterThan(gap, vec4(minGap))) * vec4(lessThanEqual(dist2, reach * reach));
+    count += dot(isBlocker, vec4(1.0));
+    sum += dot(isBlocker, gap);
+  }
+  return count > 0.0 ? sum / count * metresPerDepth : -1.0;
+}
+
+/// PCSS shadow factor of cascade i at a receiver (map coordinates c from csmShadowCoord).
+float csmPcss(int i, vec3 c, vec3 normalWs) {
+  const float layer = float(i);
+  const float texelM = max(csmU.cascades[i].splitTexel.z, 1e-9);
+  const float tanHalf = csmU.softParams.x;
+  const float maxRadiusM = csmU.softParams.y;
+  const vec2 slope = csmPcssDepthSlope(i, normalWs);
+  const float angle = csmPcssAngle(i, c.xy);
+  // Search as far as the widest penumbra: the setting, in metres. (Not the distance to the near
+  // side of the cascade's depth range: that moves in steps as the camera turns, and the search
+  // with it, which shimmers.)
+  const float searchTexels = max(maxRadiusM / texelM, 1.0);
+  const float blockerM = csmPcssBlockerDistance(i, c, slope, searchTexels, angle);
+  // No blocker above the plane: what the bilinear comparison at the centre says (near contact a
+  // blocker may sit within the plane's tolerance).
+  if (blockerM < 0.0) return csmTap(c.xy, layer, c.z);
+  const float radiusM = min(blockerM * tanHalf, maxRadiusM);
+  // Each bilinear tap blurs by a tent of +-1 texel (variance 1/6 texel^2 per axis); a uniform
+  // disk of radius r has r^2 / 4. Shrink the disk so that the two together spread as far as the
+  // true penumbra. A penumbra narrower than the bilinear tap's own is the single tap.
+  const float radiusTexels = radiusM / texelM;
+  const float radius = sqrt(max(radiusTexels * radiusTexels - 0.6667, 0.0));
+  if (radius < 0.05) return csmTap(c.xy, layer, c.z);
+  float sum = 0.0;
+  for (int k = 0; k < csmPcssTaps; ++k) {
+    const vec2 o = csmVogel(k, csmPcssTaps, angle) * radius;
+    sum += csmTap(c.xy + o, layer, c.z + dot(slope, o));
+  }
+  return sum / float(csmPcssTaps);
+}
+
 /// Shadow-map coordinates of a receiver in cascade i, bias applied: xy in texels, z the depth to
 /// compare. The bias needs no tuning per scene, light angle, resolution or depth format:
 ///  - normal offset: the receiver moves along its normal by params.y x reach x texel x sin(theta)
@@ -208,6 +328,7 @@ float csmSampleCascade(int i, vec3 posCr, vec3 normalWs, vec2 pixel) {
   const float scale = csmU.cascades[i].splitTexel.w;
   if (csmKernel == CSM_KERNEL_1TAP) return csmTap(c.xy, layer, c.z);
   if (csmKernel == CSM_KERNEL_POISSON16) return csmPcfPoisson(c.xy, scale, layer, c.z, pixel);
+  if (csmKernel == CSM_KERNEL_PCSS) return csmPcss(i, c, normalWs);
   return csmPcfTent(c.xy, scale, layer, c.z);
 }
 

@@ -190,7 +190,7 @@ TEST(ShadowBlendBand, NoJumpAcrossTheBandLargerThanTheKernelStep) {
 
     for (csm::PcfKernel kernel :
          {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
-          csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16}) {
+          csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
       SCOPED_TRACE(csm::kernelName(kernel));
       const double offset = 0.35 * texel1 * csm::kernelRadiusTexels(kernel);
       std::vector<glm::dvec3> points;

@@ -11,9 +11,9 @@
 namespace csm_test {
 namespace {
 
-constexpr csm::PcfKernel kKernels[] = {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3,
-                                       csm::PcfKernel::kTent5, csm::PcfKernel::kTent7,
-                                       csm::PcfKernel::kPoisson16};
+constexpr csm::PcfKernel kKernels[] = {csm::PcfKernel::k1Tap,      csm::PcfKernel::kTent3,
+                                       csm::PcfKernel::kTent5,     csm::PcfKernel::kTent7,
+                                       csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss};
 
 class ShadowAnalytic : public ::testing::TestWithParam<uint32_t> {};
 

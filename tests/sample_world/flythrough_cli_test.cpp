@@ -60,4 +60,26 @@ TEST(Cli, InvalidFlagsAndSettingsListAllowedValues) {
   EXPECT_NE(r.output.find("/nonexistent/config.json"), std::string::npos) << r.output;
 }
 
+// PCSS from the command line: the kernel and the light's size are settings, bad values are refused
+// with the key and the range, good ones reach report.json.
+TEST(Cli, PcssKernelAndLightAngle) {
+  ProcessResult r = runApp("--headless --set shadow.lightAngleDeg=25");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.output.find("shadow.lightAngleDeg"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("[0, 20]"), std::string::npos) << r.output;
+  r = runApp("--headless --set shadow.maxPenumbra=-1");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.output.find("shadow.maxPenumbra"), std::string::npos) << r.output;
+  const fs::path out = fs::temp_directory_path() / "csm_flythrough_cli_pcss";
+  r = runApp("--headless --frames 1 --out " + out.string() +
+             " --set shadow.kernel=pcss --set shadow.lightAngleDeg=1.5 --set shadow.maxPenumbra=0.8"
+             " --set shadow.resolution=512 --set view.width=320 --set view.height=180");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  std::ifstream in(out / "report.json");
+  const json report = json::parse(in);
+  EXPECT_EQ(report["settings"]["shadow.kernel"], "pcss");
+  EXPECT_DOUBLE_EQ(report["settings"]["shadow.lightAngleDeg"].get<double>(), 1.5);
+  EXPECT_DOUBLE_EQ(report["settings"]["shadow.maxPenumbra"].get<double>(), 0.8);
+}
+
 }  // namespace

@@ -5,7 +5,10 @@
 // the resolution, so two tables are printed instead of the full cross product:
 //   1. shadow pass (and lit pass with tent3x3) per resolution x cascade count x render mode;
 //   2. lit pass per kernel x cascade count at 2048.
-// Usage: csm_gpu_bench [--quick] [--frames N] [--width W --height H]
+// Usage: csm_gpu_bench [--quick] [--frames N] [--width W --height H] [--kernel-cost ROUNDS]
+// --kernel-cost prints only the lit pass of tent 3x3 / 5x5 / 7x7 and PCSS (4 cascades of 2048^2),
+// measured in ROUNDS interleaved rounds (each round measures every kernel once), as the median
+// and as a ratio to tent 3x3: a comparison that the machine's drift cannot bias.
 #include <csm/core.hpp>
 #include <csm/gpu_layout.hpp>
 #include <csm/vulkan/shadow_renderer.hpp>
@@ -19,6 +22,7 @@
 #include <engine/mesh_store.hpp>
 #include <sample_world/shadow_host.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -228,8 +232,38 @@ class Bench {
   csm::DirectionalLight light_;
 };
 
+// Lit pass of the wide kernels against PCSS, interleaved (see the file comment).
+int kernelCost(Bench& bench, int rounds) {
+  const std::vector<std::pair<const char*, csm::PcfKernel>> kernels = {
+      {"tent3x3", csm::PcfKernel::kTent3},
+      {"tent5x5", csm::PcfKernel::kTent5},
+      {"tent7x7", csm::PcfKernel::kTent7},
+      {"pcss", csm::PcfKernel::kPcss}};
+  std::vector<std::vector<double>> ms(kernels.size());
+  for (int r = 0; r < rounds; ++r) {
+    for (size_t k = 0; k < kernels.size(); ++k) {
+      ms[k].push_back(
+          bench.measure(2048, 4, kernels[k].second, csm::vk::RenderMode::kPerLayer).second);
+    }
+  }
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  };
+  std::printf("lit pass, 4 cascades of 2048^2, %d interleaved rounds\n", rounds);
+  std::printf(
+      "| kernel | median lit ms | / tent3x3 (median of per-round ratios) |\n|---|---:|---:|\n");
+  for (size_t k = 0; k < kernels.size(); ++k) {
+    std::vector<double> ratio;
+    for (int r = 0; r < rounds; ++r) ratio.push_back(ms[k][size_t(r)] / ms[0][size_t(r)]);
+    std::printf("| %s | %.2f | %.2f |\n", kernels[k].first, median(ms[k]), median(ratio));
+  }
+  return 0;
+}
+
 int run(int argc, char** argv) {
   Options o;
+  int kernelCostRounds = 0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--quick") {
@@ -240,8 +274,12 @@ int run(int argc, char** argv) {
       o.width = uint32_t(std::atoi(argv[++i]));
     } else if (a == "--height" && i + 1 < argc) {
       o.height = uint32_t(std::atoi(argv[++i]));
+    } else if (a == "--kernel-cost" && i + 1 < argc) {
+      kernelCostRounds = std::max(1, std::atoi(argv[++i]));
     } else {
-      std::fprintf(stderr, "usage: csm_gpu_bench [--quick] [--frames N] [--width W --height H]\n");
+      std::fprintf(stderr,
+                   "usage: csm_gpu_bench [--quick] [--frames N] [--width W --height H] "
+                   "[--kernel-cost ROUNDS]\n");
       return 2;
     }
   }
@@ -251,6 +289,7 @@ int run(int argc, char** argv) {
     o.height = 180;
   }
   Bench bench(o);
+  if (kernelCostRounds > 0) return kernelCost(bench, kernelCostRounds);
   const std::vector<uint32_t> resolutions =
       o.quick ? std::vector<uint32_t>{1024} : std::vector<uint32_t>{1024, 2048, 4096};
   const std::vector<uint32_t> counts =
@@ -291,8 +330,9 @@ int run(int argc, char** argv) {
   std::printf("\n|---|");
   for (size_t i = 0; i < counts.size(); ++i) std::printf("---:|");
   std::printf("\n");
-  for (csm::PcfKernel k : {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
-                           csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16}) {
+  for (csm::PcfKernel k :
+       {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
+        csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
     std::printf("| %s |", csm::kernelName(k));
     for (uint32_t c : counts) {
       std::printf(" %.2f |", bench.measure(litRes, c, k, csm::vk::RenderMode::kPerLayer).second);

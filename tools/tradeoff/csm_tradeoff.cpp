@@ -24,6 +24,7 @@
 #include <csm_measure/metrics.hpp>
 #include <csm_measure/raytracer.hpp>
 #include <csm_measure/scene.hpp>
+#include <csm_measure/world_scene.hpp>
 #include <engine/camera.hpp>
 #include <engine/errors.hpp>
 #include <sample_world/paths.hpp>
@@ -128,72 +129,6 @@ struct Row {
   [[nodiscard]] double gpuMs() const { return shadowMs + litMs; }
 };
 
-// The sample world's caster clusters (terrain chunks and merged objects) as a measurement scene:
-// instances of the full-detail meshes (LOD 0), the same triangles for the rasteriser's receivers
-// and the ray tracer. The simplified LODs are extra meshes no instance uses: `lodMeshes[i][l]` is
-// the mesh of instance i at LOD l, for Harness::setCasterLods.
-struct WorldScene {
-  csm_measure::Scene scene;
-  std::vector<std::vector<uint32_t>> lodMeshes;
-};
-
-WorldScene sceneFromWorld(const world::World& w) {
-  WorldScene out;
-  csm_measure::Scene& scene = out.scene;
-  auto convert = [](const world::MeshData& m, const std::string& name) {
-    csm_measure::MeshData out;
-    out.name = name;
-    out.vertices.reserve(m.positions.size());
-    for (size_t i = 0; i < m.positions.size(); ++i) {
-      out.vertices.push_back(
-          {m.positions[i], i < m.normals.size() ? m.normals[i] : glm::vec3(0, 1, 0)});
-    }
-    out.indices = m.indices;
-    return out;
-  };
-  // Mesh indices of an asset's LODs, added on first use.
-  std::vector<std::vector<uint32_t>> assetMeshes(w.meshes.size());
-  auto addLods = [&](const std::array<world::MeshData, world::kLodCount>& lods,
-                     const std::string& name) {
-    std::vector<uint32_t> meshes;
-    for (uint32_t l = 0; l < world::kLodCount; ++l) {
-      meshes.push_back(scene.addMesh(convert(lods[l], name + " lod" + std::to_string(l))));
-    }
-    return meshes;
-  };
-  for (const world::CasterCluster& c : w.clusters) {
-    std::vector<uint32_t> lodMeshes;
-    glm::mat3 linear(1.0f);
-    glm::dvec3 translation = c.originWs;
-    if (c.asset >= 0) {
-      const world::MeshAsset& asset = w.meshes[size_t(c.asset)];
-      if (assetMeshes[size_t(c.asset)].empty()) {
-        assetMeshes[size_t(c.asset)] = addLods(asset.lods, asset.name);
-      }
-      lodMeshes = assetMeshes[size_t(c.asset)];
-      // Terrain chunk assets are placed by the object that uses them.
-      for (const world::Object& o : w.objects) {
-        if (o.mesh == uint32_t(c.asset)) {
-          translation = o.translationWs;
-          linear = o.linear;
-          break;
-        }
-      }
-    } else {
-      if (c.lods[0].indices.empty()) continue;
-      lodMeshes = addLods(c.lods, c.name);
-    }
-    scene.addInstance(
-        {lodMeshes[0],
-         translation,
-         linear,
-         {0.6f, 0.65f, 0.5f, 1.0f},
-         c.asset >= 0 ? csm_measure::InstanceKind::kGround : csm_measure::InstanceKind::kBuilding});
-    out.lodMeshes.push_back(std::move(lodMeshes));
-  }
-  return out;
-}
-
 csm::Camera cameraAt(const world::CameraPose& p, double aspect) {
   engine::Camera e;
   e.positionWs = p.positionWs;
@@ -232,8 +167,9 @@ std::vector<Row> readCsv(const std::string& path) {
     r.config.resolution = uint32_t(std::stoul(f[1]));
     r.config.lambda = std::stod(f[2]);
     bool known = false;
-    for (csm::PcfKernel k : {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
-                             csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16}) {
+    for (csm::PcfKernel k :
+         {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
+          csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
       if (f[3] == csm::kernelName(k)) {
         r.config.kernel = k;
         known = true;
@@ -494,7 +430,7 @@ int run(int argc, char** argv) {
     if (!w) throw std::runtime_error("generateWorld: " + err.message);
     std::optional<world::FlightPath> path = world::FlightPath::make(o.path, *w, 60.0);
     if (!path) throw std::runtime_error("unknown path " + o.path);
-    const WorldScene worldScene = sceneFromWorld(*w);
+    const csm_measure::WorldScene worldScene = csm_measure::sceneFromWorld(*w);
     const csm_measure::Scene& scene = worldScene.scene;
     std::fprintf(stderr, "world: %zu caster clusters, %llu triangles; path %s (%.1f s)\n",
                  scene.instances().size(), (unsigned long long)scene.triangleCount(),
@@ -534,7 +470,7 @@ int run(int argc, char** argv) {
       configs.push_back(cfg);
     }
     for (csm::PcfKernel k : {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent5, csm::PcfKernel::kTent7,
-                             csm::PcfKernel::kPoisson16}) {
+                             csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
       Config cfg;
       cfg.kernel = k;
       configs.push_back(cfg);

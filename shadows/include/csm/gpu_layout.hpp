@@ -33,6 +33,8 @@ enum class PcfKernel : std::uint32_t {
   kTent5 = CSM_KERNEL_TENT5,
   kTent7 = CSM_KERNEL_TENT7,
   kPoisson16 = CSM_KERNEL_POISSON16,
+  /// Percentage-closer soft shadows (penumbra from ShadowSettings::lightAngularDiameterDeg).
+  kPcss = CSM_KERNEL_PCSS,
 };
 
 /// Human-readable kernel name ("tent5x5"), for reports and test names.
@@ -50,7 +52,10 @@ struct CsmCascadeGpu {
   /// spacing in texels; 1, or texel_0 / texel_i for kernels of constant world size).
   glm::vec4 splitTexel{0.0f};
   /// x: view depth where the blend band toward the next cascade starts (m; = y of splitTexel when
-  /// there is no band), y: metres of light-space depth per unit of stored depth, z, w: 0.
+  /// there is no band), y: metres of light-space depth per unit of stored depth, z, w: index of
+  /// the map's texel (0, 0) on the world-anchored texel grid, modulo CSM_WORLD_TEXEL_PERIOD
+  /// (stabilised cascades; PCSS rotates its taps by a hash of the world texel, so that the noise
+  /// stays on the ground when the map moves).
   glm::vec4 depthInfo{0.0f};
 };
 
@@ -70,6 +75,9 @@ struct CsmUniforms {
   /// receiver's cascade (ShadowSettings::depthFloorTexels), y depth floor in units of stored
   /// depth (the depth format's quantum, depthQuantum()), z, w: 0.
   glm::vec4 biasParams{0.0f};
+  /// Soft shadows (PCSS): x tan(light angular diameter / 2) (penumbra radius per metre between
+  /// blocker and receiver), y largest penumbra radius (m; maxPenumbraM / 2), z, w: 0.
+  glm::vec4 softParams{0.0f};
 };
 
 /// Per-frame choices that go into the block besides the cascades and the settings.

@@ -33,6 +33,10 @@
 #error "csm/gpu_shared.h: one CSM_TINT_i per cascade (CSM_MAX_CASCADES)"
 #endif
 
+// Period of the world-anchored texel index in CsmUniforms cascades[i].depthInfo.zw: a power of
+// two (the index stays exact in float and wraps cleanly) far above any kernel's reach.
+#define CSM_WORLD_TEXEL_PERIOD 4096.0
+
 // Depth-pass push constants (csm_depth.vert): camera-relative model matrix (64 bytes) then the
 // cascade index (per-layer mode) or the mask of cascades to replicate into (layered mode).
 #define CSM_DEPTH_PUSH_SIZE 68

@@ -20,19 +20,33 @@
 #define CSM_KERNEL_TENT5 2      // 5x5 tent, 9 taps
 #define CSM_KERNEL_TENT7 3      // 7x7 tent, 16 taps
 #define CSM_KERNEL_POISSON16 4  // 16-tap Poisson disk, rotated per pixel
-#define CSM_KERNEL_COUNT 5
+// Percentage-closer soft shadows: blocker search over the raw depth, penumbra from the light's
+// angular diameter by similar triangles (in metres, the same in every cascade), then a disk of
+// comparison taps that wide. Taps: CSM_SPEC_PCSS_TAPS.
+#define CSM_KERNEL_PCSS 5
+#define CSM_KERNEL_COUNT 6
 // How far (texels of the kernel's own cascade, before its scale) each kernel reads from its
 // centre: the radius the normal offset is scaled by. csmKernelRadius() (GLSL) and
-// csm::kernelRadiusTexels() (C++) both return these.
+// csm::kernelRadiusTexels() (C++) both return these. PCSS's wide taps are biased by the receiver
+// plane (csm.glsl); its normal offset only has to clear the bilinear footprint at the centre, as
+// for the 3x3 tent.
 #define CSM_KERNEL_RADIUS_1TAP 1.0
 #define CSM_KERNEL_RADIUS_TENT3 1.5
 #define CSM_KERNEL_RADIUS_TENT5 2.5
 #define CSM_KERNEL_RADIUS_TENT7 3.5
 #define CSM_KERNEL_RADIUS_POISSON16 2.5
+#define CSM_KERNEL_RADIUS_PCSS 1.5
 
 // Specialisation constant ids used by csm.glsl.
 #define CSM_SPEC_KERNEL 0
 #define CSM_SPEC_BLEND 1  // 0: hard switch at the split, 1: blend across the band
 #define CSM_SPEC_DEBUG 2  // reserved for compile-time removal of debug outputs
+#define CSM_SPEC_PCSS_TAPS 3  // PCSS: gathers of the blocker search and comparison taps of the filter
+
+// PCSS tap count when the pipeline does not specialise it: 16 gathers (64 texels) to find the
+// blockers and 16 bilinear comparison taps to filter; enough for penumbrae of ~10 texels.
+#define CSM_PCSS_DEFAULT_TAPS 16
+// Most PCSS taps a pipeline may ask for (the loops are bounded by it).
+#define CSM_PCSS_MAX_TAPS 64
 
 #endif

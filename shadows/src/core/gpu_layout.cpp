@@ -17,7 +17,8 @@ static_assert(offsetof(CsmUniforms, lightDirection) == 96 * CSM_MAX_CASCADES + 1
 static_assert(offsetof(CsmUniforms, params) == 96 * CSM_MAX_CASCADES + 32);
 static_assert(offsetof(CsmUniforms, counts) == 96 * CSM_MAX_CASCADES + 48);
 static_assert(offsetof(CsmUniforms, biasParams) == 96 * CSM_MAX_CASCADES + 64);
-static_assert(sizeof(CsmUniforms) == 96 * CSM_MAX_CASCADES + 80);
+static_assert(offsetof(CsmUniforms, softParams) == 96 * CSM_MAX_CASCADES + 80);
+static_assert(sizeof(CsmUniforms) == 96 * CSM_MAX_CASCADES + 96);
 static_assert(sizeof(CsmUniforms) <= 16384, "must fit the minimum maxUniformBufferRange");
 static_assert(sizeof(CsmUniforms) % 4 == 0, "vkCmdUpdateBuffer needs a multiple of 4 bytes");
 static_assert(CSM_MAX_CASCADES <= 32, "the non-empty mask is one 32-bit word");
@@ -34,6 +35,8 @@ const char* kernelName(PcfKernel kernel) noexcept {
       return "tent7x7";
     case PcfKernel::kPoisson16:
       return "poisson16";
+    case PcfKernel::kPcss:
+      return "pcss";
   }
   return "unknown";
 }
@@ -50,6 +53,8 @@ float kernelRadiusTexels(PcfKernel kernel) noexcept {
       return float(CSM_KERNEL_RADIUS_TENT7);
     case PcfKernel::kPoisson16:
       return float(CSM_KERNEL_RADIUS_POISSON16);
+    case PcfKernel::kPcss:
+      return float(CSM_KERNEL_RADIUS_PCSS);
   }
   return float(CSM_KERNEL_RADIUS_1TAP);
 }
@@ -64,6 +69,25 @@ namespace {
 // Finite or zero: nothing that is not finite may reach the GPU.
 float finiteOr0(double v) noexcept {
   return std::isfinite(v) ? static_cast<float>(v) : 0.0f;
+}
+
+// Index of the map's texel (0, 0) on the world-anchored grid (light-space coordinate / texel),
+// modulo CSM_WORLD_TEXEL_PERIOD, in double: exact whatever the distance from the origin.
+glm::vec2 worldTexelOrigin(const Cascade& c, const CascadeFrame& frame) noexcept {
+  const double period = CSM_WORLD_TEXEL_PERIOD;
+  const double res = static_cast<double>(frame.resolution);
+  glm::vec2 out(0.0f);
+  for (int a = 0; a < 2; ++a) {
+    const double texel = c.texelSizeLs[a];
+    if (!(texel > 0.0)) continue;
+    const double centre = glm::dot(frame.lightBasisWs[a], c.boxCenterWs) / texel;
+    // Stabilised: the box centre sits on a grid line (an integer) and the map spans res / 2
+    // texels either side of it.
+    const double origin = std::round(centre) - std::round(0.5 * res);
+    const double wrapped = origin - period * std::floor(origin / period);
+    out[a] = finiteOr0(wrapped);
+  }
+  return out;
 }
 
 }  // namespace
@@ -87,8 +111,9 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
     if (options.worldSpaceKernel && texel > 0.0 && texel0 > 0.0) scale = texel0 / texel;
     g.viewProjCr = c.viewProjCr;
     g.splitTexel = glm::vec4(finiteOr0(nearM), finiteOr0(farM), finiteOr0(texel), finiteOr0(scale));
+    const glm::vec2 texelOrigin = worldTexelOrigin(c, frame);
     g.depthInfo = glm::vec4(finiteOr0(farM - band * (farM - nearM)),
-                            finiteOr0(c.depthFarLs - c.depthNearLs), 0.0f, 0.0f);
+                            finiteOr0(c.depthFarLs - c.depthNearLs), texelOrigin.x, texelOrigin.y);
   }
   const glm::dvec3 fwd = frame.cameraForwardWs;
   const glm::dvec3 dir = frame.lightDirectionWs;
@@ -100,6 +125,9 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
                        res > 0.0 ? finiteOr0(1.0 / res) : 0.0f);
   u.counts = glm::uvec4(count, nonEmpty, static_cast<std::uint32_t>(options.debugMode), 0u);
   u.biasParams = glm::vec4(settings.depthFloorTexels, depthQuantum(options.depthBits), 0.0f, 0.0f);
+  const double halfAngleRad = glm::radians(0.5 * settings.lightAngularDiameterDeg);
+  u.softParams = glm::vec4(finiteOr0(std::tan(halfAngleRad)),
+                           finiteOr0(0.5 * settings.maxPenumbraM), 0.0f, 0.0f);
   return u;
 }
 

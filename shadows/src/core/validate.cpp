@@ -95,6 +95,13 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
     return refuse("settings.minCasterTexels", s.minCasterTexels,
                   "a number of texels in [0, 1e6] (0 turns the test off)");
   }
+  if (!(s.lightAngularDiameterDeg >= 0.0 && s.lightAngularDiameterDeg <= 20.0)) {
+    return refuse("settings.lightAngularDiameterDeg", s.lightAngularDiameterDeg,
+                  "an angle in degrees in [0, 20] (the sun: 0.53)");
+  }
+  if (!(s.maxPenumbraM >= 0.0 && s.maxPenumbraM <= 100.0)) {
+    return refuse("settings.maxPenumbraM", s.maxPenumbraM, "a width in metres in [0, 100]");
+  }
   return std::nullopt;
 }
 

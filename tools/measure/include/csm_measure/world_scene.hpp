@@ -1,0 +1,25 @@
+// The sample world (sample_world/) as a measurement Scene, for the tools and tests that measure on
+// it (csm_tradeoff, the soft-shadow test).
+#pragma once
+
+#include <sample_world/world.hpp>
+
+#include <cstdint>
+#include <vector>
+
+#include "csm_measure/scene.hpp"
+
+namespace csm_measure {
+
+/// The sample world's caster clusters (terrain chunks and merged objects) as a measurement scene:
+/// instances of the full-detail meshes (LOD 0), the same triangles for the rasteriser's receivers
+/// and the ray tracer. The simplified LODs are extra meshes no instance uses: `lodMeshes[i][l]` is
+/// the mesh of instance i at LOD l, for Harness::setCasterLods.
+struct WorldScene {
+  Scene scene;
+  std::vector<std::vector<uint32_t>> lodMeshes;
+};
+
+WorldScene sceneFromWorld(const world::World& w);
+
+}  // namespace csm_measure
