@@ -7,6 +7,7 @@
 #include <imgui.h>
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -22,6 +23,7 @@
 
 #include "engine/engine.hpp"
 #include "imgui_layer.hpp"
+#include "sample_world/output_dir.hpp"
 #include "sample_world/paths.hpp"
 #include "sample_world/settings.hpp"
 #include "sample_world/world.hpp"
@@ -66,11 +68,11 @@ std::string usage() {
 }
 
 int parseInt(const std::string& flag, const std::string& v, int lo, int hi) {
-  try {
-    std::size_t used = 0;
-    const long n = std::stol(v, &used);
-    if (used == v.size() && n >= lo && n <= hi) return static_cast<int>(n);
-  } catch (...) {
+  // The whole text as a decimal integer: no blanks, no exponent, no trailing text.
+  long n = 0;
+  const auto r = std::from_chars(v.data(), v.data() + v.size(), n);
+  if (r.ec == std::errc() && r.ptr == v.data() + v.size() && n >= lo && n <= hi) {
+    return static_cast<int>(n);
   }
   throw UsageError(flag + " = '" + v + "' is invalid: allowed an integer in [" +
                    std::to_string(lo) + ", " + std::to_string(hi) + "]");
@@ -80,11 +82,22 @@ Options parse(int argc, char** argv) {
   Options o;
   std::vector<std::string> sets;
   std::string config;
+  bool haveConfig = false;
+  std::vector<std::string> seen;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    // Every flag but --set once: a second --frames or --out is a mistake, not an override.
+    if (a.rfind("--", 0) == 0 && a != "--set") {
+      if (std::find(seen.begin(), seen.end(), a) != seen.end()) {
+        throw UsageError(a + " is given twice: allowed once (--set may repeat)");
+      }
+      seen.push_back(a);
+    }
     auto value = [&]() -> std::string {
       if (i + 1 >= argc) throw UsageError(a + " needs a value");
-      return argv[++i];
+      std::string v = argv[++i];
+      if (v.empty()) throw UsageError(a + " = '' is invalid: the value is empty");
+      return v;
     };
     if (a == "--headless") {
       o.headless = true;
@@ -106,6 +119,7 @@ Options parse(int argc, char** argv) {
       o.shotEvery = parseInt(a, value(), 1, 1000000);
     } else if (a == "--config") {
       config = value();
+      haveConfig = true;
     } else if (a == "--set") {
       sets.push_back(value());
     } else if (a == "--mesh") {
@@ -124,7 +138,7 @@ Options parse(int argc, char** argv) {
     }
   }
   // The config file first, then --set in order: the command line wins.
-  if (!config.empty()) {
+  if (haveConfig) {
     if (auto e = world::loadConfig(o.settings, config)) throw UsageError(*e);
   }
   for (const std::string& s : sets) {
@@ -135,6 +149,14 @@ Options parse(int argc, char** argv) {
     }
   }
   if (auto e = world::validateSettings(o.settings)) throw UsageError(*e);
+  // The mesh file is read and checked now, so that a bad file exits 2 before the device and
+  // the world are touched (generateWorld reads it again: a second read of a checked file).
+  if (!o.meshPath.empty()) {
+    world::WorldError err;
+    if (!world::loadMeshFile(o.meshPath, o.settings.world.userMeshSizeM, &err)) {
+      throw UsageError(err.message);
+    }
+  }
   return o;
 }
 
@@ -263,15 +285,21 @@ void poseCamera(engine::Camera& cam, const world::CameraPose& pose, double aspec
 int runHeadless(const Options& o, const std::string& why) {
   if (!why.empty()) std::printf("%s\n", why.c_str());
   const int frames = o.frames > 0 ? o.frames : 120;
-  const world::World w = makeWorld(o, o.path);
-  const std::optional<world::FlightPath> path =
-      world::FlightPath::make(o.path, w, o.settings.fovDeg);
-  std::filesystem::create_directories(o.out);
-
+  // Order: the output folder is checked (nothing created), then the device is found, and only
+  // then the folder is created and locked and the world built: no driver, no side effects.
+  if (auto e = world::checkOutputDir(o.out)) throw UsageError(*e);
   engine::ContextDesc desc;
   desc.appName = "csm_flythrough";
   desc.validation = o.validation;
   engine::Context ctx(desc);
+  world::OutputDirLock lock;
+  if (auto e = lock.acquire(o.out)) throw UsageError(*e);
+  const world::World w = makeWorld(o, o.path);
+  const std::optional<world::FlightPath> path =
+      world::FlightPath::make(o.path, w, o.settings.fovDeg);
+  auto writePng = [](const std::string& file, const engine::CpuImage& img) {
+    if (auto e = world::writePngAtomically(file, img)) throw std::runtime_error(*e);
+  };
   std::printf("device: %s, validation %s, %ux%u, %d frames along '%s'\n",
               ctx.properties().deviceName, ctx.validationEnabled() ? "on" : "off", o.settings.width,
               o.settings.height, frames, o.path.c_str());
@@ -371,12 +399,12 @@ int runHeadless(const Options& o, const std::string& why) {
         std::snprintf(name, sizeof(name), "frame_%04d", i);
         const std::string base = (std::filesystem::path(o.out) / name).string();
         engine::CpuImage plain = target.readback();
-        engine::writePng(base + ".png", plain);
+        writePng(base + ".png", plain);
         const engine::CpuImage shadowView = renderVariant(false, csm::DebugMode::kShadowFactor, st);
         const auto [fraction, coverage] = shadowedFraction(shadowView);
-        engine::writePng(base + "_shadow.png", shadowView);
+        writePng(base + "_shadow.png", shadowView);
         const engine::CpuImage overlayImg = renderVariant(true, o.settings.debug, st);
-        engine::writePng(base + "_overlay.png", overlayImg);
+        writePng(base + "_overlay.png", overlayImg);
         shots.push_back({{"frame", i},
                          {"file", std::string(name) + ".png"},
                          {"overlay_file", std::string(name) + "_overlay.png"},
@@ -405,7 +433,10 @@ int runHeadless(const Options& o, const std::string& why) {
     }
 
     // Summary: means over the frames that were not followed by screenshot renders.
-    auto mean = [&](auto get) {
+    // With no such frame (--frames 1 or 2, --shot-every 1) every mean is null, not 0.
+    int measured = 0;
+    for (const json& f : framesJson) measured += f.contains("screenshot") ? 0 : 1;
+    auto mean = [&](auto get) -> json {
       double sum = 0.0;
       int n = 0;
       for (const json& f : framesJson) {
@@ -413,7 +444,7 @@ int runHeadless(const Options& o, const std::string& why) {
         sum += get(f);
         ++n;
       }
-      return n ? sum / n : 0.0;
+      return n ? json(sum / n) : json(nullptr);
     };
     json summary = {
         {"cpu_setup_ms", mean([](const json& f) { return f["cpu_ms"]["setup"].get<double>(); })},
@@ -433,6 +464,7 @@ int runHeadless(const Options& o, const std::string& why) {
         return f["cascades"].size() > c ? f["cascades"][c]["triangles"].get<double>() : 0.0;
       });
     }
+    summary["measured_frames"] = measured;
     report["summary"] = summary;
     json lodTris = json::array();
     for (std::uint32_t l = 0; l < world::kLodCount; ++l)
@@ -474,14 +506,23 @@ int runHeadless(const Options& o, const std::string& why) {
   report["screenshots"] = shots;
   report["per_frame"] = framesJson;
   const std::string reportPath = (std::filesystem::path(o.out) / "report.json").string();
-  std::ofstream(reportPath) << report.dump(1) << "\n";
+  if (auto e = world::writeFileAtomically(reportPath, report.dump(1) + "\n")) {
+    throw std::runtime_error(*e);
+  }
   const json& sm = report["summary"];
-  std::printf(
-      "mean per frame: cpu setup %.3f ms, culling %.3f ms, record %.3f ms; gpu shadow %.2f ms, "
-      "lit %.2f ms; wall %.1f ms\n",
-      sm["cpu_setup_ms"].get<double>(), sm["cpu_culling_ms"].get<double>(),
-      sm["cpu_record_ms"].get<double>(), sm["gpu_shadow_ms"].get<double>(),
-      sm["gpu_lit_ms"].get<double>(), sm["wall_frame_ms"].get<double>());
+  if (sm["measured_frames"].get<int>() == 0) {
+    std::printf(
+        "mean per frame: no measured frames (every frame was followed by screenshot renders; use "
+        "--frames 3 or more and --shot-every 2 or more)\n");
+  } else {
+    std::printf(
+        "mean per frame (%d measured frames): cpu setup %.3f ms, culling %.3f ms, record %.3f ms; "
+        "gpu shadow %.2f ms, lit %.2f ms; wall %.1f ms\n",
+        sm["measured_frames"].get<int>(), sm["cpu_setup_ms"].get<double>(),
+        sm["cpu_culling_ms"].get<double>(), sm["cpu_record_ms"].get<double>(),
+        sm["gpu_shadow_ms"].get<double>(), sm["gpu_lit_ms"].get<double>(),
+        sm["wall_frame_ms"].get<double>());
+  }
   std::printf("screenshots and report: %s (report.json, frame_*.png, frame_*_overlay.png)\n",
               std::filesystem::absolute(o.out).string().c_str());
   std::printf("validation messages: %llu\n",
@@ -583,10 +624,10 @@ int runWindowed(Options o) {
   desc.appName = "csm_flythrough";
   desc.validation = o.validation;
   engine::WindowTarget::prepareContext(desc);
+  engine::Context ctx(desc);  // no device: found before the world is built
   const world::World w = makeWorld(o, o.path);
   const std::optional<world::FlightPath> path =
       world::FlightPath::make(o.path, w, o.settings.fovDeg);
-  engine::Context ctx(desc);
   std::printf("device: %s, validation %s\n", ctx.properties().deviceName,
               ctx.validationEnabled() ? "on" : "off");
   {
