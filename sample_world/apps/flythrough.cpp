@@ -23,6 +23,7 @@
 
 #include "engine/engine.hpp"
 #include "imgui_layer.hpp"
+#include "sample_world/key_state.hpp"
 #include "sample_world/output_dir.hpp"
 #include "sample_world/paths.hpp"
 #include "sample_world/settings.hpp"
@@ -180,6 +181,16 @@ std::pair<double, double> shadowedFraction(const engine::CpuImage& img) {
   return {geometry ? double(shadowed) / double(geometry) : 0.0, double(geometry) / total};
 }
 
+/// Keeps the current ImGui window inside the display (after any resize, down to 1x1): moved so
+/// that its top-left corner is on screen and as much of it as fits is visible.
+void keepOnScreen() {
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  const ImVec2 pos = ImGui::GetWindowPos(), size = ImGui::GetWindowSize();
+  const ImVec2 clamped(std::clamp(pos.x, 0.0f, std::max(0.0f, display.x - size.x)),
+                       std::clamp(pos.y, 0.0f, std::max(0.0f, display.y - size.y)));
+  if (clamped.x != pos.x || clamped.y != pos.y) ImGui::SetWindowPos(clamped);
+}
+
 /// The per-cascade statistics window of the overlay (also in the windowed panel).
 void cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& timer,
                         const std::map<std::string, double>& gpu, double cpuFrameMs,
@@ -199,6 +210,7 @@ void cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& tim
               st.cpuCullMs, st.cpuRecordMs);
   ImGui::Text("gpu: shadow %.2f ms, lit %.2f ms, overlay %.2f ms%s", gpuMs("shadow"), gpuMs("lit"),
               gpuMs("overlay"), timer.supported() ? "" : " (no timestamps)");
+  if (!pinned) keepOnScreen();
   ImGui::Text("validation messages: %llu   lit: %u instances, %.2f Mtri",
               static_cast<unsigned long long>(validationMessages), st.litInstances,
               st.litTriangles * 1e-6);
@@ -535,10 +547,18 @@ int runHeadless(const Options& o, const std::string& why) {
 
 struct Input {
   double scroll = 0.0;
+  world::KeyState keys;
 };
 Input* gInput = nullptr;
 void onScroll(GLFWwindow*, double, double dy) {
   if (gInput) gInput->scroll += dy;
+}
+// Installed before ImGui, which chains to it: every press and release is seen, however short.
+void onKey(GLFWwindow*, int key, int, int action, int) {
+  if (gInput) gInput->keys.event(key, action != GLFW_RELEASE);
+}
+void onFocus(GLFWwindow*, int focused) {
+  if (gInput && !focused) gInput->keys.releaseAll();
 }
 
 bool settingsPanel(world::AppSettings& s, const std::string& error) {
@@ -589,15 +609,21 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   changed |= ImGui::SliderFloat("ambient", &s.ambient, 0.0f, 1.0f);
   changed |= ImGui::Checkbox("stabilise", &s.shadow.stabilize);
   changed |= ImGui::Checkbox("caster LODs", &s.casterLods);
+  // One row: the label, then one narrow slider per cascade, each after the previous with the
+  // default spacing (SameLine(-1) placed them at x = -1, over the checkbox).
+  ImGui::BeginDisabled(!s.casterLods);
+  ImGui::TextUnformatted("LOD per cascade");
   for (std::uint32_t c = 0; c < s.shadow.cascadeCount; ++c) {
     int lod = static_cast<int>(s.cascadeLod[c]);
-    ImGui::SameLine(c == 0 ? 0.0f : -1.0f);
+    ImGui::SameLine();
     ImGui::PushID(static_cast<int>(c));
-    ImGui::SetNextItemWidth(40.0f);
+    ImGui::SetNextItemWidth(ImGui::GetFontSize() * 2.5f);
     changed |= ImGui::SliderInt("##lod", &lod, 0, 2);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("cascade %u draws LOD %d", c, lod);
     ImGui::PopID();
     s.cascadeLod[c] = static_cast<std::uint32_t>(lod);
   }
+  ImGui::EndDisabled();
   int debug = static_cast<int>(s.debug);
   changed |= ImGui::Combo(
       "debug output", &debug,
@@ -615,6 +641,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   if (!error.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error.c_str());
   ImGui::TextDisabled(
       "LMB rotate, RMB pan, wheel zoom, WASD/QE fly, Shift fast, R reset, ESC quit");
+  keepOnScreen();
   ImGui::End();
   return changed;
 }
@@ -636,7 +663,9 @@ int runWindowed(Options o) {
                                 true, VK_FORMAT_D32_SFLOAT});
     Input input;
     gInput = &input;
-    glfwSetScrollCallback(target.window(), onScroll);  // before ImGui, which chains to it
+    glfwSetScrollCallback(target.window(), onScroll);  // before ImGui, which chains to them
+    glfwSetKeyCallback(target.window(), onKey);
+    glfwSetWindowFocusCallback(target.window(), onFocus);
     world::WorldRenderer renderer(ctx, w, target.colorFormat(), target.depthFormat());
     if (auto e = renderer.apply(o.settings)) throw UsageError(*e);
     engine::GpuTimer timer(ctx, 32);
@@ -649,7 +678,6 @@ int runWindowed(Options o) {
     double yaw = start.yawRad, pitch = start.pitchRad;
     double lastX = 0, lastY = 0;
     glfwGetCursorPos(target.window(), &lastX, &lastY);
-    bool f1Down = false;
     std::uint32_t generation = target.swapchainGeneration();
     world::FrameStats st;
     std::map<std::string, double> gpu;
@@ -660,7 +688,7 @@ int runWindowed(Options o) {
       if (o.frames > 0 && (rendered >= o.frames || attempts++ > o.frames * 50)) break;
       target.pollEvents();
       GLFWwindow* win = target.window();
-      if (glfwGetKey(win, GLFW_KEY_ESCAPE) == GLFW_PRESS) break;
+      if (input.keys.active(GLFW_KEY_ESCAPE)) break;
       if (o.smokeTest && o.frames > 0) {
         if (rendered == o.frames / 3)
           glfwSetWindowSize(win, int(o.settings.width) + 160, int(o.settings.height) + 90);
@@ -680,7 +708,7 @@ int runWindowed(Options o) {
       lastY = y;
       const double ground = w.heightAt(pos.x, pos.z);
       const double speed = std::max(20.0, 0.8 * (pos.y - ground)) *
-                           (glfwGetKey(win, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS ? 5.0 : 1.0);
+                           (input.keys.active(GLFW_KEY_LEFT_SHIFT) ? 5.0 : 1.0);
       engine::Camera cam;
       cam.setYawPitchRoll(yaw, pitch);
       if (!io.WantCaptureMouse) {
@@ -695,20 +723,20 @@ int runWindowed(Options o) {
       }
       input.scroll = 0.0;
       if (!io.WantCaptureKeyboard) {
-        auto key = [&](int k) { return glfwGetKey(win, k) == GLFW_PRESS ? 1.0 : 0.0; };
+        // From key events: a tap shorter than a frame still moves the camera for one frame.
+        auto key = [&](int k) { return input.keys.active(k) ? 1.0 : 0.0; };
         const glm::dvec3 move = cam.forwardWs() * (key(GLFW_KEY_W) - key(GLFW_KEY_S)) +
                                 cam.rightWs() * (key(GLFW_KEY_D) - key(GLFW_KEY_A)) +
                                 glm::dvec3(0, 1, 0) * (key(GLFW_KEY_E) - key(GLFW_KEY_Q));
         pos += move * speed * dt;
-        if (key(GLFW_KEY_R) > 0) {
+        if (input.keys.pressed(GLFW_KEY_R)) {
           pos = start.positionWs;
           yaw = start.yawRad;
           pitch = start.pitchRad;
         }
-        const bool f1 = key(GLFW_KEY_F1) > 0;
-        if (f1 && !f1Down) live.overlay = !live.overlay;
-        f1Down = f1;
+        if (input.keys.pressed(GLFW_KEY_F1)) live.overlay = !live.overlay;
       }
+      input.keys.endFrame();
 
       // ---- UI ----------------------------------------------------------------------------------
       imgui.newFrame(target.extent(), dt);
