@@ -694,6 +694,10 @@ int runWindowed(Options o) {
           glfwSetWindowSize(win, int(o.settings.width) + 160, int(o.settings.height) + 90);
         if (rendered == o.frames / 2 && attempts % 4 == 0) glfwIconifyWindow(win);
         if (rendered == o.frames / 2 && attempts % 4 == 2) glfwRestoreWindow(win);
+        // Down to 1x1 and back: the panels must stay on screen (keepOnScreen).
+        if (rendered == (2 * o.frames) / 3) glfwSetWindowSize(win, 1, 1);
+        if (rendered == (5 * o.frames) / 6)
+          glfwSetWindowSize(win, int(o.settings.width), int(o.settings.height));
       }
       const auto now = Clock::now();
       const double dt = std::min(0.25, std::chrono::duration<double>(now - prev).count());

@@ -1,5 +1,6 @@
 // OpenMesh side of the sample world: normals, Decimater LODs, mesh file loading, hashes.
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Core/System/omstream.hh>
 #include <OpenMesh/Tools/Decimater/DecimaterT.hh>
 #include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
 #include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
@@ -223,7 +224,11 @@ std::optional<MeshData> meshFromParsed(const ParsedMesh& parsed, double sizeM, s
     }
     positions[v] = glm::vec3(q);
   }
+  // OpenMesh reports each non-manifold face it is given on its error stream ("complex vertex");
+  // finishMesh handles them (own vertices), so a user's file does not flood stderr.
+  omerr().disable();
   MeshData data = finishMesh(positions, parsed.triangles);
+  omerr().enable();
   if (data.indices.empty()) return fail("contains no triangles (every face is degenerate)");
   for (const glm::vec3& p : data.positions) {
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
