@@ -9,6 +9,7 @@ packages=(
   libglm-dev libglfw3-dev libopenmesh-dev libimgui-dev libstb-dev libembree-dev
   nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox
   xvfb xauth cmake ninja-build g++ pkg-config
+  clang libclang-rt-14-dev
 )
 
 missing=()

@@ -7,6 +7,7 @@
 #include <imgui.h>
 
 #include <algorithm>
+#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -22,6 +23,8 @@
 
 #include "engine/engine.hpp"
 #include "imgui_layer.hpp"
+#include "sample_world/key_state.hpp"
+#include "sample_world/output_dir.hpp"
 #include "sample_world/paths.hpp"
 #include "sample_world/settings.hpp"
 #include "sample_world/world.hpp"
@@ -66,11 +69,11 @@ std::string usage() {
 }
 
 int parseInt(const std::string& flag, const std::string& v, int lo, int hi) {
-  try {
-    std::size_t used = 0;
-    const long n = std::stol(v, &used);
-    if (used == v.size() && n >= lo && n <= hi) return static_cast<int>(n);
-  } catch (...) {
+  // The whole text as a decimal integer: no blanks, no exponent, no trailing text.
+  long n = 0;
+  const auto r = std::from_chars(v.data(), v.data() + v.size(), n);
+  if (r.ec == std::errc() && r.ptr == v.data() + v.size() && n >= lo && n <= hi) {
+    return static_cast<int>(n);
   }
   throw UsageError(flag + " = '" + v + "' is invalid: allowed an integer in [" +
                    std::to_string(lo) + ", " + std::to_string(hi) + "]");
@@ -80,11 +83,22 @@ Options parse(int argc, char** argv) {
   Options o;
   std::vector<std::string> sets;
   std::string config;
+  bool haveConfig = false;
+  std::vector<std::string> seen;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    // Every flag but --set once: a second --frames or --out is a mistake, not an override.
+    if (a.rfind("--", 0) == 0 && a != "--set") {
+      if (std::find(seen.begin(), seen.end(), a) != seen.end()) {
+        throw UsageError(a + " is given twice: allowed once (--set may repeat)");
+      }
+      seen.push_back(a);
+    }
     auto value = [&]() -> std::string {
       if (i + 1 >= argc) throw UsageError(a + " needs a value");
-      return argv[++i];
+      std::string v = argv[++i];
+      if (v.empty()) throw UsageError(a + " = '' is invalid: the value is empty");
+      return v;
     };
     if (a == "--headless") {
       o.headless = true;
@@ -106,6 +120,7 @@ Options parse(int argc, char** argv) {
       o.shotEvery = parseInt(a, value(), 1, 1000000);
     } else if (a == "--config") {
       config = value();
+      haveConfig = true;
     } else if (a == "--set") {
       sets.push_back(value());
     } else if (a == "--mesh") {
@@ -124,7 +139,7 @@ Options parse(int argc, char** argv) {
     }
   }
   // The config file first, then --set in order: the command line wins.
-  if (!config.empty()) {
+  if (haveConfig) {
     if (auto e = world::loadConfig(o.settings, config)) throw UsageError(*e);
   }
   for (const std::string& s : sets) {
@@ -135,6 +150,14 @@ Options parse(int argc, char** argv) {
     }
   }
   if (auto e = world::validateSettings(o.settings)) throw UsageError(*e);
+  // The mesh file is read and checked now, so that a bad file exits 2 before the device and
+  // the world are touched (generateWorld reads it again: a second read of a checked file).
+  if (!o.meshPath.empty()) {
+    world::WorldError err;
+    if (!world::loadMeshFile(o.meshPath, o.settings.world.userMeshSizeM, &err)) {
+      throw UsageError(err.message);
+    }
+  }
   return o;
 }
 
@@ -158,6 +181,16 @@ std::pair<double, double> shadowedFraction(const engine::CpuImage& img) {
   return {geometry ? double(shadowed) / double(geometry) : 0.0, double(geometry) / total};
 }
 
+/// Keeps the current ImGui window inside the display (after any resize, down to 1x1): moved so
+/// that its top-left corner is on screen and as much of it as fits is visible.
+void keepOnScreen() {
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  const ImVec2 pos = ImGui::GetWindowPos(), size = ImGui::GetWindowSize();
+  const ImVec2 clamped(std::clamp(pos.x, 0.0f, std::max(0.0f, display.x - size.x)),
+                       std::clamp(pos.y, 0.0f, std::max(0.0f, display.y - size.y)));
+  if (clamped.x != pos.x || clamped.y != pos.y) ImGui::SetWindowPos(clamped);
+}
+
 /// The per-cascade statistics window of the overlay (also in the windowed panel).
 void cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& timer,
                         const std::map<std::string, double>& gpu, double cpuFrameMs,
@@ -177,6 +210,7 @@ void cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& tim
               st.cpuCullMs, st.cpuRecordMs);
   ImGui::Text("gpu: shadow %.2f ms, lit %.2f ms, overlay %.2f ms%s", gpuMs("shadow"), gpuMs("lit"),
               gpuMs("overlay"), timer.supported() ? "" : " (no timestamps)");
+  if (!pinned) keepOnScreen();
   ImGui::Text("validation messages: %llu   lit: %u instances, %.2f Mtri",
               static_cast<unsigned long long>(validationMessages), st.litInstances,
               st.litTriangles * 1e-6);
@@ -263,15 +297,21 @@ void poseCamera(engine::Camera& cam, const world::CameraPose& pose, double aspec
 int runHeadless(const Options& o, const std::string& why) {
   if (!why.empty()) std::printf("%s\n", why.c_str());
   const int frames = o.frames > 0 ? o.frames : 120;
-  const world::World w = makeWorld(o, o.path);
-  const std::optional<world::FlightPath> path =
-      world::FlightPath::make(o.path, w, o.settings.fovDeg);
-  std::filesystem::create_directories(o.out);
-
+  // Order: the output folder is checked (nothing created), then the device is found, and only
+  // then the folder is created and locked and the world built: no driver, no side effects.
+  if (auto e = world::checkOutputDir(o.out)) throw UsageError(*e);
   engine::ContextDesc desc;
   desc.appName = "csm_flythrough";
   desc.validation = o.validation;
   engine::Context ctx(desc);
+  world::OutputDirLock lock;
+  if (auto e = lock.acquire(o.out)) throw UsageError(*e);
+  const world::World w = makeWorld(o, o.path);
+  const std::optional<world::FlightPath> path =
+      world::FlightPath::make(o.path, w, o.settings.fovDeg);
+  auto writePng = [](const std::string& file, const engine::CpuImage& img) {
+    if (auto e = world::writePngAtomically(file, img)) throw std::runtime_error(*e);
+  };
   std::printf("device: %s, validation %s, %ux%u, %d frames along '%s'\n",
               ctx.properties().deviceName, ctx.validationEnabled() ? "on" : "off", o.settings.width,
               o.settings.height, frames, o.path.c_str());
@@ -371,12 +411,12 @@ int runHeadless(const Options& o, const std::string& why) {
         std::snprintf(name, sizeof(name), "frame_%04d", i);
         const std::string base = (std::filesystem::path(o.out) / name).string();
         engine::CpuImage plain = target.readback();
-        engine::writePng(base + ".png", plain);
+        writePng(base + ".png", plain);
         const engine::CpuImage shadowView = renderVariant(false, csm::DebugMode::kShadowFactor, st);
         const auto [fraction, coverage] = shadowedFraction(shadowView);
-        engine::writePng(base + "_shadow.png", shadowView);
+        writePng(base + "_shadow.png", shadowView);
         const engine::CpuImage overlayImg = renderVariant(true, o.settings.debug, st);
-        engine::writePng(base + "_overlay.png", overlayImg);
+        writePng(base + "_overlay.png", overlayImg);
         shots.push_back({{"frame", i},
                          {"file", std::string(name) + ".png"},
                          {"overlay_file", std::string(name) + "_overlay.png"},
@@ -405,7 +445,10 @@ int runHeadless(const Options& o, const std::string& why) {
     }
 
     // Summary: means over the frames that were not followed by screenshot renders.
-    auto mean = [&](auto get) {
+    // With no such frame (--frames 1 or 2, --shot-every 1) every mean is null, not 0.
+    int measured = 0;
+    for (const json& f : framesJson) measured += f.contains("screenshot") ? 0 : 1;
+    auto mean = [&](auto get) -> json {
       double sum = 0.0;
       int n = 0;
       for (const json& f : framesJson) {
@@ -413,7 +456,7 @@ int runHeadless(const Options& o, const std::string& why) {
         sum += get(f);
         ++n;
       }
-      return n ? sum / n : 0.0;
+      return n ? json(sum / n) : json(nullptr);
     };
     json summary = {
         {"cpu_setup_ms", mean([](const json& f) { return f["cpu_ms"]["setup"].get<double>(); })},
@@ -433,6 +476,7 @@ int runHeadless(const Options& o, const std::string& why) {
         return f["cascades"].size() > c ? f["cascades"][c]["triangles"].get<double>() : 0.0;
       });
     }
+    summary["measured_frames"] = measured;
     report["summary"] = summary;
     json lodTris = json::array();
     for (std::uint32_t l = 0; l < world::kLodCount; ++l)
@@ -474,14 +518,23 @@ int runHeadless(const Options& o, const std::string& why) {
   report["screenshots"] = shots;
   report["per_frame"] = framesJson;
   const std::string reportPath = (std::filesystem::path(o.out) / "report.json").string();
-  std::ofstream(reportPath) << report.dump(1) << "\n";
+  if (auto e = world::writeFileAtomically(reportPath, report.dump(1) + "\n")) {
+    throw std::runtime_error(*e);
+  }
   const json& sm = report["summary"];
-  std::printf(
-      "mean per frame: cpu setup %.3f ms, culling %.3f ms, record %.3f ms; gpu shadow %.2f ms, "
-      "lit %.2f ms; wall %.1f ms\n",
-      sm["cpu_setup_ms"].get<double>(), sm["cpu_culling_ms"].get<double>(),
-      sm["cpu_record_ms"].get<double>(), sm["gpu_shadow_ms"].get<double>(),
-      sm["gpu_lit_ms"].get<double>(), sm["wall_frame_ms"].get<double>());
+  if (sm["measured_frames"].get<int>() == 0) {
+    std::printf(
+        "mean per frame: no measured frames (every frame was followed by screenshot renders; use "
+        "--frames 3 or more and --shot-every 2 or more)\n");
+  } else {
+    std::printf(
+        "mean per frame (%d measured frames): cpu setup %.3f ms, culling %.3f ms, record %.3f ms; "
+        "gpu shadow %.2f ms, lit %.2f ms; wall %.1f ms\n",
+        sm["measured_frames"].get<int>(), sm["cpu_setup_ms"].get<double>(),
+        sm["cpu_culling_ms"].get<double>(), sm["cpu_record_ms"].get<double>(),
+        sm["gpu_shadow_ms"].get<double>(), sm["gpu_lit_ms"].get<double>(),
+        sm["wall_frame_ms"].get<double>());
+  }
   std::printf("screenshots and report: %s (report.json, frame_*.png, frame_*_overlay.png)\n",
               std::filesystem::absolute(o.out).string().c_str());
   std::printf("validation messages: %llu\n",
@@ -494,10 +547,18 @@ int runHeadless(const Options& o, const std::string& why) {
 
 struct Input {
   double scroll = 0.0;
+  world::KeyState keys;
 };
 Input* gInput = nullptr;
 void onScroll(GLFWwindow*, double, double dy) {
   if (gInput) gInput->scroll += dy;
+}
+// Installed before ImGui, which chains to it: every press and release is seen, however short.
+void onKey(GLFWwindow*, int key, int, int action, int) {
+  if (gInput) gInput->keys.event(key, action != GLFW_RELEASE);
+}
+void onFocus(GLFWwindow*, int focused) {
+  if (gInput && !focused) gInput->keys.releaseAll();
 }
 
 bool settingsPanel(world::AppSettings& s, const std::string& error) {
@@ -561,15 +622,21 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   }
   changed |= ImGui::Checkbox("receiver splits", &s.receiverSplits);
   changed |= ImGui::Checkbox("caster LODs", &s.casterLods);
+  // One row: the label, then one narrow slider per cascade, each after the previous with the
+  // default spacing (SameLine(-1) placed them at x = -1, over the checkbox).
+  ImGui::BeginDisabled(!s.casterLods);
+  ImGui::TextUnformatted("LOD per cascade");
   for (std::uint32_t c = 0; c < s.shadow.cascadeCount; ++c) {
     int lod = static_cast<int>(s.cascadeLod[c]);
-    ImGui::SameLine(c == 0 ? 0.0f : -1.0f);
+    ImGui::SameLine();
     ImGui::PushID(static_cast<int>(c));
-    ImGui::SetNextItemWidth(40.0f);
+    ImGui::SetNextItemWidth(ImGui::GetFontSize() * 2.5f);
     changed |= ImGui::SliderInt("##lod", &lod, 0, 2);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("cascade %u draws LOD %d", c, lod);
     ImGui::PopID();
     s.cascadeLod[c] = static_cast<std::uint32_t>(lod);
   }
+  ImGui::EndDisabled();
   int debug = static_cast<int>(s.debug);
   changed |= ImGui::Combo(
       "debug output", &debug,
@@ -587,6 +654,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   if (!error.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error.c_str());
   ImGui::TextDisabled(
       "LMB rotate, RMB pan, wheel zoom, WASD/QE fly, Shift fast, R reset, ESC quit");
+  keepOnScreen();
   ImGui::End();
   return changed;
 }
@@ -596,10 +664,10 @@ int runWindowed(Options o) {
   desc.appName = "csm_flythrough";
   desc.validation = o.validation;
   engine::WindowTarget::prepareContext(desc);
+  engine::Context ctx(desc);  // no device: found before the world is built
   const world::World w = makeWorld(o, o.path);
   const std::optional<world::FlightPath> path =
       world::FlightPath::make(o.path, w, o.settings.fovDeg);
-  engine::Context ctx(desc);
   std::printf("device: %s, validation %s\n", ctx.properties().deviceName,
               ctx.validationEnabled() ? "on" : "off");
   {
@@ -608,7 +676,9 @@ int runWindowed(Options o) {
                                 true, VK_FORMAT_D32_SFLOAT});
     Input input;
     gInput = &input;
-    glfwSetScrollCallback(target.window(), onScroll);  // before ImGui, which chains to it
+    glfwSetScrollCallback(target.window(), onScroll);  // before ImGui, which chains to them
+    glfwSetKeyCallback(target.window(), onKey);
+    glfwSetWindowFocusCallback(target.window(), onFocus);
     world::WorldRenderer renderer(ctx, w, target.colorFormat(), target.depthFormat());
     if (auto e = renderer.apply(o.settings)) throw UsageError(*e);
     engine::GpuTimer timer(ctx, 32);
@@ -621,7 +691,6 @@ int runWindowed(Options o) {
     double yaw = start.yawRad, pitch = start.pitchRad;
     double lastX = 0, lastY = 0;
     glfwGetCursorPos(target.window(), &lastX, &lastY);
-    bool f1Down = false;
     std::uint32_t generation = target.swapchainGeneration();
     world::FrameStats st;
     std::map<std::string, double> gpu;
@@ -632,12 +701,16 @@ int runWindowed(Options o) {
       if (o.frames > 0 && (rendered >= o.frames || attempts++ > o.frames * 50)) break;
       target.pollEvents();
       GLFWwindow* win = target.window();
-      if (glfwGetKey(win, GLFW_KEY_ESCAPE) == GLFW_PRESS) break;
+      if (input.keys.active(GLFW_KEY_ESCAPE)) break;
       if (o.smokeTest && o.frames > 0) {
         if (rendered == o.frames / 3)
           glfwSetWindowSize(win, int(o.settings.width) + 160, int(o.settings.height) + 90);
         if (rendered == o.frames / 2 && attempts % 4 == 0) glfwIconifyWindow(win);
         if (rendered == o.frames / 2 && attempts % 4 == 2) glfwRestoreWindow(win);
+        // Down to 1x1 and back: the panels must stay on screen (keepOnScreen).
+        if (rendered == (2 * o.frames) / 3) glfwSetWindowSize(win, 1, 1);
+        if (rendered == (5 * o.frames) / 6)
+          glfwSetWindowSize(win, int(o.settings.width), int(o.settings.height));
       }
       const auto now = Clock::now();
       const double dt = std::min(0.25, std::chrono::duration<double>(now - prev).count());
@@ -652,7 +725,7 @@ int runWindowed(Options o) {
       lastY = y;
       const double ground = w.heightAt(pos.x, pos.z);
       const double speed = std::max(20.0, 0.8 * (pos.y - ground)) *
-                           (glfwGetKey(win, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS ? 5.0 : 1.0);
+                           (input.keys.active(GLFW_KEY_LEFT_SHIFT) ? 5.0 : 1.0);
       engine::Camera cam;
       cam.setYawPitchRoll(yaw, pitch);
       if (!io.WantCaptureMouse) {
@@ -667,20 +740,20 @@ int runWindowed(Options o) {
       }
       input.scroll = 0.0;
       if (!io.WantCaptureKeyboard) {
-        auto key = [&](int k) { return glfwGetKey(win, k) == GLFW_PRESS ? 1.0 : 0.0; };
+        // From key events: a tap shorter than a frame still moves the camera for one frame.
+        auto key = [&](int k) { return input.keys.active(k) ? 1.0 : 0.0; };
         const glm::dvec3 move = cam.forwardWs() * (key(GLFW_KEY_W) - key(GLFW_KEY_S)) +
                                 cam.rightWs() * (key(GLFW_KEY_D) - key(GLFW_KEY_A)) +
                                 glm::dvec3(0, 1, 0) * (key(GLFW_KEY_E) - key(GLFW_KEY_Q));
         pos += move * speed * dt;
-        if (key(GLFW_KEY_R) > 0) {
+        if (input.keys.pressed(GLFW_KEY_R)) {
           pos = start.positionWs;
           yaw = start.yawRad;
           pitch = start.pitchRad;
         }
-        const bool f1 = key(GLFW_KEY_F1) > 0;
-        if (f1 && !f1Down) live.overlay = !live.overlay;
-        f1Down = f1;
+        if (input.keys.pressed(GLFW_KEY_F1)) live.overlay = !live.overlay;
       }
+      input.keys.endFrame();
 
       // ---- UI ----------------------------------------------------------------------------------
       imgui.newFrame(target.extent(), dt);

@@ -1,5 +1,4 @@
 // OpenMesh side of the sample world: normals, Decimater LODs, mesh file loading, hashes.
-#include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
 #include <OpenMesh/Tools/Decimater/DecimaterT.hh>
@@ -9,12 +8,15 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "mesh_ops.hpp"
+#include "mesh_parse.hpp"
 
 namespace world {
 
@@ -118,55 +120,10 @@ std::string lower(std::string s) {
   return s;
 }
 
-// Element counts a PLY or OFF header declares (nothing when the header cannot be read), so
-// that a file cut short is reported as truncated rather than silently read in part.
-struct DeclaredCounts {
-  std::size_t vertices = 0;
-  std::size_t faces = 0;
-};
-
-std::optional<DeclaredCounts> declaredCounts(const std::string& path, const std::string& ext) {
-  std::ifstream in(path, std::ios::binary);
-  std::string line;
-  if (ext == "off") {
-    std::string token;
-    if (!(in >> token)) return std::nullopt;
-    if (token.find("OFF") == std::string::npos) return std::nullopt;
-    // Counts may follow on the same line as "OFF" or on the next non-comment line.
-    DeclaredCounts c;
-    std::string rest;
-    while (in >> rest) {
-      if (rest[0] == '#') {
-        std::getline(in, line);
-        continue;
-      }
-      try {
-        c.vertices = std::stoul(rest);
-        if (!(in >> c.faces)) return std::nullopt;
-      } catch (...) {
-        return std::nullopt;
-      }
-      return c;
-    }
-    return std::nullopt;
-  }
-  if (ext == "ply") {
-    if (!std::getline(in, line) || line.rfind("ply", 0) != 0) return std::nullopt;
-    DeclaredCounts c;
-    for (int n = 0; n < 200 && std::getline(in, line); ++n) {
-      std::istringstream ls(line);
-      std::string word, element;
-      std::size_t count = 0;
-      ls >> word;
-      if (word == "element" && (ls >> element >> count)) {
-        if (element == "vertex") c.vertices = count;
-        if (element == "face") c.faces = count;
-      }
-      if (word == "end_header") return c;
-    }
-    return std::nullopt;
-  }
-  return std::nullopt;
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%g", v);
+  return buf;
 }
 
 }  // namespace
@@ -177,87 +134,107 @@ std::optional<MeshData> loadMeshFile(const std::string& path, double sizeM, Worl
     return std::nullopt;
   };
   namespace fs = std::filesystem;
+  if (path.empty()) {
+    if (error) error->message = "--mesh: the path is empty (allowed a .obj, .ply or .off file)";
+    return std::nullopt;
+  }
+  if (!(sizeM > 0.0) || !std::isfinite(sizeM) || sizeM > kMaxMeshCoordinate) {
+    return fail("the target size " + num(sizeM) + " m is outside (0, " + num(kMaxMeshCoordinate) +
+                "]");
+  }
   std::error_code ec;
   if (!fs::exists(path, ec)) return fail("file not found");
   if (!fs::is_regular_file(path, ec)) return fail("not a regular file");
   const auto size = fs::file_size(path, ec);
   if (ec) return fail("cannot read its size (" + ec.message() + ")");
   if (size == 0) return fail("file is empty (0 bytes)");
+  if (size > kMaxMeshFileBytes) {
+    return fail("the file has " + std::to_string(size) + " bytes, allowed at most " +
+                std::to_string(kMaxMeshFileBytes));
+  }
   const std::string ext = lower(fs::path(path).extension().string().substr(
       fs::path(path).extension().string().empty() ? 0 : 1));
   if (ext != "obj" && ext != "ply" && ext != "off") {
     return fail("unsupported extension '." + ext + "' (allowed: .obj, .ply, .off)");
   }
+  std::string bytes;
   {
-    std::ifstream probe(path, std::ios::binary);
-    if (!probe) return fail("cannot be opened for reading");
-  }
-  const std::optional<DeclaredCounts> declared = declaredCounts(path, ext);
-  if ((ext == "ply" || ext == "off") && !declared) {
-    return fail(std::string("not a valid ") + (ext == "ply" ? "PLY" : "OFF") +
-                " file (its header cannot be read)");
-  }
-  // OBJ has no header: count its face lines, so that a file cut inside a face is caught.
-  std::size_t objFaceLines = 0;
-  if (ext == "obj") {
     std::ifstream in(path, std::ios::binary);
-    std::string line;
-    while (std::getline(in, line)) {
-      if (line.size() > 2 && line[0] == 'f' && (line[1] == ' ' || line[1] == '\t')) ++objFaceLines;
+    if (!in) return fail("cannot be opened for reading");
+    bytes.resize(static_cast<std::size_t>(size));
+    in.read(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    if (in.gcount() != static_cast<std::streamsize>(bytes.size())) {
+      return fail("could not read all " + std::to_string(size) + " bytes");
     }
   }
+  std::string parseError;
+  std::optional<ParsedMesh> parsed = parseMeshBytes(bytes, ext, &parseError);
+  bytes.clear();
+  bytes.shrink_to_fit();
+  if (!parsed) return fail(parseError);
+  std::optional<MeshData> data = meshFromParsed(*parsed, sizeM, &parseError);
+  if (!data) return fail(parseError);
+  return data;
+}
 
-  OmMesh mesh;
-  mesh.request_face_status();
-  OpenMesh::IO::Options options;
-  // OpenMesh reports parse problems on its own streams; our message says what matters.
+std::optional<MeshData> meshFromParsed(const ParsedMesh& parsed, double sizeM, std::string* error) {
+  auto fail = [&](const std::string& reason) -> std::optional<MeshData> {
+    if (error) *error = reason;
+    return std::nullopt;
+  };
+  const std::size_t n = parsed.vertexCount();
+  if (parsed.triangles.empty()) return fail("contains no triangles (no face data)");
+  // Every coordinate as written: finite and within range (so that extents and the scale below
+  // are finite in double); only vertices that triangles use count for the size.
+  static constexpr const char* kAxis[3] = {"x", "y", "z"};
+  glm::dvec3 lo(std::numeric_limits<double>::max()), hi(-std::numeric_limits<double>::max());
+  std::vector<bool> used(n, false);
+  for (const std::uint32_t i : parsed.triangles) used[i] = true;
+  for (std::size_t v = 0; v < n; ++v) {
+    for (int a = 0; a < 3; ++a) {
+      const double c = parsed.xyz[3 * v + static_cast<std::size_t>(a)];
+      if (!std::isfinite(c) || std::abs(c) > kMaxMeshCoordinate) {
+        return fail("vertex " + std::to_string(v) + ": " + kAxis[a] + " = " + num(c) +
+                    " is outside the allowed [-" + num(kMaxMeshCoordinate) + ", " +
+                    num(kMaxMeshCoordinate) + "]");
+      }
+      if (!used[v]) continue;
+      lo[a] = std::min(lo[a], c);
+      hi[a] = std::max(hi[a], c);
+    }
+  }
+  const glm::dvec3 ext3 = hi - lo;
+  const double largest = std::max({ext3.x, ext3.y, ext3.z});
+  if (!(largest >= kMinMeshExtent)) {
+    return fail("its largest extent " + num(largest) + " is below the allowed minimum " +
+                num(kMinMeshExtent) + " (all vertices (nearly) coincide)");
+  }
+  const double scale = sizeM / largest;
+  const glm::dvec3 base(0.5 * (lo.x + hi.x), lo.y, 0.5 * (lo.z + hi.z));
+  std::vector<glm::vec3> positions(n);
+  for (std::size_t v = 0; v < n; ++v) {
+    const glm::dvec3 p(parsed.xyz[3 * v], parsed.xyz[3 * v + 1], parsed.xyz[3 * v + 2]);
+    const glm::dvec3 q = (p - base) * scale;
+    // After the transform: finite and within the target size (checked, not assumed).
+    for (int a = 0; a < 3; ++a) {
+      if (!std::isfinite(q[a]) || std::abs(q[a]) > sizeM * 1.0001) {
+        return fail("vertex " + std::to_string(v) + ": scaled " + kAxis[a] + " = " + num(q[a]) +
+                    " is outside the allowed [-" + num(sizeM) + ", " + num(sizeM) + "] m");
+      }
+    }
+    positions[v] = glm::vec3(q);
+  }
+  // OpenMesh reports each non-manifold face it is given on its error stream ("complex vertex");
+  // finishMesh handles them (own vertices), so a user's file does not flood stderr.
   omerr().disable();
-  omout().disable();
-  omlog().disable();
-  bool ok = false;
-  try {
-    ok = OpenMesh::IO::read_mesh(mesh, path, options);
-  } catch (const std::exception& e) {
-    omerr().enable();
-    return fail(std::string("OpenMesh failed to read it: ") + e.what());
-  }
+  MeshData data = finishMesh(positions, parsed.triangles);
   omerr().enable();
-  if (!ok) return fail("not a readable " + ext + " mesh (OpenMesh could not parse it)");
-  if (declared) {
-    if (mesh.n_vertices() < declared->vertices) {
-      return fail("truncated: the header declares " + std::to_string(declared->vertices) +
-                  " vertices, the file holds " + std::to_string(mesh.n_vertices()));
-    }
-    // Polygons are triangulated, so a complete file has at least as many faces as declared.
-    if (mesh.n_faces() < declared->faces) {
-      return fail("truncated: the header declares " + std::to_string(declared->faces) +
-                  " faces, the file holds " + std::to_string(mesh.n_faces()));
-    }
-  }
-  if (ext == "obj" && mesh.n_faces() < objFaceLines) {
-    return fail("truncated or invalid: " + std::to_string(objFaceLines) + " face lines, only " +
-                std::to_string(mesh.n_faces()) + " faces could be read");
-  }
-  if (mesh.n_faces() == 0) return fail("contains no triangles (no readable face data)");
-  for (const auto vh : mesh.vertices()) {
-    const auto p = mesh.point(vh);
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
-      return fail("vertex " + std::to_string(vh.idx()) + " is not finite");
-    }
-  }
-  MeshData data = fromOpenMesh(mesh);
-  if (data.indices.empty()) return fail("contains no triangles");
-  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  if (data.indices.empty()) return fail("contains no triangles (every face is degenerate)");
   for (const glm::vec3& p : data.positions) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      return fail("a vertex is not finite after OpenMesh's processing");
+    }
   }
-  const glm::vec3 ext3 = hi - lo;
-  const float largest = std::max({ext3.x, ext3.y, ext3.z});
-  if (!(largest > 0.0f)) return fail("all vertices coincide (zero size)");
-  const float scale = static_cast<float>(sizeM) / largest;
-  const glm::vec3 base(0.5f * (lo.x + hi.x), lo.y, 0.5f * (lo.z + hi.z));
-  for (glm::vec3& p : data.positions) p = (p - base) * scale;
   return data;
 }
 

@@ -1,7 +1,10 @@
 // Settings of the fly-through: one table of keys, their parsers and their JSON form.
 #include "sample_world/settings.hpp"
 
+#include <algorithm>
+#include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <sstream>
@@ -20,16 +23,34 @@ struct Entry {
   Getter get;
 };
 
+// The whole text as one number: no leading blanks, no hex, no trailing text, finite.
 std::optional<double> parseNumber(const std::string& v) {
-  if (v.empty()) return std::nullopt;
-  std::size_t used = 0;
+  std::string_view t(v);
+  if (!t.empty() && t[0] == '+') t.remove_prefix(1);
+  if (t.empty()) return std::nullopt;
   double d = 0.0;
-  try {
-    d = std::stod(v, &used);
-  } catch (...) {
+  const auto r = std::from_chars(t.data(), t.data() + t.size(), d);
+  if (r.ec != std::errc() || r.ptr != t.data() + t.size() || !std::isfinite(d)) {
     return std::nullopt;
   }
-  if (used != v.size() || !std::isfinite(d)) return std::nullopt;
+  return d;
+}
+
+// An integer setting: digits parsed exactly (2^53 + 1 is not rounded to 2^53); a number with a
+// fraction or exponent only when it is integral and below 2^53 (where doubles are exact).
+std::optional<double> parseInteger(const std::string& v) {
+  std::string_view t(v);
+  if (!t.empty() && t[0] == '+') t.remove_prefix(1);
+  if (t.empty()) return std::nullopt;
+  std::int64_t i = 0;
+  const auto r = std::from_chars(t.data(), t.data() + t.size(), i);
+  if (r.ec == std::errc() && r.ptr == t.data() + t.size()) {
+    if (std::abs(i) > (std::int64_t(1) << 53)) return std::nullopt;
+    return static_cast<double>(i);
+  }
+  if (r.ec == std::errc::result_out_of_range) return std::nullopt;
+  const std::optional<double> d = parseNumber(v);
+  if (!d || std::floor(*d) != *d || std::abs(*d) >= 9007199254740992.0) return std::nullopt;
   return d;
 }
 
@@ -50,7 +71,7 @@ template <class T, class F>
 Entry number(const char* key, const char* allowed, double lo, double hi, bool integer, F field) {
   return {key, allowed,
           [=](AppSettings& s, const std::string& v) -> std::optional<std::string> {
-            const std::optional<double> d = parseNumber(v);
+            const std::optional<double> d = integer ? parseInteger(v) : parseNumber(v);
             if (!d || !(*d >= lo && *d <= hi) || (integer && std::floor(*d) != *d)) {
               return bad(key, v, allowed);
             }
@@ -174,16 +195,19 @@ const std::vector<Entry>& table() {
       {"lod.cascades", "comma-separated LOD indices in [0, 2], one per cascade (e.g. 0,1,2,2)",
        [](AppSettings& s, const std::string& v) -> std::optional<std::string> {
          std::array<std::uint32_t, csm::kMaxCascades> lod{};
-         std::stringstream ss(v);
-         std::string item;
          std::size_t k = 0;
          std::uint32_t last = 0;
-         while (std::getline(ss, item, ',')) {
+         // Every item between commas must be 0, 1 or 2: "0,1," and ",0" and "0,,1" are refused.
+         std::size_t start = 0;
+         while (start <= v.size()) {
+           const std::size_t comma = std::min(v.find(',', start), v.size());
+           const std::string item = v.substr(start, comma - start);
            if (k >= lod.size() || (item != "0" && item != "1" && item != "2")) {
              return bad("lod.cascades", v,
                         "comma-separated LOD indices in [0, 2], at most 8 (e.g. 0,1,2,2)");
            }
            lod[k++] = last = static_cast<std::uint32_t>(item[0] - '0');
+           start = comma + 1;
          }
          if (k == 0) return bad("lod.cascades", v, "comma-separated LOD indices in [0, 2]");
          for (; k < lod.size(); ++k) lod[k] = last;  // later cascades keep the last LOD
@@ -249,28 +273,90 @@ std::optional<std::string> setSetting(AppSettings& s, const std::string& key,
 }
 
 std::optional<std::string> loadConfig(AppSettings& s, const std::string& path) {
-  std::ifstream in(path);
+  if (path.empty()) return std::string("--config: the path is empty (allowed a JSON file)");
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    return "--config " + path + ": " +
+           (std::filesystem::exists(path, ec) ? "not a regular file" : "file not found");
+  }
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) return "--config " + path + ": cannot read its size (" + ec.message() + ")";
+  if (size > kMaxConfigBytes) {
+    return "--config " + path + ": the file has " + std::to_string(size) +
+           " bytes, allowed at most " + std::to_string(kMaxConfigBytes);
+  }
+  std::ifstream in(path, std::ios::binary);
   if (!in) return "--config " + path + ": cannot open the file";
+  std::string text(static_cast<std::size_t>(size), '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  if (in.gcount() != static_cast<std::streamsize>(text.size())) {
+    return "--config " + path + ": could not read all " + std::to_string(size) + " bytes";
+  }
+  return applyConfigText(s, text, "--config " + path);
+}
+
+std::optional<std::string> applyConfigText(AppSettings& s, std::string_view text,
+                                           const std::string& name) {
+  if (text.size() > kMaxConfigBytes) {
+    return name + ": " + std::to_string(text.size()) + " bytes, allowed at most " +
+           std::to_string(kMaxConfigBytes);
+  }
+  // Nesting is bounded while parsing (the parser itself is iterative, but nothing deeper than
+  // the object of settings and one array is meaningful); duplicate keys are refused, not
+  // silently resolved; trailing text after the object is an error (strict parse).
+  struct Refusal {
+    std::string message;
+  };
+  std::vector<std::string> keys;
+  const nlohmann::json::parser_callback_t limit =
+      [&](int depth, nlohmann::json::parse_event_t event, nlohmann::json& parsed) -> bool {
+    using E = nlohmann::json::parse_event_t;
+    if ((event == E::object_start || event == E::array_start) && depth >= kMaxConfigDepth) {
+      throw Refusal{"nesting deeper than the allowed " + std::to_string(kMaxConfigDepth) +
+                    " levels (an object of settings, lod.cascades an array)"};
+    }
+    if (event == E::key && depth == 1) {
+      const std::string key = parsed.get<std::string>();
+      if (std::find(keys.begin(), keys.end(), key) != keys.end()) {
+        throw Refusal{"key '" + key + "' appears twice"};
+      }
+      keys.push_back(key);
+    }
+    return true;
+  };
   nlohmann::json j;
   try {
-    in >> j;
+    j = nlohmann::json::parse(text.begin(), text.end(), limit, /*allow_exceptions=*/true,
+                              /*ignore_comments=*/false);
+  } catch (const Refusal& r) {
+    return name + ": " + r.message;
   } catch (const std::exception& e) {
-    return "--config " + path + ": not valid JSON (" + e.what() + ")";
+    return name + ": not valid JSON (" + e.what() + ")";
   }
-  if (!j.is_object()) return "--config " + path + ": must hold a JSON object of key: value";
+  if (!j.is_object()) return name + ": must hold a JSON object of key: value";
   for (const auto& [key, value] : j.items()) {
     std::string text;
     if (value.is_string()) {
       text = value.get<std::string>();
     } else if (value.is_array()) {
+      if (key != "lod.cascades") {
+        return name + ": " + key + " is an array: allowed a number, string or boolean";
+      }
       for (const auto& v : value) {
+        if (!v.is_number_integer()) {
+          return name + ": lod.cascades holds " + std::string(v.type_name()) +
+                 ": allowed an array of integers in [0, 2]";
+        }
         if (!text.empty()) text.push_back(',');
         text.append(v.dump());
       }
-    } else {
+    } else if (value.is_number() || value.is_boolean()) {
       text = value.dump();
+    } else {
+      return name + ": " + key + " is " + std::string(value.type_name()) +
+             ": allowed a number, string or boolean";
     }
-    if (auto err = setSetting(s, key, text)) return "--config " + path + ": " + *err;
+    if (auto err = setSetting(s, key, text)) return name + ": " + *err;
   }
   return std::nullopt;
 }

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <thread>
 
@@ -257,17 +258,25 @@ glm::dvec3 World::centerWs() const noexcept {
   return {x, heightAt(x, z), z};
 }
 
+namespace {
+std::string shortNumber(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
+}
+}  // namespace
+
 std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
   auto fail = [&](const std::string& m) -> std::optional<World> {
     if (error) error->message = m;
     return std::nullopt;
   };
   if (!(desc.sizeM >= 4096.0 && desc.sizeM <= 65536.0)) {
-    return fail("world.size = " + std::to_string(desc.sizeM) + ": allowed [4096, 65536] m");
+    return fail("world.size = " + shortNumber(desc.sizeM) + ": allowed [4096, 65536] m");
   }
   const double chunksD = desc.sizeM / desc.chunkM;
   if (!(desc.chunkM >= 64.0) || std::abs(chunksD - std::round(chunksD)) > 1e-9) {
-    return fail("world.chunk = " + std::to_string(desc.chunkM) +
+    return fail("world.chunk = " + shortNumber(desc.chunkM) +
                 ": must be >= 64 m and divide world.size");
   }
   if (desc.chunkCells < 4 || desc.chunkCells > 256) {

@@ -33,8 +33,9 @@ TEST_F(GpuTest, TimestampScopesGiveFiniteNonNegativeMs) {
   ASSERT_EQ(timer.results().size(), 2u);
   for (const auto& [name, ms] : timer.results()) {
     EXPECT_TRUE(std::isfinite(ms)) << name;
+    // End after begin (a swapped pair of queries gives a negative span); no upper bound: how
+    // long the GPU takes decides no test.
     EXPECT_GE(ms, 0.0) << name;
-    EXPECT_LT(ms, 10000.0) << name;
   }
   EXPECT_THROW(timer.end(VK_NULL_HANDLE, "never begun"), std::logic_error);
 }

@@ -2,12 +2,14 @@
 // on: zero messages, every report field present and finite, shadows in every screenshot.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <string>
 
 #include "run_app.hpp"
@@ -30,6 +32,22 @@ void expectFiniteNumbers(const json& j, const std::string& where) {
   }
 }
 
+/// Width and height from a PNG's IHDR chunk (0, 0 when the file is not a PNG).
+std::pair<std::uint32_t, std::uint32_t> pngSize(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  unsigned char h[24] = {};
+  if (!in.read(reinterpret_cast<char*>(h), sizeof h)) return {0, 0};
+  static const unsigned char kSig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (!std::equal(kSig, kSig + 8, h) || std::string(reinterpret_cast<char*>(h + 12), 4) != "IHDR") {
+    return {0, 0};
+  }
+  auto be = [&](int o) {
+    return (std::uint32_t(h[o]) << 24) | (std::uint32_t(h[o + 1]) << 16) |
+           (std::uint32_t(h[o + 2]) << 8) | std::uint32_t(h[o + 3]);
+  };
+  return {be(16), be(20)};
+}
+
 class Flight : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(Flight, HeadlessValidatedReportAndShadows) {
@@ -50,13 +68,22 @@ TEST_P(Flight, HeadlessValidatedReportAndShadows) {
   EXPECT_EQ(rep["validation"]["messages"].get<std::uint64_t>(), 0u);
   ASSERT_TRUE(rep.contains("settings"));
   EXPECT_EQ(rep["settings"]["shadow.resolution"].get<int>(), 1024);
+  EXPECT_EQ(rep["settings"]["view.width"].get<int>(), 320);
+  EXPECT_EQ(rep["settings"]["view.height"].get<int>(), 180);
+  EXPECT_EQ(rep["path"].get<std::string>(), path);
+  EXPECT_EQ(rep["frames"].get<int>(), 120);
   const std::uint32_t cascades = rep["settings"]["shadow.cascades"].get<std::uint32_t>();
   ASSERT_EQ(rep["per_frame"].size(), 120u);
-  for (const json& f : rep["per_frame"]) {
-    const std::string where = "frame " + std::to_string(f["index"].get<int>());
+  double trianglesC0 = 0.0;
+  int measured = 0;
+  for (std::size_t i = 0; i < rep["per_frame"].size(); ++i) {
+    const json& f = rep["per_frame"][i];
+    const std::string where = "frame " + std::to_string(i);
+    // Frames in order along the whole path: index i at t = i / 119.
+    EXPECT_EQ(f["index"].get<std::size_t>(), i) << where;
+    EXPECT_NEAR(f["t"].get<double>(), double(i) / 119.0, 1e-12) << where;
     for (const char* k : {"setup", "culling", "record", "frame"}) {
       ASSERT_TRUE(f["cpu_ms"].contains(k)) << where << " cpu_ms." << k;
-      EXPECT_GE(f["cpu_ms"][k].get<double>(), 0.0) << where;
     }
     for (const char* k : {"shadow", "lit"}) {
       ASSERT_TRUE(f["gpu_ms"].contains(k)) << where << " gpu_ms." << k;
@@ -68,10 +95,30 @@ TEST_P(Flight, HeadlessValidatedReportAndShadows) {
         ASSERT_TRUE(c.contains(k)) << where << " cascade field " << k;
       }
     }
+    // The cascades tile [near, shadow far] without gaps: each starts where the previous ends,
+    // the last ends at the frame's shadow distance, the first at the camera's near plane.
+    const json& cs = f["cascades"];
+    EXPECT_DOUBLE_EQ(cs[0]["split_near_m"].get<double>(), 0.5) << where;
+    for (std::uint32_t c = 0; c + 1 < cascades; ++c) {
+      EXPECT_DOUBLE_EQ(cs[c]["split_far_m"].get<double>(), cs[c + 1]["split_near_m"].get<double>())
+          << where << " cascade " << c;
+      EXPECT_LT(cs[c]["split_near_m"].get<double>(), cs[c]["split_far_m"].get<double>()) << where;
+    }
+    EXPECT_DOUBLE_EQ(cs[cascades - 1]["split_far_m"].get<double>(), f["shadow_far_m"].get<double>())
+        << where;
+    if (!f.contains("screenshot")) {
+      trianglesC0 += cs[0]["triangles"].get<double>();
+      ++measured;
+    }
     EXPECT_EQ(f["validation_messages"].get<std::uint64_t>(), 0u) << where;
     expectFiniteNumbers(f, where);
   }
   expectFiniteNumbers(rep["summary"], "summary");
+  // The summary is the mean over the frames not followed by screenshot renders (3 of 120).
+  EXPECT_EQ(measured, 117);
+  EXPECT_EQ(rep["summary"]["measured_frames"].get<int>(), measured);
+  EXPECT_NEAR(rep["summary"]["triangles_c0"].get<double>(), trianglesC0 / measured,
+              1e-9 * trianglesC0);
   // Casters are drawn: the nearest cascade and the whole shadow pass draw triangles.
   EXPECT_GT(rep["summary"]["triangles_c0"].get<double>(), 0.0);
 
@@ -83,14 +130,24 @@ TEST_P(Flight, HeadlessValidatedReportAndShadows) {
   // More than 70 % shadowed would mean acne or a reversed comparison (lit slopes facing a
   // 32-degree sun are most of the terrain).
   ASSERT_EQ(rep["screenshots"].size(), 3u);
+  std::set<std::string> expected = {"report.json"};
   for (const json& s : rep["screenshots"]) {
-    EXPECT_TRUE(fs::exists(out / s["file"].get<std::string>()));
-    EXPECT_TRUE(fs::exists(out / s["overlay_file"].get<std::string>()));
+    for (const char* k : {"file", "overlay_file", "shadow_file"}) {
+      const std::string name = s[k].get<std::string>();
+      expected.insert(name);
+      const auto [w, h] = pngSize(out / name);
+      EXPECT_EQ(w, 320u) << name;
+      EXPECT_EQ(h, 180u) << name;
+    }
     const double fraction = s["shadowed_fraction"].get<double>();
     EXPECT_GE(fraction, 0.005) << path << " frame " << s["frame"];
     EXPECT_LE(fraction, 0.70) << path << " frame " << s["frame"];
     EXPECT_GT(s["geometry_coverage"].get<double>(), 0.05) << path << " frame " << s["frame"];
   }
+  // Exactly the files the report names: no temporary file, no lock left behind.
+  std::set<std::string> found;
+  for (const auto& e : fs::directory_iterator(out)) found.insert(e.path().filename().string());
+  EXPECT_EQ(found, expected);
 }
 
 INSTANTIATE_TEST_SUITE_P(Paths, Flight,

@@ -2,6 +2,8 @@
 // flags, mesh files (good and bad), settings validation.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -174,6 +176,75 @@ TEST(MeshFile, LoadsObjPlyOff) {
   for (const glm::vec3& n : off->normals) EXPECT_NEAR(glm::length(n), 1.0f, 1e-4f);
 }
 
+// The variants real files use: OBJ v/vt/vn tokens, negative indices, quads, comments and ignored
+// statements; binary PLY of both byte orders with extra properties and elements; OFF with
+// comments, colours and counts on the header line.
+TEST(MeshFile, ReadsTheVariantsRealFilesUse) {
+  world::WorldError e;
+  const auto obj = world::loadMeshFile(
+      writeFile("variants.obj",
+                "# comment\r\nmtllib a.mtl\r\no thing\r\nv 0 0 0\r\nv 1 0 0 1.0\r\n"
+                "v 1 1 0\r\nv 0 1 0 0.5 0.5 0.5\r\nvt 0 0\r\nvn 0 0 1\r\ng g\r\ns off\r\n"
+                "usemtl m\r\nf 1/1/1 2/1/1 3//1 4\r\nf -4 -3 -1\r\nl 1 2\r\n"),
+      10.0, &e);
+  ASSERT_TRUE(obj) << e.message;
+  EXPECT_EQ(obj->triangleCount(), 3u);  // the quad fan-triangulated, plus one triangle
+
+  auto binaryPly = [](bool little) {
+    std::string h = std::string("ply\nformat ") +
+                    (little ? "binary_little_endian" : "binary_big_endian") +
+                    " 1.0\ncomment c\nelement vertex 3\nproperty float x\nproperty uchar red\n"
+                    "property float y\nproperty double z\nelement face 1\n"
+                    "property list uchar int vertex_indices\nproperty int flags\n"
+                    "element extra 2\nproperty list ushort short values\nend_header\n";
+    auto put = [&](const void* p, std::size_t n) {
+      std::string b(static_cast<const char*>(p), n);
+      if (!little) std::reverse(b.begin(), b.end());
+      h += b;
+    };
+    const float xy[3][2] = {{0, 0}, {2, 0}, {0, 2}};
+    for (const auto& v : xy) {
+      const unsigned char red = 7;
+      const double z = 0.5;
+      put(&v[0], 4);
+      put(&red, 1);
+      put(&v[1], 4);
+      put(&z, 8);
+    }
+    const unsigned char three = 3;
+    put(&three, 1);
+    for (std::int32_t i : {0, 1, 2}) put(&i, 4);
+    const std::int32_t flags = 9;
+    put(&flags, 4);
+    for (int k = 0; k < 2; ++k) {
+      const std::uint16_t n = 2;
+      const std::int16_t a = 1, b = -1;
+      put(&n, 2);
+      put(&a, 2);
+      put(&b, 2);
+    }
+    return h;
+  };
+  for (const bool little : {true, false}) {
+    const auto ply =
+        world::loadMeshFile(writeFile(little ? "le.ply" : "be.ply", binaryPly(little)), 10.0, &e);
+    ASSERT_TRUE(ply) << e.message;
+    EXPECT_EQ(ply->triangleCount(), 1u);
+    // Scaled to 10 m: the 2 m triangle's corners land 10 m apart.
+    float maxX = 0.0f;
+    for (const glm::vec3& p : ply->positions) maxX = std::max(maxX, p.x);
+    EXPECT_NEAR(maxX, 5.0f, 1e-5f);
+  }
+
+  const auto off = world::loadMeshFile(
+      writeFile("variants.off",
+                "COFF 4 2 0\n# comment\n0 0 0 255 0 0 255\n1 0 0 255 0 0 255\n"
+                "1 1 0 0 0 0 255\n0 1 0 0 0 0 255  # trailing\n\n4 0 1 2 3 1 2 3\n3 0 2 3\n"),
+      10.0, &e);
+  ASSERT_TRUE(off) << e.message;
+  EXPECT_EQ(off->triangleCount(), 3u);
+}
+
 TEST(MeshFile, BadFilesAreRefusedWithTheirReason) {
   struct Case {
     std::string path, reason;
@@ -187,7 +258,7 @@ TEST(MeshFile, BadFilesAreRefusedWithTheirReason) {
       {writeFile("empty.obj", ""), "empty"},
       {writeFile("truncated.off", cube.substr(0, cube.size() / 2)), "truncated"},
       {writeFile("garbage.ply", garbage), "not a valid PLY"},
-      {writeFile("garbage.obj", garbage), "no triangles"},
+      {writeFile("garbage.obj", garbage), "unknown OBJ statement"},
       {writeFile("mesh.stl", "solid x\n"), "unsupported extension"},
   };
   for (const Case& c : cases) {

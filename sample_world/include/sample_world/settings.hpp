@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "csm/gpu_layout.hpp"
@@ -61,6 +62,14 @@ struct AppSettings {
 /// Applies a JSON config file: an object whose members are setting keys (values as JSON
 /// numbers, strings, booleans or, for lod.cascades, an array).
 [[nodiscard]] std::optional<std::string> loadConfig(AppSettings& s, const std::string& path);
+/// Applies the text of a JSON config (what loadConfig does after reading the file); `name`
+/// starts every message ("--config FILE"). Bounded: size, nesting depth, duplicate keys.
+[[nodiscard]] std::optional<std::string> applyConfigText(AppSettings& s, std::string_view text,
+                                                         const std::string& name);
+/// Limits of a config file.
+inline constexpr std::size_t kMaxConfigBytes = 1u << 20;
+inline constexpr int kMaxConfigDepth = 2;
+
 /// The checks that involve more than one field (and csm::validate of the shadow settings).
 [[nodiscard]] std::optional<std::string> validateSettings(const AppSettings& s);
 /// Every setting as JSON (key -> value), the form report.json records.

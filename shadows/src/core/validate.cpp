@@ -1,6 +1,7 @@
 // Validation of every input of the cascade math. Comparisons are written so that NaN fails
 // them (`!(x >= lo)`), and every refusal names the field, its value and the allowed range.
 #include <cmath>
+#include <cstdio>
 #include <optional>
 #include <string>
 
@@ -21,6 +22,13 @@ Check finiteVec(const glm::dvec3& v, const std::string& field) {
     if (!std::isfinite(v[i])) return refuse(field + kAxes[i], v[i], "a finite number");
   }
   return std::nullopt;
+}
+
+/// A number as %g (1e-03 stays readable; std::to_string would print 0.001000).
+std::string shortNumber(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.9g", v);
+  return buf;
 }
 
 bool isPowerOfTwo(std::uint32_t v) {
@@ -169,7 +177,7 @@ std::optional<ValidationError> validate(const ShadowSettings& settings, const Ca
   if (!(settings.shadowDistanceM > camera.nearM * (1.0 + 1e-6))) {
     return refuse(
         "settings.shadowDistanceM", settings.shadowDistanceM,
-        "a distance > camera.nearM * (1 + 1e-6) = " + std::to_string(camera.nearM * (1.0 + 1e-6)));
+        "a distance > camera.nearM * (1 + 1e-6) = " + shortNumber(camera.nearM * (1.0 + 1e-6)));
   }
   return std::nullopt;
 }

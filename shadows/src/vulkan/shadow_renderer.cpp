@@ -37,8 +37,7 @@ std::uint64_t handleBits(T handle) {
 }
 
 Status vkError(VkResult r, const char* what) {
-  return Status(ErrorCode::kVulkan, std::string(what) + " failed: VkResult " + std::to_string(r),
-                r);
+  return Status(ErrorCode::kVulkan, std::string(what) + " failed with " + vkResultName(r), r);
 }
 
 #define CSM_VK_TRY(call)                                             \
@@ -85,6 +84,47 @@ std::string fmt(const char* format, auto... args) {
 }
 
 }  // namespace
+
+std::string vkResultName(VkResult result) {
+  switch (result) {
+#define CSM_VK_RESULT_CASE(x) \
+  case x:                     \
+    return #x;
+    CSM_VK_RESULT_CASE(VK_SUCCESS)
+    CSM_VK_RESULT_CASE(VK_NOT_READY)
+    CSM_VK_RESULT_CASE(VK_TIMEOUT)
+    CSM_VK_RESULT_CASE(VK_EVENT_SET)
+    CSM_VK_RESULT_CASE(VK_EVENT_RESET)
+    CSM_VK_RESULT_CASE(VK_INCOMPLETE)
+    CSM_VK_RESULT_CASE(VK_ERROR_OUT_OF_HOST_MEMORY)
+    CSM_VK_RESULT_CASE(VK_ERROR_OUT_OF_DEVICE_MEMORY)
+    CSM_VK_RESULT_CASE(VK_ERROR_INITIALIZATION_FAILED)
+    CSM_VK_RESULT_CASE(VK_ERROR_DEVICE_LOST)
+    CSM_VK_RESULT_CASE(VK_ERROR_MEMORY_MAP_FAILED)
+    CSM_VK_RESULT_CASE(VK_ERROR_LAYER_NOT_PRESENT)
+    CSM_VK_RESULT_CASE(VK_ERROR_EXTENSION_NOT_PRESENT)
+    CSM_VK_RESULT_CASE(VK_ERROR_FEATURE_NOT_PRESENT)
+    CSM_VK_RESULT_CASE(VK_ERROR_INCOMPATIBLE_DRIVER)
+    CSM_VK_RESULT_CASE(VK_ERROR_TOO_MANY_OBJECTS)
+    CSM_VK_RESULT_CASE(VK_ERROR_FORMAT_NOT_SUPPORTED)
+    CSM_VK_RESULT_CASE(VK_ERROR_FRAGMENTED_POOL)
+    CSM_VK_RESULT_CASE(VK_ERROR_UNKNOWN)
+    CSM_VK_RESULT_CASE(VK_ERROR_OUT_OF_POOL_MEMORY)
+    CSM_VK_RESULT_CASE(VK_ERROR_INVALID_EXTERNAL_HANDLE)
+    CSM_VK_RESULT_CASE(VK_ERROR_FRAGMENTATION)
+    CSM_VK_RESULT_CASE(VK_ERROR_INVALID_OPAQUE_CAPTURE_ADDRESS)
+    CSM_VK_RESULT_CASE(VK_PIPELINE_COMPILE_REQUIRED)
+    CSM_VK_RESULT_CASE(VK_ERROR_SURFACE_LOST_KHR)
+    CSM_VK_RESULT_CASE(VK_ERROR_NATIVE_WINDOW_IN_USE_KHR)
+    CSM_VK_RESULT_CASE(VK_SUBOPTIMAL_KHR)
+    CSM_VK_RESULT_CASE(VK_ERROR_OUT_OF_DATE_KHR)
+    CSM_VK_RESULT_CASE(VK_ERROR_INCOMPATIBLE_DISPLAY_KHR)
+    CSM_VK_RESULT_CASE(VK_ERROR_VALIDATION_FAILED_EXT)
+#undef CSM_VK_RESULT_CASE
+    default:
+      return "VkResult(" + std::to_string(static_cast<int>(result)) + ")";
+  }
+}
 
 const char* errorCodeName(ErrorCode code) noexcept {
   switch (code) {

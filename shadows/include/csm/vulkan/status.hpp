@@ -48,6 +48,10 @@ class [[nodiscard]] Status {
   VkResult vkResult_ = VK_SUCCESS;
 };
 
+/// The enumerator name of a VkResult ("VK_ERROR_OUT_OF_DEVICE_MEMORY"), or "VkResult(<n>)" for
+/// one this build does not know. For messages (the module does not depend on the engine's).
+[[nodiscard]] std::string vkResultName(VkResult result);
+
 /// Name of an error code ("wrong order", ...), for messages.
 [[nodiscard]] const char* errorCodeName(ErrorCode code) noexcept;
 
