@@ -275,7 +275,7 @@ int runFitStudy(const Options& o) {
     if (!w) throw std::runtime_error("generateWorld: " + err.message);
     std::optional<world::FlightPath> path = world::FlightPath::make(st.path, *w, 60.0);
     if (!path) throw std::runtime_error(std::string("unknown path ") + st.path);
-    const WorldScene worldScene = sceneFromWorld(*w);
+    const csm_measure::WorldScene worldScene = csm_measure::sceneFromWorld(*w);
     const csm_measure::RayTracer tracer(worldScene.scene);
     csm_measure::HarnessDesc hd;
     hd.validation = false;
