@@ -13,7 +13,8 @@ namespace {
 
 TEST(BiasUniforms, BiasParamsIsAppendedAfterCountsAndSoftParamsCanFollow) {
   EXPECT_EQ(offsetof(csm::CsmUniforms, biasParams), offsetof(csm::CsmUniforms, counts) + 16);
-  EXPECT_EQ(sizeof(csm::CsmUniforms), offsetof(csm::CsmUniforms, biasParams) + 16);
+  EXPECT_EQ(offsetof(csm::CsmUniforms, softParams), offsetof(csm::CsmUniforms, biasParams) + 16);
+  EXPECT_EQ(sizeof(csm::CsmUniforms), offsetof(csm::CsmUniforms, softParams) + 16);
 }
 
 TEST(BiasUniforms, DepthQuantumIsOneD16StepAndSixteenD32UlpsAtDepthOne) {

@@ -18,6 +18,18 @@ TEST(ExplicitSplits, PlaceTheSplitsAtTheGivenFractionsOfTheRange) {
   Camera cam;
   cam.nearM = 0.5;
   cam.farM = 400.0;
+  // With the size ladder on (the default) the interior splits land on the ladder's nearest rung,
+  // as lambda's do: within one rung (2^(1/8)) of the position asked for.
+  {
+    const CascadeFrame laddered = test::computeOrDie(s, cam, DirectionalLight{});
+    const double n = laddered.splitsM[0], far = laddered.splitsM[4];
+    for (int i = 1; i < 4; ++i) {
+      const double asked = n + s.splitPositions[i - 1] * (far - n);
+      EXPECT_LE(std::abs(std::log2(laddered.splitsM[i] / asked)), 1.0 / 8.0 + 1e-12) << i;
+    }
+  }
+  // The ladder off: exactly where they are asked for.
+  s.sizeLadder = false;
   const CascadeFrame f = test::computeOrDie(s, cam, DirectionalLight{});
   const double n = f.splitsM[0], far = f.splitsM[4];
   EXPECT_EQ(n, cam.nearM);
