@@ -97,7 +97,7 @@ float csmKernelRadius() {
   if (csmKernel == CSM_KERNEL_TENT5) return 2.5;
   if (csmKernel == CSM_KERNEL_TENT7) return 3.5;
   if (csmKernel == CSM_KERNEL_POISSON16) return 2.5;
-  if (csmKernel == CSM_KERNEL_PCSS) return 1.5;  // wide taps are biased by the receiver plane
+  if (csmKernel == CSM_KERNEL_PCSS) return 1.25;  // see csm::kernelRadiusTexels
   return 1.0;
 }
 
