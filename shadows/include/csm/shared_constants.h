@@ -28,14 +28,16 @@
 // How far (texels of the kernel's own cascade, before its scale) each kernel reads from its
 // centre: the radius the normal offset is scaled by. csmKernelRadius() (GLSL) and
 // csm::kernelRadiusTexels() (C++) both return these. PCSS's wide taps are biased by the receiver
-// plane (csm.glsl); its normal offset only has to clear the bilinear footprint at the centre, as
-// for the 3x3 tent.
+// plane (csm.glsl); its normal offset only has to clear the bilinear footprint at the centre:
+// 1.25, because at 1.5 (the 3x3 tent's) the shadow edge moves toward the light enough to cost
+// accuracy against the area-light truth (mean error +13% on the test scenes) and at 1.0 a
+// receiver 1e7 m out sits on a depth tie.
 #define CSM_KERNEL_RADIUS_1TAP 1.0
 #define CSM_KERNEL_RADIUS_TENT3 1.5
 #define CSM_KERNEL_RADIUS_TENT5 2.5
 #define CSM_KERNEL_RADIUS_TENT7 3.5
 #define CSM_KERNEL_RADIUS_POISSON16 2.5
-#define CSM_KERNEL_RADIUS_PCSS 1.5
+#define CSM_KERNEL_RADIUS_PCSS 1.25
 
 // Specialisation constant ids used by csm.glsl.
 #define CSM_SPEC_KERNEL 0
