@@ -339,9 +339,11 @@ float csmShadow(vec3 posCr, vec3 normalWs, vec2 pixel) {
   // Facing away from the light: in shadow by its own shading. 0 without sampling, so that the
   // shadow test can neither light such a surface nor add noise to it (the map holds the
   // surface's own depth there, or that of the lit side in front of it: a near tie).
-  if (!(dot(normalWs, -csmU.lightDirection.xyz) > 0.0)) return 0.0;
+  // Outside every cascade (and before the first shadow pass, when the block holds no cascade and
+  // no light): lit, whatever the normal.
   const CsmSelection sel = csmSelectCascade(csmViewDepth(posCr));
   if (sel.index < 0) return 1.0;
+  if (!(dot(normalWs, -csmU.lightDirection.xyz) > 0.0)) return 0.0;
   float s = csmSampleCascade(sel.index, posCr, normalWs, pixel);
   if (csmBlend != 0 && sel.blendIndex >= 0 && sel.blendWeight > 0.0) {
     s = mix(s, csmSampleCascade(sel.blendIndex, posCr, normalWs, pixel), sel.blendWeight);
