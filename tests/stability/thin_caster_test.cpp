@@ -62,8 +62,8 @@ ThinScene makeThinScene(const glm::dvec3& toLight) {
                          {0.2f, 0.2f, 0.2f, 1.0f},
                          csm_measure::InstanceKind::kPole});
     for (double y = 0.3; y <= 3.9; y += 0.05) {
-      t.receivers.push_back(
-          {foot + glm::dvec3(shift.x * y, 0.0, shift.z * y), glm::vec3(0, 1, 0), csm_measure::InstanceKind::kGround});
+      t.receivers.push_back({foot + glm::dvec3(shift.x * y, 0.0, shift.z * y), glm::vec3(0, 1, 0),
+                             csm_measure::InstanceKind::kGround});
       t.widthM.push_back(0.0301);  // antennas: reported apart (0.0301 tags them)
     }
   }
