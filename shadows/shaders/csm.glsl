@@ -38,7 +38,7 @@ layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniform
   vec4 cameraForward;   // xyz camera forward, w shadow far (m)
   vec4 lightDirection;  // xyz direction the light travels
   vec4 params;          // x blend band, y normal offset (texels), z resolution, w 1 / resolution
-  uvec4 counts;         // x cascade count, y non-empty mask, z debug mode
+  uvec4 counts;         // x cascade count, y non-empty mask, z debug mode, w wrapped (cache)
 } csmU;
 
 #ifndef CSM_UNIFORMS_ONLY
@@ -96,9 +96,40 @@ float csmKernelRadius() {
   return 1.0;
 }
 
+/// Cached cascades (CsmUniforms.counts.w != 0) address each layer toroidally: texel t of the
+/// cascade's box lives at layer texel t + wrap offset (depthInfo.zw), modulo the resolution, and
+/// the samplers REPEAT. Box texel coordinates -> layer uv; identity when not cached.
+vec2 csmWrapUv(vec2 t, int cascade) {
+  const vec2 offset = csmU.counts.w != 0u ? csmU.cascades[cascade].depthInfo.zw : vec2(0.0);
+  return (t + offset) * csmU.params.w;
+}
+
 /// One bilinear comparison tap at shadow-map texel coordinates `t` (texel centres at i + 0.5).
-/// Explicit zero gradients: valid in every stage, compute included.
+/// Explicit zero gradients: valid in every stage, compute included. Texels outside the
+/// cascade's box read lit (depth 1, the border of the unwrapped map): in a wrapped layer a tap
+/// that straddles the box's edge is filtered by hand from a gather, its outside texels lit.
 float csmTap(vec2 t, float layer, float depth) {
+  if (csmU.counts.w != 0u) {
+    const float res = csmU.params.z;
+    const vec2 f = t - 0.5;
+    const vec2 i0 = floor(f);
+    if (any(lessThan(i0, vec2(0.0))) || any(greaterThan(i0 + 1.0, vec2(res - 1.0)))) {
+      // textureGather order: (i0, j1), (i1, j1), (i1, j0), (i0, j0).
+      const vec4 g = textureGather(csmShadowMap, vec3(csmWrapUv(i0 + 1.0, int(layer)), layer),
+                                   depth);
+      const bvec2 in0 = bvec2(i0.x >= 0.0 && i0.x <= res - 1.0, i0.y >= 0.0 && i0.y <= res - 1.0);
+      const bvec2 in1 = bvec2(i0.x + 1.0 >= 0.0 && i0.x + 1.0 <= res - 1.0,
+                              i0.y + 1.0 >= 0.0 && i0.y + 1.0 <= res - 1.0);
+      const float t00 = in0.x && in0.y ? g.w : 1.0;
+      const float t10 = in1.x && in0.y ? g.z : 1.0;
+      const float t01 = in0.x && in1.y ? g.x : 1.0;
+      const float t11 = in1.x && in1.y ? g.y : 1.0;
+      const vec2 w = f - i0;
+      return mix(mix(t00, t10, w.x), mix(t01, t11, w.x), w.y);
+    }
+    return textureGrad(csmShadowMap, vec4(csmWrapUv(t, int(layer)), layer, depth), vec2(0.0),
+                       vec2(0.0));
+  }
   return textureGrad(csmShadowMap, vec4(t * csmU.params.w, layer, depth), vec2(0.0), vec2(0.0));
 }
 
@@ -233,7 +264,8 @@ vec3 csmDebugColor(vec3 posCr, vec3 normalWs, vec2 pixel, float shadow, vec3 sha
     const vec3 c = csmShadowCoord(sel.index, posCr, normalWs);
     const vec2 uv = c.xy * csmU.params.w;
     if (mode == CSM_DEBUG_LIGHT_COORDS) return vec3(uv, c.z);
-    const float stored = textureLod(csmDepthMap, vec3(uv, float(sel.index)), 0.0).r;
+    const float stored =
+        textureLod(csmDepthMap, vec3(csmWrapUv(c.xy, sel.index), float(sel.index)), 0.0).r;
     if (mode == CSM_DEBUG_SAMPLED_DEPTH) return vec3(stored);
     // Depth difference in texels of this cascade: red behind the stored depth, green in front.
     const vec4 st = csmU.cascades[sel.index].splitTexel;

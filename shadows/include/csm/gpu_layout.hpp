@@ -50,7 +50,9 @@ struct CsmCascadeGpu {
   /// spacing in texels; 1, or texel_0 / texel_i for kernels of constant world size).
   glm::vec4 splitTexel{0.0f};
   /// x: view depth where the blend band toward the next cascade starts (m; = y of splitTexel when
-  /// there is no band), y: metres of light-space depth per unit of stored depth, z, w: 0.
+  /// there is no band), y: metres of light-space depth per unit of stored depth, z, w: with
+  /// cached cascades (counts.w = 1) the wrap offset in texels of the box's texel (0, 0) in the
+  /// toroidally addressed layer (RendererOptions::cache), else 0.
   glm::vec4 depthInfo{0.0f};
 };
 
@@ -64,7 +66,8 @@ struct CsmUniforms {
   /// x: blend band (fraction of a cascade's depth range), y: normal offset (texels), z: shadow
   /// map resolution (texels), w: 1 / resolution.
   glm::vec4 params{0.0f};
-  /// x: cascade count, y: bit mask of non-empty cascades, z: debug mode (DebugMode), w: 0.
+  /// x: cascade count, y: bit mask of non-empty cascades, z: debug mode (DebugMode), w: 1 when
+  /// the layers are addressed toroidally (cached cascades), else 0.
   glm::uvec4 counts{0u};
 };
 

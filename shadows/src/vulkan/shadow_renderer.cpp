@@ -264,6 +264,18 @@ Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout
     ci.compareOp = VK_COMPARE_OP_ALWAYS;
     CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &depthSampler_));
     setName(handleBits(depthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler");
+    // Cached cascades: layers addressed toroidally; csm.glsl keeps outside-the-box = lit itself.
+    ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+    ci.addressModeV = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapDepthSampler_));
+    setName(handleBits(wrapDepthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler (wrap)");
+    ci.magFilter = VK_FILTER_LINEAR;
+    ci.minFilter = VK_FILTER_LINEAR;
+    ci.compareEnable = VK_TRUE;
+    ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapCompareSampler_));
+    setName(handleBits(wrapCompareSampler_), VK_OBJECT_TYPE_SAMPLER,
+            "csm comparison sampler (wrap)");
   }
   {
     auto ci = vkInit<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
@@ -337,6 +349,10 @@ ShadowRenderer::~ShadowRenderer() {
   collectRetired(true);
   destroyPipelines();
   destroyImage();
+  retireStaticImage();
+  collectRetired(true);
+  vkDestroySampler(dev, wrapCompareSampler_, nullptr);
+  vkDestroySampler(dev, wrapDepthSampler_, nullptr);
   vkDestroyCommandPool(dev, clearPool_, nullptr);
   vkDestroyFence(dev, clearFence_, nullptr);
   vkDestroyShaderModule(dev, vertexModule_, nullptr);
@@ -486,9 +502,18 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
                       unsigned(options.cullMode)));
   }
 
+  if (options.cache && mode != RenderMode::kPerLayer) {
+    if (options.renderMode == RenderMode::kAuto) {
+      mode = RenderMode::kPerLayer;  // the cache renders scissored regions per layer
+    } else {
+      return Status(ErrorCode::kInvalidArgument,
+                    "options.cache = true needs options.renderMode = kPerLayer or kAuto");
+    }
+  }
   const bool newImage = image_ == VK_NULL_HANDLE || settings.resolution != resolution_ ||
                         settings.cascadeCount != layerCount_ ||
-                        options.depthFormat != options_.depthFormat;
+                        options.depthFormat != options_.depthFormat ||
+                        options.cache != options_.cache;
   const bool newPipelines = !pipelinesBuilt_ || options.depthFormat != options_.depthFormat;
   // Nothing waits for the GPU: what is replaced is retired (collectRetired).
   if (newPipelines) {
@@ -496,9 +521,31 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
     if (!s.ok()) return s;
   }
   if (newImage) {
+    const bool oldWrap = wrapSampling_;
+    wrapSampling_ = options.cache;
     s = createImage(settings, options.depthFormat);
-    if (!s.ok()) return s;
+    if (!s.ok()) {
+      wrapSampling_ = oldWrap;
+      return s;
+    }
     pendingClear_ = true;
+    // A new image (resolution, count, format, cache) invalidates every cached cascade.
+    retireStaticImage();
+    windows_ = {};
+    invalidBoxes_.clear();
+    if (options.cache) {
+      s = createStaticImage(settings, options.depthFormat);
+      if (!s.ok()) return s;
+    }
+  }
+  // Cached cascades: what changes the static depth without a new image re-renders it.
+  if (!newImage && options.cache &&
+      (settings.depthBiasConstant != settings_.depthBiasConstant ||
+       settings.depthBiasSlope != settings_.depthBiasSlope ||
+       settings.minCasterTexels != settings_.minCasterTexels ||
+       options.cullMode != options_.cullMode || options.frontFace != options_.frontFace ||
+       options.cascadeLod != options_.cascadeLod)) {
+    invalidateAll();
   }
   settings_ = settings;
   options_ = options;
@@ -623,7 +670,7 @@ Status ShadowRenderer::createImage(const ShadowSettings& settings, VkFormat form
   ci.samples = VK_SAMPLE_COUNT_1_BIT;
   ci.tiling = VK_IMAGE_TILING_OPTIMAL;
   ci.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |
-             VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+             VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
   ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   ci.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
   VkResult r = vkCreateImage(dev, &ci, nullptr, &image);
@@ -794,8 +841,10 @@ Status ShadowRenderer::writeLightingSet(VkDescriptorSet set) const {
   }
   if (set == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "set is VK_NULL_HANDLE");
   VkDescriptorBufferInfo bi{uniformBuffer_, 0, sizeof(CsmUniforms)};
-  VkDescriptorImageInfo compare{compareSampler_, arrayView_, sampledLayout()};
-  VkDescriptorImageInfo depth{depthSampler_, arrayView_, sampledLayout()};
+  VkDescriptorImageInfo compare{wrapSampling_ ? wrapCompareSampler_ : compareSampler_, arrayView_,
+                                sampledLayout()};
+  VkDescriptorImageInfo depth{wrapSampling_ ? wrapDepthSampler_ : depthSampler_, arrayView_,
+                              sampledLayout()};
   VkWriteDescriptorSet w[3]{};
   for (auto& x : w) {
     x.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -1008,6 +1057,19 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
     }
   }
 
+  if (options_.cache) {
+    if (visible == nullptr) {
+      return Status(ErrorCode::kInvalidArgument,
+                    "options.cache = true needs the cull lists (visible) of the frame");
+    }
+    if (casters.boundsWs.size() != instanceCount) {
+      return Status(ErrorCode::kInvalidArgument,
+                    fmt("options.cache = true needs casters.boundsWs for every instance: %zu "
+                        "bounds for %zu instances",
+                        casters.boundsWs.size(), instanceCount));
+    }
+    return recordCachedPass(cmd, frame, casters, *visible);
+  }
   recordBegin(cmd, frame);
   const glm::dvec3 cam = frame.cameraPositionWs;
   const MeshDraw* bound = nullptr;
@@ -1104,6 +1166,11 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
   if (!s.ok()) return s;
   if (cmd == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "cmd is VK_NULL_HANDLE");
   if (!draw) return Status(ErrorCode::kInvalidArgument, "draw callback is empty");
+  if (options_.cache) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "options.cache = true: use the caster-list form of recordShadowPass (the "
+                  "cache draws scissored regions with the casters' bounds)");
+  }
   recordBegin(cmd, frame);
   bool any = false;
   for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {

@@ -122,6 +122,13 @@ struct RendererOptions {
   /// its nearest coarser-or-equal one it has (see CasterInstance::lodMeshes). All 0: full detail
   /// everywhere (the default: simplified meshes' silhouettes cost accuracy, see README).
   std::array<std::uint32_t, kMaxCascades> cascadeLod{};
+  /// Cached cascades (kPerLayer only): static casters' depth is kept per cascade across frames
+  /// in a second image and only newly exposed, invalidated or new-window texels are rendered;
+  /// layers are addressed toroidally (texels fixed in the world, nothing is moved), each
+  /// cascade's depth window is world-anchored; dynamic casters are drawn every frame over a copy
+  /// of the static depth. csm.glsl reads the same world texels (wrap offsets in the uniforms).
+  /// Costs one more depth image of the same size (cacheBytes()).
+  bool cache = false;
 };
 
 /// A range of an index buffer drawn as one caster mesh.
@@ -146,6 +153,12 @@ struct CasterInstance {
   /// Coarser LODs: lodMeshes[k - 1] is the mesh of LOD k, or kNoMesh when the instance has none
   /// (a cascade asking for LOD k then draws the highest LOD below k that the instance has).
   std::array<std::uint32_t, kMaxCasterLods - 1> lodMeshes{kNoMesh, kNoMesh, kNoMesh};
+  /// A caster that moves (or changes) every frame: with RendererOptions::cache it is drawn
+  /// every frame over the cached static depth. Static casters (the default) are cached: when
+  /// one is added, removed or moved, the host invalidates its old and new bounds
+  /// (ShadowView::setCasters does it for instances whose index, mesh, transform or bounds
+  /// changed; ShadowRenderer::invalidate for a world box).
+  bool dynamic = false;
 
   /// The mesh drawn for `lod`.
   [[nodiscard]] std::uint32_t meshForLod(std::uint32_t lod) const noexcept {
@@ -160,6 +173,23 @@ struct CasterInstance {
 struct CasterList {
   std::span<const MeshDraw> meshes;
   std::span<const CasterInstance> instances;
+  /// World bounds of each instance (boundsWs[i] belongs to instances[i]): needed with
+  /// RendererOptions::cache (a scissored region draws only the casters over it), else unused.
+  std::span<const AabbWs> boundsWs{};
+};
+
+/// What the cached pass did in one cascade in its last record (RendererOptions::cache).
+struct CascadeCacheStats {
+  /// Static texels re-rendered (newly exposed, invalidated, or the whole layer on a new window).
+  std::uint64_t staticTexels = 0;
+  /// Triangles drawn into the static layer and, over it, of dynamic casters.
+  std::uint64_t staticTriangles = 0;
+  std::uint64_t dynamicTriangles = 0;
+  /// The layer was copied from the static cache (something changed under it).
+  bool copied = false;
+  /// The cascade's window was new (first frame, or a change of size, light, depth range,
+  /// resolution or format): the whole layer was re-rendered.
+  bool newWindow = false;
 };
 
 /// What a draw callback gets for one cascade: the command buffer inside the cascade's render
@@ -268,6 +298,28 @@ class ShadowRenderer {
   /// The renderer's uniform buffer holding that block (updated inside the recorded pass).
   [[nodiscard]] VkBuffer uniformBuffer() const noexcept { return uniformBuffer_; }
 
+  // --- Cached cascades (RendererOptions::cache) -------------------------------------------------
+  /// Fits each non-empty cascade of `frame` into its cached depth window (world-anchored,
+  /// quantised, with hysteresis; a new window when the texel size, the light, the needed depth
+  /// range or the viewport range no longer fits) and rewrites the cascade's depth range and
+  /// viewProjCr to that window's. Call it before culling (ShadowView does); the cached
+  /// recordShadowPass refuses a frame it was not applied to. No-op without the cache.
+  void applyCacheWindows(CascadeFrame& frame);
+  /// Marks the static depth under a world box stale in every cascade (a static caster added,
+  /// removed or moved; terrain streamed in): only the texels under it are re-rendered at the
+  /// next record. Invalid boxes are refused.
+  Status invalidate(const AabbWs& boxWs);
+  /// Marks every cascade stale (the next record re-renders all static texels).
+  void invalidateAll() noexcept;
+  /// What the last cached record did per cascade.
+  [[nodiscard]] const std::array<CascadeCacheStats, kMaxCascades>& cacheStats() const noexcept {
+    return cacheStats_;
+  }
+  /// Device memory of the static-depth cache image (0 without the cache).
+  [[nodiscard]] VkDeviceSize cacheBytes() const noexcept { return cacheBytes_; }
+  /// The static-depth image (DEPTH_ATTACHMENT_OPTIMAL after a cached record; null without cache).
+  [[nodiscard]] VkImage staticImage() const noexcept { return staticImage_; }
+
   /// Descriptor set layout of csm.glsl's resources: CSM_BINDING_UNIFORMS (uniform buffer),
   /// CSM_BINDING_SHADOW_MAP (comparison sampler + array view), CSM_BINDING_SHADOW_DEPTH (depth
   /// sampler + array view), visible to fragment and compute shaders.
@@ -297,6 +349,10 @@ class ShadowRenderer {
   void beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered);
   void endLayer(VkCommandBuffer cmd);
   void setName(std::uint64_t handle, VkObjectType type, const char* name) const;
+  Status createStaticImage(const ShadowSettings& settings, VkFormat format);
+  void retireStaticImage() noexcept;
+  Status recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame, const CasterList& casters,
+                          const CullResult& visible);
 
   DeviceInfo device_{};
   VertexLayout layout_{};
@@ -355,6 +411,29 @@ class ShadowRenderer {
   std::uint32_t resolution_ = 0;
   VkPipeline pipeline_ = VK_NULL_HANDLE;         // per-layer
   VkPipeline layeredPipeline_ = VK_NULL_HANDLE;  // layered (when supported)
+
+  // Cached cascades: the static-depth image, per-cascade windows, pending invalidated boxes.
+  struct CacheWindow {
+    bool valid = false;
+    double texel = 0.0;
+    glm::dvec3 lightDirection{0.0};
+    std::int64_t anchorX = 0, anchorY = 0;  // world texel index drawn at layer texel (0, 0)
+    double zNear = 0.0, zFar = 0.0;         // absolute light-space depth window
+    bool staticValid = false;               // the static layer holds box (boxX, boxY)
+    std::int64_t boxX = 0, boxY = 0;
+    bool dynamicLast = false;  // dynamic casters were drawn into the sampled layer last time
+  };
+  std::array<CacheWindow, kMaxCascades> windows_{};
+  std::vector<AabbWs> invalidBoxes_;
+  std::array<CascadeCacheStats, kMaxCascades> cacheStats_{};
+  VkImage staticImage_ = VK_NULL_HANDLE;
+  VkDeviceMemory staticMemory_ = VK_NULL_HANDLE;
+  VkImageView staticViews_[kMaxCascades] = {};
+  bool staticInitialised_ = false;
+  VkDeviceSize cacheBytes_ = 0;
+  bool wrapSampling_ = false;  // the lighting set uses the REPEAT samplers (cache on)
+  VkSampler wrapCompareSampler_ = VK_NULL_HANDLE;
+  VkSampler wrapDepthSampler_ = VK_NULL_HANDLE;
 
   // Scratch for the layered mode (cascade mask per caster), reused across frames.
   std::vector<std::uint32_t> casterMasks_;
