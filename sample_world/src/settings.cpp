@@ -148,6 +148,7 @@ const std::vector<Entry>& table() {
       number<float>("shadow.normalOffset", "texels in [0, 16]", 0, 16, false,
                     [](AppSettings& s) -> float& { return s.shadow.normalOffsetTexels; }),
       boolean("shadow.stabilize", [](AppSettings& s) -> bool& { return s.shadow.stabilize; }),
+      boolean("shadow.cache", [](AppSettings& s) -> bool& { return s.shadowCache; }),
       number<float>("shadow.minCasterTexels", "texels in [0, 1e6]", 0, 1e6, false,
                     [](AppSettings& s) -> float& { return s.shadow.minCasterTexels; }),
       choice("shadow.depthFormat", "one of d32, d16", kDepthFormats,

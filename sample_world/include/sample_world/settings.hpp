@@ -26,6 +26,9 @@ struct AppSettings {
   csm::PcfKernel kernel = csm::PcfKernel::kTent3;
   /// true: D16_UNORM shadow maps, false: D32_SFLOAT.
   bool depth16 = false;
+  /// Cached cascades (csm::vk::RendererOptions::cache): static casters' depth kept across
+  /// frames, only what changed re-rendered; the world's dynamic casters drawn every frame.
+  bool shadowCache = false;
   /// PCF kernel of constant size in metres across cascades.
   bool worldSpaceKernel = false;
   /// Sun direction: azimuth from +x toward +z, elevation above the horizon, degrees.
