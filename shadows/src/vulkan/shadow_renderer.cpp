@@ -502,6 +502,11 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
                       unsigned(options.cullMode)));
   }
 
+  if (options.cache && !settings.stabilize) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "options.cache = true needs settings.stabilize = true (cached texels must be "
+                  "fixed in the world: boxes snapped to whole texels)");
+  }
   if (options.cache && mode != RenderMode::kPerLayer) {
     if (options.renderMode == RenderMode::kAuto) {
       mode = RenderMode::kPerLayer;  // the cache renders scissored regions per layer

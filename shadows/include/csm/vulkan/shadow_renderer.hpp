@@ -127,7 +127,7 @@ struct RendererOptions {
   /// layers are addressed toroidally (texels fixed in the world, nothing is moved), each
   /// cascade's depth window is world-anchored; dynamic casters are drawn every frame over a copy
   /// of the static depth. csm.glsl reads the same world texels (wrap offsets in the uniforms).
-  /// Costs one more depth image of the same size (cacheBytes()).
+  /// Costs one more depth image of the same size (cacheBytes()). Needs settings.stabilize.
   bool cache = false;
 };
 
