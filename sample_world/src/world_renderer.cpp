@@ -473,7 +473,8 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
     const std::uint32_t lod = shadow_->options().cascadeLod[c];
     stats.lod[c] = lod;
     for (std::uint32_t k : culled.visible[c]) {
-      const engine::MeshRange& r = clusterRanges_[k][lod];
+      const engine::MeshRange& r =
+          k < clusterRanges_.size() ? clusterRanges_[k][lod] : assetRanges_[cubeMesh_][0];
       if (r.indexCount == 0) continue;
       ++stats.casters[c];
       stats.triangles[c] += r.indexCount / 3;
@@ -638,7 +639,7 @@ void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& 
       const glm::vec4 tint(csm::cascadeTint(c), 0.9f);
       const float dot = 1.0f + 0.5f * static_cast<float>(c);
       for (std::uint32_t k : culled.visible[static_cast<std::size_t>(c)]) {
-        const csm::AabbWs& b = world_->clusters[k].boundsWs;
+        const csm::AabbWs& b = casterBounds_[k];  // clusters, then the dynamic casters
         const glm::vec2 p = toMap(0.5 * (b.minWs + b.maxWs));
         if (p.x < origin.x || p.y < origin.y || p.x > origin.x + size || p.y > origin.y + size) {
           continue;
