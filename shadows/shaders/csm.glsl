@@ -89,11 +89,11 @@ CsmSelection csmSelectCascade(float viewDepth) {
 
 /// How far (texels) the chosen kernel reads from its centre (mirror of csm::kernelRadiusTexels).
 float csmKernelRadius() {
-  if (csmKernel == CSM_KERNEL_TENT3) return 1.5;
-  if (csmKernel == CSM_KERNEL_TENT5) return 2.5;
-  if (csmKernel == CSM_KERNEL_TENT7) return 3.5;
-  if (csmKernel == CSM_KERNEL_POISSON16) return 2.5;
-  return 1.0;
+  if (csmKernel == CSM_KERNEL_TENT3) return CSM_KERNEL_RADIUS_TENT3;
+  if (csmKernel == CSM_KERNEL_TENT5) return CSM_KERNEL_RADIUS_TENT5;
+  if (csmKernel == CSM_KERNEL_TENT7) return CSM_KERNEL_RADIUS_TENT7;
+  if (csmKernel == CSM_KERNEL_POISSON16) return CSM_KERNEL_RADIUS_POISSON16;
+  return CSM_KERNEL_RADIUS_1TAP;
 }
 
 /// Cached cascades (CsmUniforms.counts.w != 0) address each layer toroidally: texel t of the
@@ -244,7 +244,7 @@ float csmShadow(vec3 posCr, vec3 normalWs, vec2 pixel) {
 
 /// The tint of cascade i (CSM_TINT_i), black for -1.
 vec3 csmCascadeTint(int i) {
-  const vec3 tints[8] = vec3[8](vec3(CSM_TINT_0), vec3(CSM_TINT_1), vec3(CSM_TINT_2),
+  const vec3 tints[CSM_TINT_COUNT] = vec3[CSM_TINT_COUNT](vec3(CSM_TINT_0), vec3(CSM_TINT_1), vec3(CSM_TINT_2),
                                 vec3(CSM_TINT_3), vec3(CSM_TINT_4), vec3(CSM_TINT_5),
                                 vec3(CSM_TINT_6), vec3(CSM_TINT_7));
   return i < 0 ? vec3(0.0) : tints[i % 8];

@@ -3,6 +3,7 @@
 // band, beside the shadow edge of a rail that lies along the view direction.
 #include <gtest/gtest.h>
 
+#include <csm_shaders/selection_probe.comp.spv.h>
 #include <csm_shaders/shadow_probe.comp.spv.h>
 #include <engine/debug.hpp>
 #include <engine/errors.hpp>
@@ -12,6 +13,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <span>
 
 #include "shadow_scene.hpp"
 
@@ -28,12 +30,16 @@ T vkStruct(VkStructureType type) {
 /// A compute pipeline over csm.glsl: set 0 = points and results, set 1 = the renderer's set.
 class Probe {
  public:
+  /// `shader`: shadow_probe.comp (one float per point) by default, or another probe over the same
+  /// interface writing `resultFloats` floats per point.
   Probe(engine::Context& ctx, VkDescriptorSetLayout shadowLayout, csm::PcfKernel kernel, bool blend,
-        uint32_t maxPoints)
+        uint32_t maxPoints, std::span<const uint32_t> shader = shadow_probe_comp_spv,
+        uint32_t resultFloats = 1)
       : ctx_(ctx),
+        resultFloats_(resultFloats),
         points_(ctx, maxPoints * sizeof(glm::vec4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                 engine::MemoryUsage::Upload, "probe.points"),
-        results_(ctx, maxPoints * sizeof(float), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+        results_(ctx, maxPoints * sizeof(float) * resultFloats, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                  engine::MemoryUsage::Readback, "probe.results") {
     VkDevice dev = ctx.device();
     const VkDescriptorSetLayoutBinding b[2] = {
@@ -80,7 +86,7 @@ class Probe {
     pipelineLayout_ = engine::DeviceHandle<VkPipelineLayout>(dev, pl, vkDestroyPipelineLayout);
     engine::setDebugName(dev, pl, "probe.pipelineLayout");
 
-    const auto module = engine::createShaderModule(dev, shadow_probe_comp_spv, "shadow_probe.comp");
+    const auto module = engine::createShaderModule(dev, shader, "probe.comp");
     const uint32_t values[2] = {uint32_t(kernel), blend ? 1u : 0u};
     const VkSpecializationMapEntry entries[2] = {{CSM_SPEC_KERNEL, 0, 4}, {CSM_SPEC_BLEND, 4, 4}};
     VkSpecializationInfo spec{2, entries, sizeof(values), values};
@@ -126,13 +132,14 @@ class Probe {
                             VK_ACCESS_2_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
                             VK_ACCESS_2_HOST_READ_BIT);
     });
-    std::vector<float> out(cr.size());
+    std::vector<float> out(cr.size() * resultFloats_);
     std::memcpy(out.data(), results_.mapped(), out.size() * sizeof(float));
     return out;
   }
 
  private:
   engine::Context& ctx_;
+  uint32_t resultFloats_ = 1;
   engine::Buffer points_;
   engine::Buffer results_;
   engine::DeviceHandle<VkDescriptorSetLayout> layout_;
@@ -221,6 +228,83 @@ TEST(ShadowBlendBand, NoJumpAcrossTheBandLargerThanTheKernelStep) {
       // The test can fail: without the blend the switch is a larger jump.
       EXPECT_GT(hardJump, bandJump);
     }
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+// The GPU's cascade selection (csmSelectCascade in csm.glsl) against the CPU mirror
+// (csm::selectCascade) at many points through every cascade and band: the same cascade, the same
+// blended cascade and the same blend weight, except within float rounding of a boundary.
+TEST(ShadowSelection, GpuIndexAndBlendWeightMatchTheCpuMirror) {
+  {
+    ShadowScene scene;
+    csm::ShadowSettings settings;
+    settings.cascadeCount = 4;
+    settings.resolution = 512;
+    settings.shadowDistanceM = 60.0;
+    settings.blendBand = 0.25;
+    CSM_ASSERT_OK(scene.update(settings));
+    const csm::CascadeFrame frame = scene.computeFrame();
+    const glm::dvec3 cam = scene.camera.positionWs;
+    const glm::dvec3 fwd = scene.camera.forwardWs();
+    const glm::dvec3 right = glm::normalize(glm::cross(fwd, glm::dvec3(0, 1, 0)));
+    const glm::dvec3 up = glm::cross(right, fwd);
+    // Depths from before the first split to past the last, with lateral offsets.
+    const int n = 24000;
+    std::vector<glm::dvec3> points;
+    for (int i = 0; i < n; ++i) {
+      const double depth = 1.1 * frame.shadowFarM * (i + 0.5) / n;
+      const double x = 0.4 * depth * std::sin(0.37 * i), y = 0.2 * depth * std::cos(0.91 * i);
+      points.push_back(cam + depth * fwd + x * right + y * up);
+    }
+    std::vector<float> gpu;
+    {
+      Probe probe(scene.context(), scene.renderer().lightingSetLayout(), csm::PcfKernel::k1Tap,
+                  true, uint32_t(points.size()), selection_probe_comp_spv, 4);
+      gpu = probe.run(scene, frame, points);
+    }
+    std::vector<double> edges;  // splits and band starts (view depth, m)
+    for (uint32_t c = 0; c < frame.cascadeCount; ++c) {
+      const double nearM = frame.splitsM[c], farM = frame.splitsM[c + 1];
+      edges.push_back(nearM);
+      edges.push_back(farM);
+      edges.push_back(farM - settings.blendBand * (farM - nearM));
+    }
+    uint64_t compared = 0, skipped = 0, indexDiffer = 0, blendDiffer = 0, inBand = 0;
+    double maxWeightDiff = 0.0;
+    for (int i = 0; i < n; ++i) {
+      const double depth = csm::viewDepthM(frame, points[i]);
+      bool nearEdge = false;
+      for (double e : edges) nearEdge = nearEdge || std::abs(depth - e) < 1e-4 * std::max(1.0, e);
+      if (nearEdge) {
+        ++skipped;
+        continue;
+      }
+      const csm::CascadeSelection cpu = csm::selectCascade(frame, depth, settings.blendBand);
+      const int gIndex = int(std::lround(gpu[4 * i + 0]));
+      const int gBlend = int(std::lround(gpu[4 * i + 1]));
+      const double gWeight = gpu[4 * i + 2];
+      ++compared;
+      indexDiffer += gIndex != cpu.index ? 1 : 0;
+      blendDiffer += gBlend != cpu.blendIndex ? 1 : 0;
+      if (cpu.blendIndex >= 0) {
+        ++inBand;
+        maxWeightDiff = std::max(maxWeightDiff, std::abs(gWeight - double(cpu.blendWeight)));
+      } else {
+        maxWeightDiff = std::max(maxWeightDiff, std::abs(gWeight));
+      }
+    }
+    std::printf(
+        "selection: %llu points compared (%llu in bands, %llu within rounding of an edge "
+        "left out): index differs at %llu, blend cascade at %llu, largest weight "
+        "difference %.2e\n",
+        (unsigned long long)compared, (unsigned long long)inBand, (unsigned long long)skipped,
+        (unsigned long long)indexDiffer, (unsigned long long)blendDiffer, maxWeightDiff);
+    EXPECT_GT(compared, uint64_t(0.99 * n));
+    EXPECT_GT(inBand, uint64_t(0.05 * n));  // the bands of the first three cascades
+    EXPECT_EQ(indexDiffer, 0u);
+    EXPECT_EQ(blendDiffer, 0u);
+    EXPECT_LT(maxWeightDiff, 1e-3);
   }
   EXPECT_EQ(validationMessages(), 0u);
 }

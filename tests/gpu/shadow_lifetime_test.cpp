@@ -4,6 +4,7 @@
 // flight; two views (split screen) record into one command buffer, each lighting its own camera.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cstdio>
 
 #include "sample_world/shadow_host.hpp"
@@ -180,6 +181,131 @@ TEST(ShadowLifetime, TwoViewsRecordIntoOneCommandBufferEachLightingItsOwnCamera)
         scene.saveArtefact(b.image, "lifetime_split_view2");
       }
     }
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+// Caster LODs in the module: every caster but the ground gets an empty LOD 1 (no triangles), and
+// the cascades that draw LOD 1 (the first and the last) show no shadow of them while the one
+// that draws LOD 0 does; per-layer
+// and layered (one instanced draw per distinct LOD mesh) alike.
+TEST(ShadowView, CascadesDrawTheLodTheSettingsName) {
+  {
+    ShadowScene scene;
+    CSM_ASSERT_OK(scene.update(testSettings(3, 1024)));
+    (void)scene.render(csm::PcfKernel::k1Tap, csm::DebugMode::kShadowFactor);  // builds the scene
+    csm::vk::ShadowView& view = scene.view();
+    std::vector<csm::vk::MeshDraw> meshes(view.meshes().begin(), view.meshes().end());
+    std::vector<csm::vk::CasterInstance> instances(view.instances().begin(),
+                                                   view.instances().end());
+    const std::uint32_t empty = static_cast<std::uint32_t>(meshes.size());
+    meshes.push_back(csm::vk::MeshDraw{});  // indexCount 0: draws nothing
+    for (std::size_t i = 1; i < instances.size(); ++i) instances[i].lodMeshes[0] = empty;
+    std::vector<csm::AabbWs> bounds;
+    bounds.push_back({scene.planeCenterWs - glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM),
+                      scene.planeCenterWs + glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM)});
+    for (const SphereWs& sp : scene.spheres) {
+      bounds.push_back(
+          {sp.centerWs - glm::dvec3(sp.radiusM), sp.centerWs + glm::dvec3(sp.radiusM)});
+    }
+    for (const csm::AabbWs& b : scene.boxes) bounds.push_back(b);
+    CSM_ASSERT_OK(view.setCasters(meshes, instances, bounds));
+
+    std::vector<csm::vk::RenderMode> modes = {csm::vk::RenderMode::kPerLayer};
+    if (scene.context().features().shaderOutputLayer)
+      modes.push_back(csm::vk::RenderMode::kLayered);
+    for (csm::vk::RenderMode mode : modes) {
+      SCOPED_TRACE(mode == csm::vk::RenderMode::kLayered ? "layered" : "per-layer");
+      csm::vk::RendererOptions options;
+      options.renderMode = mode;
+      options.cascadeLod = {1, 0, 1};
+      CSM_ASSERT_OK(scene.update(testSettings(3, 1024), options));
+      const Rendered r = scene.render(csm::PcfKernel::k1Tap, csm::DebugMode::kShadowFactor);
+      // Dark pixels (shadowed) by the cascade that shades them, away from blend bands.
+      std::array<uint64_t, 3> dark{}, analytic{};
+      for (uint32_t y = 0; y < r.image.height; ++y) {
+        for (uint32_t x = 0; x < r.image.width; ++x) {
+          const ShadowScene::Hit hit = scene.trace(x, y);
+          if (!hit.hit || !hit.plane) continue;
+          const csm::CascadeSelection sel = csm::selectCascade(
+              r.frame, csm::viewDepthM(r.frame, hit.posWs), scene.settings().blendBand);
+          if (sel.index < 0 || sel.blendIndex >= 0) continue;
+          dark[sel.index] += r.image.at(x, y)[0] < 128 ? 1 : 0;
+          analytic[sel.index] += scene.shadowedAnalytic(hit.posWs) ? 1 : 0;
+        }
+      }
+      std::printf(
+          "cascade LODs {1, 0, 1}: shadowed pixels per cascade %llu, %llu, %llu "
+          "(analytic %llu, %llu, %llu)\n",
+          (unsigned long long)dark[0], (unsigned long long)dark[1], (unsigned long long)dark[2],
+          (unsigned long long)analytic[0], (unsigned long long)analytic[1],
+          (unsigned long long)analytic[2]);
+      EXPECT_GT(analytic[1], 100u);
+      EXPECT_GT(dark[1], analytic[1] / 2);  // LOD 0 casts
+      EXPECT_GT(analytic[2], 100u);
+      EXPECT_EQ(dark[0] + dark[2], 0u);  // LOD 1 is empty: nothing casts there
+    }
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+// Out-of-range enums and values are refused with a Status naming them, and a frame computed with
+// other settings than the renderer's is refused naming the differing field.
+TEST(ShadowView, OutOfRangeValuesAndMismatchedFramesAreRefusedByName) {
+  {
+    ShadowScene scene;
+    CSM_ASSERT_OK(scene.update(testSettings(2, 512)));
+    (void)scene.render(csm::PcfKernel::k1Tap, csm::DebugMode::kShadowFactor);
+    csm::vk::ShadowView& view = scene.view();
+    // kAuto (the default) chooses by device: per-layer on a CPU implementation such as lavapipe,
+    // layered on a GPU that enabled shaderOutputLayer.
+    const bool cpu = scene.context().properties().deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    EXPECT_EQ(scene.renderer().renderMode(), !cpu && scene.context().features().shaderOutputLayer
+                                                 ? csm::vk::RenderMode::kLayered
+                                                 : csm::vk::RenderMode::kPerLayer);
+    auto expectRefused = [](const csm::vk::Status& s, const char* name) {
+      EXPECT_EQ(s.code(), csm::vk::ErrorCode::kInvalidArgument) << s.message();
+      EXPECT_NE(s.message().find(name), std::string::npos) << s.message();
+      std::printf("refused: %s\n", s.message().c_str());
+    };
+    csm::vk::RendererOptions badMode;
+    badMode.renderMode = static_cast<csm::vk::RenderMode>(7);
+    expectRefused(view.setSettings(testSettings(2, 512), badMode), "options.renderMode = 7");
+    csm::vk::RendererOptions badLod;
+    badLod.cascadeLod[1] = 9;
+    expectRefused(view.setSettings(testSettings(2, 512), badLod), "options.cascadeLod[1] = 9");
+
+    csm::vk::Status status;
+    view.setUniformOptions({static_cast<csm::DebugMode>(99), false});
+    scene.context().submitAndWait(
+        [&](VkCommandBuffer cmd) { status = view.record(cmd, scene.csmCamera(), scene.light); });
+    expectRefused(status, "debugMode = 99");
+    view.setUniformOptions({});
+
+    // A frame computed with another blend band / normal offset than the renderer's settings.
+    csm::ShadowSettings other = testSettings(2, 512);
+    other.blendBand = 0.3;
+    auto frame = csm::computeCascades(other, scene.csmCamera(), scene.light);
+    ASSERT_TRUE(frame.ok());
+    scene.context().submitAndWait(
+        [&](VkCommandBuffer cmd) { status = view.record(cmd, frame.value()); });
+    expectRefused(status, "frame.blendBand = 0.3");
+    other = testSettings(2, 512);
+    other.normalOffsetTexels = 2.0f;
+    frame = csm::computeCascades(other, scene.csmCamera(), scene.light);
+    ASSERT_TRUE(frame.ok());
+    scene.context().submitAndWait(
+        [&](VkCommandBuffer cmd) { status = view.record(cmd, frame.value()); });
+    expectRefused(status, "frame.normalOffsetTexels = 2");
+
+    csm::vk::DeviceInfo info = world::shadowDeviceInfo(scene.context());
+    info.framesInFlight = 0;
+    EXPECT_EQ(csm::vk::ShadowView::create(info, csm::vk::VertexLayout{}, &status), nullptr);
+    expectRefused(status, "framesInFlight = 0");
+
+    // Still usable, and correct.
+    const Rendered r = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+    EXPECT_GE(compareWithAnalytic(scene, r).ratio(), 0.995);
   }
   EXPECT_EQ(validationMessages(), 0u);
 }

@@ -45,6 +45,12 @@ TEST(Selection, PicksByViewDepthAndBlendsAcrossTheBand) {
   EXPECT_GT(prev, 0.99f);
   // No band: no blending anywhere.
   EXPECT_EQ(selectCascade(f, b - 1e-3, 0.0).blendIndex, -1);
+  // The band's start belongs to the band (weight 0), as in csm.glsl's `viewDepth >= bandStart`.
+  const double bandStart = b - band * (b - a);
+  const auto atStart = selectCascade(f, bandStart, band);
+  EXPECT_EQ(atStart.blendIndex, 2);
+  EXPECT_EQ(atStart.blendWeight, 0.0f);
+  EXPECT_EQ(selectCascade(f, std::nextafter(bandStart, 0.0), band).blendIndex, -1);
 }
 
 TEST(Selection, ViewDepthAndEmptyCascades) {

@@ -50,6 +50,8 @@ struct Options {
   bool replot = false;
   std::vector<double> budgetsMs;  ///< --budget-ms (may be repeated)
   uint32_t width = 640, height = 360;
+  /// --lod-study: only the default configuration, with several per-cascade LOD schedules.
+  bool lodStudy = false;
 };
 
 struct Config {
@@ -62,11 +64,13 @@ struct Config {
   /// Caster LODs: cascade c draws the sample world's simplified meshes at the fly-through's
   /// default LOD for it (world::AppSettings::cascadeLod: 0, 1, 2, 2, ...).
   bool lods = true;
+  /// The LOD each cascade draws when `lods` (--lod-study varies it; empty: the default).
+  std::vector<uint32_t> schedule;
   [[nodiscard]] bool isDefault() const {
     const csm::ShadowSettings d;
     return cascades == d.cascadeCount && resolution == d.resolution && lambda == d.splitLambda &&
            kernel == csm::PcfKernel::kTent3 && blendBand == d.blendBand &&
-           format == VK_FORMAT_D32_SFLOAT && lods;
+           format == VK_FORMAT_D32_SFLOAT && lods && schedule.empty();
   }
   /// The label without the fields at their default (for the plot).
   [[nodiscard]] std::string shortLabel() const {
@@ -85,6 +89,10 @@ struct Config {
     }
     if (format == VK_FORMAT_D16_UNORM) s += " D16";
     if (!lods) s += " noLOD";
+    if (lods && !schedule.empty()) {
+      s += " LOD";
+      for (uint32_t l : schedule) s += std::to_string(l);
+    }
     return s;
   }
   [[nodiscard]] std::string label() const {
@@ -92,7 +100,11 @@ struct Config {
     std::snprintf(buf, sizeof buf, "c%u r%u l%.2f %s b%.2f %s %s", cascades, resolution, lambda,
                   csm::kernelName(kernel), blendBand, format == VK_FORMAT_D16_UNORM ? "D16" : "D32",
                   lods ? "LOD" : "noLOD");
-    return buf;
+    std::string label = buf;
+    if (lods && !schedule.empty()) {
+      for (uint32_t l : schedule) label += std::to_string(l);
+    }
+    return label;
   }
 };
 
@@ -250,7 +262,9 @@ void usage(std::FILE* out) {
   std::fprintf(
       out,
       "usage: csm_tradeoff [--quick] [--path NAME] [--out DIR] [--budget-ms X]... [--replot] "
-      "[--width W --height H]\n"
+      "[--width W --height H] [--lod-study]\n"
+      "  --lod-study: only the default configuration, with per-cascade caster LOD schedules "
+      "(0122 .. 0000) and without LODs.\n"
       "  --budget-ms X (repeatable): recommend the most accurate configuration whose GPU ms "
       "fits X.\n"
       "  --replot: re-draw table, plot and recommendations from DIR/tradeoff.csv, no "
@@ -288,6 +302,8 @@ int run(int argc, char** argv) {
       o.width = uint32_t(std::stoul(next()));
     } else if (a == "--height") {
       o.height = uint32_t(std::stoul(next()));
+    } else if (a == "--lod-study") {
+      o.lodStudy = true;
     } else if (a == "--help" || a == "-h") {
       usage(stdout);
       return 0;
@@ -350,7 +366,25 @@ int run(int argc, char** argv) {
     const std::vector<uint32_t> resolutions =
         o.quick ? std::vector<uint32_t>{512, 1024, 2048}
                 : std::vector<uint32_t>{512, 1024, 2048, 4096, 8192};
+    if (o.lodStudy) {
+      // The default configuration with per-cascade LOD schedules, from today's default to none.
+      for (const std::vector<uint32_t>& schedule :
+           std::vector<std::vector<uint32_t>>{{0, 1, 2, 2},
+                                              {0, 0, 1, 2},
+                                              {0, 0, 0, 1},
+                                              {0, 0, 0, 2},
+                                              {0, 0, 1, 1},
+                                              {0, 0, 0, 0}}) {
+        Config cfg;
+        cfg.schedule = schedule;
+        configs.push_back(cfg);
+      }
+      Config none;
+      none.lods = false;
+      configs.push_back(none);
+    }
     for (bool lods : {true, false}) {
+      if (o.lodStudy) break;
       for (uint32_t c : counts) {
         for (uint32_t r : resolutions) {
           Config cfg;
@@ -362,22 +396,25 @@ int run(int argc, char** argv) {
       }
     }
     for (double l : {0.0, 0.5, 1.0}) {
+      if (o.lodStudy) break;
       Config cfg;
       cfg.lambda = l;
       configs.push_back(cfg);
     }
     for (csm::PcfKernel k : {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent5, csm::PcfKernel::kTent7,
                              csm::PcfKernel::kPoisson16}) {
+      if (o.lodStudy) break;
       Config cfg;
       cfg.kernel = k;
       configs.push_back(cfg);
     }
     for (double b : {0.0, 0.25}) {
+      if (o.lodStudy) break;
       Config cfg;
       cfg.blendBand = b;
       configs.push_back(cfg);
     }
-    {
+    if (!o.lodStudy) {
       Config cfg;
       cfg.format = VK_FORMAT_D16_UNORM;
       configs.push_back(cfg);
@@ -405,8 +442,12 @@ int run(int argc, char** argv) {
         std::fprintf(stderr, "\nskipping %s: %s\n", cfg.label().c_str(), st.message().c_str());
         continue;
       }
+      std::array<uint32_t, csm::kMaxCascades> lodOfCascade = cascadeLod;
+      for (size_t c = 0; c < cfg.schedule.size() && c < csm::kMaxCascades; ++c) {
+        lodOfCascade[c] = cfg.schedule[c];
+      }
       harness.setCasterLods(cfg.lods ? worldScene.lodMeshes : std::vector<std::vector<uint32_t>>{},
-                            cascadeLod);
+                            lodOfCascade);
       Row row;
       row.config = cfg;
       row.memoryMiB = double(harness.shadowMapBytes()) / (1024.0 * 1024.0);

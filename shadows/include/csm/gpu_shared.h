@@ -27,6 +27,11 @@
 #define CSM_TINT_5 0.0, 1.0, 1.0
 #define CSM_TINT_6 1.0, 0.5, 0.0
 #define CSM_TINT_7 0.5, 0.0, 1.0
+// One tint per cascade: the tables on both sides have this size.
+#define CSM_TINT_COUNT 8
+#if CSM_TINT_COUNT != CSM_MAX_CASCADES
+#error "csm/gpu_shared.h: one CSM_TINT_i per cascade (CSM_MAX_CASCADES)"
+#endif
 
 // Depth-pass push constants (csm_depth.vert): camera-relative model matrix (64 bytes) then the
 // cascade index (per-layer mode) or the mask of cascades to replicate into (layered mode).

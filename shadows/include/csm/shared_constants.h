@@ -21,6 +21,14 @@
 #define CSM_KERNEL_TENT7 3      // 7x7 tent, 16 taps
 #define CSM_KERNEL_POISSON16 4  // 16-tap Poisson disk, rotated per pixel
 #define CSM_KERNEL_COUNT 5
+// How far (texels of the kernel's own cascade, before its scale) each kernel reads from its
+// centre: the radius the normal offset is scaled by. csmKernelRadius() (GLSL) and
+// csm::kernelRadiusTexels() (C++) both return these.
+#define CSM_KERNEL_RADIUS_1TAP 1.0
+#define CSM_KERNEL_RADIUS_TENT3 1.5
+#define CSM_KERNEL_RADIUS_TENT5 2.5
+#define CSM_KERNEL_RADIUS_TENT7 3.5
+#define CSM_KERNEL_RADIUS_POISSON16 2.5
 
 // Specialisation constant ids used by csm.glsl.
 #define CSM_SPEC_KERNEL 0

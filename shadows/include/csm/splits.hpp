@@ -23,6 +23,12 @@ using SplitArray = std::array<double, kMaxCascades + 1>;
 [[nodiscard]] SplitArray practicalSplits(double nearM, double farM, std::uint32_t count,
                                          double lambda) noexcept;
 
+/// Explicit splits: d_0 = n, d_i = n + (f - n) * positions[i - 1] for 0 < i < count, d_count = f.
+/// Requires 0 < n < f and positions strictly increasing in (0, 1) (validate() checks them).
+[[nodiscard]] SplitArray explicitSplits(
+    double nearM, double farM, std::uint32_t count,
+    const std::array<double, kMaxCascades - 1>& positions) noexcept;
+
 /// The far distance the splits end at, quantised so that it changes only in steps, with
 /// hysteresis. `neededM` is the distance shadows must reach this frame (shadow distance, camera
 /// far and scene extent already applied); `previousM` the value used last frame (0 if none).

@@ -5,6 +5,7 @@
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
+#include <array>
 #include <cstdint>
 #include <optional>
 
@@ -45,6 +46,20 @@ struct ShadowSettings {
   /// Casters whose bounds span fewer than this many texels of a cascade are not drawn into it
   /// (they cannot show there). 0 turns the test off. [0, 1e6].
   float minCasterTexels = 0.0f;
+  /// Explicit split positions instead of splitLambda (as Filament's cascadeSplitPositions): the
+  /// first cascadeCount - 1 entries place the inner splits between the camera's near plane and
+  /// the shadow far distance, as fractions in (0, 1), strictly increasing:
+  /// split_i = near + splitPositions[i - 1] * (far - near). All 0 (the default): splitLambda
+  /// places them. Entries past cascadeCount - 1 are ignored.
+  std::array<double, kMaxCascades - 1> splitPositions{};
+
+  /// Whether splitPositions is in use (any of its first cascadeCount - 1 entries is non-zero).
+  [[nodiscard]] bool explicitSplits() const noexcept {
+    for (std::uint32_t i = 0; i + 1 < cascadeCount && i < kMaxCascades - 1; ++i) {
+      if (splitPositions[i] != 0.0) return true;
+    }
+    return false;
+  }
 };
 
 /// A perspective camera. Looks down its local -Z with +Y up (the GLM/Vulkan view convention).

@@ -99,7 +99,10 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   frame.shadowFarM = quantizedShadowFar(neededFarM, maxFarM, minFarM,
                                         history != nullptr ? history->shadowFarM : 0.0);
   if (history != nullptr) history->shadowFarM = frame.shadowFarM;
-  frame.splitsM = practicalSplits(camera.nearM, frame.shadowFarM, count, settings.splitLambda);
+  frame.splitsM =
+      settings.explicitSplits()
+          ? explicitSplits(camera.nearM, frame.shadowFarM, count, settings.splitPositions)
+          : practicalSplits(camera.nearM, frame.shadowFarM, count, settings.splitLambda);
 
   const double res = static_cast<double>(settings.resolution);
   for (std::uint32_t i = 0; i < count; ++i) {

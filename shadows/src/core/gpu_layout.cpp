@@ -40,17 +40,17 @@ const char* kernelName(PcfKernel kernel) noexcept {
 float kernelRadiusTexels(PcfKernel kernel) noexcept {
   switch (kernel) {
     case PcfKernel::k1Tap:
-      return 1.0f;
+      return float(CSM_KERNEL_RADIUS_1TAP);
     case PcfKernel::kTent3:
-      return 1.5f;
+      return float(CSM_KERNEL_RADIUS_TENT3);
     case PcfKernel::kTent5:
-      return 2.5f;
+      return float(CSM_KERNEL_RADIUS_TENT5);
     case PcfKernel::kTent7:
-      return 3.5f;
+      return float(CSM_KERNEL_RADIUS_TENT7);
     case PcfKernel::kPoisson16:
-      return 2.5f;
+      return float(CSM_KERNEL_RADIUS_POISSON16);
   }
-  return 1.0f;
+  return float(CSM_KERNEL_RADIUS_1TAP);
 }
 
 namespace {
@@ -97,10 +97,10 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
 }
 
 glm::vec3 cascadeTint(int index) noexcept {
-  static const glm::vec3 kTints[CSM_MAX_CASCADES] = {
+  static const glm::vec3 kTints[CSM_TINT_COUNT] = {
       glm::vec3(CSM_TINT_0), glm::vec3(CSM_TINT_1), glm::vec3(CSM_TINT_2), glm::vec3(CSM_TINT_3),
       glm::vec3(CSM_TINT_4), glm::vec3(CSM_TINT_5), glm::vec3(CSM_TINT_6), glm::vec3(CSM_TINT_7)};
-  if (index < 0 || index >= CSM_MAX_CASCADES) return glm::vec3(0.0f);
+  if (index < 0 || index >= CSM_TINT_COUNT) return glm::vec3(0.0f);
   return kTints[index];
 }
 

@@ -18,7 +18,8 @@ CascadeSelection selectCascade(const CascadeFrame& frame, double viewDepth,
   if (blendBand > 0.0 && i + 1 < n && !frame.cascades[i + 1].empty) {
     const double splitFar = frame.splitsM[i + 1];
     const double bandStart = splitFar - blendBand * (splitFar - frame.splitsM[i]);
-    if (viewDepth > bandStart) {
+    // The band starts at bandStart inclusive, as in csmSelectCascade (csm.glsl): weight 0 there.
+    if (viewDepth >= bandStart) {
       sel.blendIndex = static_cast<int>(i + 1);
       sel.blendWeight = static_cast<float>((viewDepth - bandStart) / (splitFar - bandStart));
     }

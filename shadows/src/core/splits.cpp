@@ -25,6 +25,15 @@ SplitArray logarithmicSplits(double nearM, double farM, std::uint32_t count) noe
   return d;
 }
 
+SplitArray explicitSplits(double nearM, double farM, std::uint32_t count,
+                          const std::array<double, kMaxCascades - 1>& positions) noexcept {
+  SplitArray d{};
+  d[0] = nearM;
+  for (std::uint32_t i = 1; i < count; ++i) d[i] = nearM + (farM - nearM) * positions[i - 1];
+  d[count] = farM;
+  return d;
+}
+
 SplitArray practicalSplits(double nearM, double farM, std::uint32_t count, double lambda) noexcept {
   const SplitArray uni = uniformSplits(nearM, farM, count);
   if (lambda == 0.0) return uni;

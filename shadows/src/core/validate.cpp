@@ -41,6 +41,18 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
   if (!(s.splitLambda >= 0.0 && s.splitLambda <= 1.0)) {
     return refuse("settings.splitLambda", s.splitLambda, "a number in [0, 1]");
   }
+  if (s.explicitSplits()) {
+    double previous = 0.0;
+    for (std::uint32_t i = 0; i + 1 < s.cascadeCount; ++i) {
+      const double p = s.splitPositions[i];
+      if (!(p > previous && p < 1.0)) {
+        return refuse("settings.splitPositions[" + std::to_string(i) + "]", p,
+                      "a fraction in (" + std::to_string(previous) +
+                          ", 1): explicit splits are strictly increasing in (0, 1)");
+      }
+      previous = p;
+    }
+  }
   if (!(s.shadowDistanceM > 0.0) || !std::isfinite(s.shadowDistanceM)) {
     return refuse("settings.shadowDistanceM", s.shadowDistanceM,
                   "a finite distance in metres > camera.nearM");
