@@ -38,6 +38,14 @@ Status checkInstances(std::span<const MeshDraw> meshes, std::span<const CasterIn
                                                      std::to_string(meshes.size()) +
                                                      ") (lodMeshes: or kNoMesh)");
     }
+    for (std::size_t k = 0; k < inst.lodErrorM.size(); ++k) {
+      if (!(inst.lodErrorM[k] >= 0.0f)) {
+        return Status(ErrorCode::kInvalidArgument,
+                      "setCasters: instances[" + std::to_string(i) + "].lodErrorM[" +
+                          std::to_string(k) + "] = " + std::to_string(inst.lodErrorM[k]) +
+                          " is invalid: allowed [0, +inf] metres (kUnknownLodError = not known)");
+      }
+    }
   }
   return {};
 }
