@@ -177,6 +177,8 @@ const std::vector<Entry>& table() {
          return nlohmann::json(
              std::vector<std::uint32_t>(s.cascadeLod.begin(), s.cascadeLod.end()));
        }},
+      number<float>("lod.maxErrorTexels", "texels in [0, 64] (0 = the lod.cascades schedule alone)",
+                    0, 64, false, [](AppSettings& s) -> float& { return s.lodMaxErrorTexels; }),
       number<float>("ambient", "a number in [0, 1]", 0, 1, false,
                     [](AppSettings& s) -> float& { return s.ambient; }),
       choice("debug", "one of none, normal, shadow, lightcoords, depth, depthdiff, cascade",
@@ -213,7 +215,6 @@ AppSettings::AppSettings() {
   shadow.resolution = 2048;
   shadow.shadowDistanceM = 1500.0;
   shadow.splitLambda = 0.8;
-  cascadeLod = {0, 1, 2, 2, 2, 2, 2, 2};
 }
 
 std::optional<std::string> setSetting(AppSettings& s, const std::string& key,

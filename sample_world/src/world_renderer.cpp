@@ -141,6 +141,9 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
     csm::vk::CasterInstance in;
     in.mesh = static_cast<std::uint32_t>(draws.size());
     in.translationWs = world.clusters[k].originWs;
+    for (std::uint32_t l = 1; l < kLodCount; ++l) {
+      in.lodErrorM[l - 1] = world.clusters[k].lodErrorM[l];
+    }
     for (std::uint32_t l = 0; l < kLodCount; ++l) {
       const engine::MeshRange& r = clusterRanges_[k][l];
       csm::vk::MeshDraw d;
@@ -301,6 +304,9 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
     for (std::uint32_t c = 0; c < csm::kMaxCascades; ++c) {
       options.cascadeLod[c] = std::min(settings.cascadeLod[c], kLodCount - 1);
     }
+    options.lodMaxErrorTexels = settings.lodMaxErrorTexels;
+  } else {
+    options.lodMaxErrorTexels = 0.0f;
   }
   const csm::vk::Status s = shadow_->setSettings(effectiveShadow(settings), options);
   if (!s.ok()) return s.message();
@@ -470,11 +476,24 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
   stats.triangles = {};
   for (std::uint32_t c = 0; c < cascades.cascadeCount; ++c) {
     if (cascades.cascades[c].empty) continue;
-    const std::uint32_t lod = shadow_->options().cascadeLod[c];
-    stats.lod[c] = lod;
+    // The LOD the module draws each cluster with (schedule and texel error budget); stats.lod
+    // is the coarsest one the cascade drew.
+    const csm::vk::RendererOptions& options = shadow_->options();
+    const double texelM =
+        std::min(cascades.cascades[c].texelSizeLs.x, cascades.cascades[c].texelSizeLs.y);
+    stats.lod[c] = 0;
     for (std::uint32_t k : culled.visible[c]) {
-      const engine::MeshRange& r =
-          k < clusterRanges_.size() ? clusterRanges_[k][lod] : assetRanges_[cubeMesh_][0];
+      if (k >= clusterRanges_.size()) {  // a dynamic caster (the cube, every LOD)
+        ++stats.casters[c];
+        stats.triangles[c] += assetRanges_[cubeMesh_][0].indexCount / 3;
+        continue;
+      }
+      const std::uint32_t lod =
+          std::min(csm::vk::casterLod(shadow_->instances()[k], options.cascadeLod[c], texelM,
+                                      options.lodMaxErrorTexels),
+                   kLodCount - 1);
+      stats.lod[c] = std::max(stats.lod[c], lod);
+      const engine::MeshRange& r = clusterRanges_[k][lod];
       if (r.indexCount == 0) continue;
       ++stats.casters[c];
       stats.triangles[c] += r.indexCount / 3;

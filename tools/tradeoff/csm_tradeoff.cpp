@@ -61,16 +61,32 @@ struct Config {
   csm::PcfKernel kernel = csm::PcfKernel::kTent3;
   double blendBand = 0.1;
   VkFormat format = VK_FORMAT_D32_SFLOAT;
-  /// Caster LODs: cascade c draws the sample world's simplified meshes at the fly-through's
-  /// default LOD for it (world::AppSettings::cascadeLod: 0, 1, 2, 2, ...).
+  /// Caster LODs: cascade c draws each cluster's coarsest simplified mesh whose geometric error
+  /// is at most maxErrorTexels of its texels (the module's default, RendererOptions::
+  /// lodMaxErrorTexels), and at least the schedule's LOD.
   bool lods = true;
-  /// The LOD each cascade draws when `lods` (--lod-study varies it; empty: the default).
+  /// The LOD each cascade draws at least when `lods` (--lod-study varies it; empty: all 0).
   std::vector<uint32_t> schedule;
+  /// RendererOptions::lodMaxErrorTexels when `lods` (0: the schedule alone).
+  float maxErrorTexels = csm::vk::RendererOptions{}.lodMaxErrorTexels;
+  /// The LODs column: on (the default), off, a schedule "0122" and/or an error budget "e0.25".
+  [[nodiscard]] std::string lodLabel() const {
+    if (!lods) return "off";
+    std::string s;
+    for (uint32_t l : schedule) s += std::to_string(l);
+    if (maxErrorTexels != csm::vk::RendererOptions{}.lodMaxErrorTexels) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%se%.2g", s.empty() ? "" : " ", double(maxErrorTexels));
+      if (maxErrorTexels != 0.0f) s += buf;
+    }
+    return s.empty() ? "on" : s;
+  }
   [[nodiscard]] bool isDefault() const {
     const csm::ShadowSettings d;
     return cascades == d.cascadeCount && resolution == d.resolution && lambda == d.splitLambda &&
            kernel == csm::PcfKernel::kTent3 && blendBand == d.blendBand &&
-           format == VK_FORMAT_D32_SFLOAT && lods && schedule.empty();
+           format == VK_FORMAT_D32_SFLOAT && lods && schedule.empty() &&
+           maxErrorTexels == csm::vk::RendererOptions{}.lodMaxErrorTexels;
   }
   /// The label without the fields at their default (for the plot).
   [[nodiscard]] std::string shortLabel() const {
@@ -89,9 +105,9 @@ struct Config {
     }
     if (format == VK_FORMAT_D16_UNORM) s += " D16";
     if (!lods) s += " noLOD";
-    if (lods && !schedule.empty()) {
-      s += " LOD";
-      for (uint32_t l : schedule) s += std::to_string(l);
+    if (lods && lodLabel() != "on") {
+      s += " LOD ";
+      s += lodLabel();
     }
     return s;
   }
@@ -101,8 +117,9 @@ struct Config {
                   csm::kernelName(kernel), blendBand, format == VK_FORMAT_D16_UNORM ? "D16" : "D32",
                   lods ? "LOD" : "noLOD");
     std::string label = buf;
-    if (lods && !schedule.empty()) {
-      for (uint32_t l : schedule) label += std::to_string(l);
+    if (lods && lodLabel() != "on") {
+      label += ' ';
+      label += lodLabel();
     }
     return label;
   }
@@ -127,6 +144,8 @@ struct Row {
 struct WorldScene {
   csm_measure::Scene scene;
   std::vector<std::vector<uint32_t>> lodMeshes;
+  /// lodErrorM[i][l]: the world's recorded geometric error of instance i's LOD l, metres.
+  std::vector<std::vector<float>> lodErrorM;
 };
 
 WorldScene sceneFromWorld(const world::World& w) {
@@ -182,6 +201,7 @@ WorldScene sceneFromWorld(const world::World& w) {
          {0.6f, 0.65f, 0.5f, 1.0f},
          c.asset >= 0 ? csm_measure::InstanceKind::kGround : csm_measure::InstanceKind::kBuilding});
     out.lodMeshes.push_back(std::move(lodMeshes));
+    out.lodErrorM.emplace_back(c.lodErrorM.begin(), c.lodErrorM.end());
   }
   return out;
 }
@@ -367,7 +387,13 @@ int run(int argc, char** argv) {
         o.quick ? std::vector<uint32_t>{512, 1024, 2048}
                 : std::vector<uint32_t>{512, 1024, 2048, 4096, 8192};
     if (o.lodStudy) {
-      // The default configuration with per-cascade LOD schedules, from today's default to none.
+      // The default configuration with error-bounded LODs at several budgets (the default: half
+      // a texel), then explicit per-cascade schedules alone (the former default 0,1,2,2 first).
+      for (float e : {0.25f, 0.5f, 1.0f, 2.0f}) {
+        Config cfg;
+        cfg.maxErrorTexels = e;
+        configs.push_back(cfg);
+      }
       for (const std::vector<uint32_t>& schedule :
            std::vector<std::vector<uint32_t>>{{0, 1, 2, 2},
                                               {0, 0, 1, 2},
@@ -377,6 +403,7 @@ int run(int argc, char** argv) {
                                               {0, 0, 0, 0}}) {
         Config cfg;
         cfg.schedule = schedule;
+        cfg.maxErrorTexels = 0.0f;
         configs.push_back(cfg);
       }
       Config none;
@@ -437,6 +464,7 @@ int run(int argc, char** argv) {
       s.blendBand = cfg.blendBand;
       csm::vk::RendererOptions ro;
       ro.depthFormat = cfg.format;
+      ro.lodMaxErrorTexels = cfg.lods ? cfg.maxErrorTexels : 0.0f;
       const csm::vk::Status st = harness.configure(s, ro);
       if (!st.ok()) {
         std::fprintf(stderr, "\nskipping %s: %s\n", cfg.label().c_str(), st.message().c_str());
@@ -447,7 +475,8 @@ int run(int argc, char** argv) {
         lodOfCascade[c] = cfg.schedule[c];
       }
       harness.setCasterLods(cfg.lods ? worldScene.lodMeshes : std::vector<std::vector<uint32_t>>{},
-                            lodOfCascade);
+                            lodOfCascade,
+                            cfg.lods ? worldScene.lodErrorM : std::vector<std::vector<float>>{});
       Row row;
       row.config = cfg;
       row.memoryMiB = double(harness.shadowMapBytes()) / (1024.0 * 1024.0);
@@ -552,7 +581,7 @@ int run(int argc, char** argv) {
         "| %u | %u | %.2f | %s | %.2f | %s | %s | %.2f | %.2f | %.2f | %.0f | %.3f%% | %.4f | "
         "%.4f | %.0f | %s |\n",
         c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
-        c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lods ? "on" : "off", r.shadowMs, r.litMs,
+        c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lodLabel().c_str(), r.shadowMs, r.litMs,
         r.cpuMs, r.memoryMiB, 100.0 * r.misclassification, r.meanError, r.shimmerMax, r.triangles,
         r.pareto ? (c.isDefault() ? "yes (default)" : "yes") : (c.isDefault() ? "(default)" : ""));
   }

@@ -35,9 +35,12 @@ struct AppSettings {
   double lightAzimuthDeg = 140.0;
   double lightElevationDeg = 32.0;
   float ambient = 0.3f;
-  /// Far cascades draw simplified caster meshes: cascade c draws LOD cascadeLod[c].
+  /// Caster LODs on: each cascade draws a cluster's coarsest LOD whose geometric error is at
+  /// most lodMaxErrorTexels of its texels (csm::vk::RendererOptions::lodMaxErrorTexels), and at
+  /// least LOD cascadeLod[c] (an explicit schedule; all 0 by default).
   bool casterLods = true;
   std::array<std::uint32_t, csm::kMaxCascades> cascadeLod{};
+  float lodMaxErrorTexels = 0.5f;
   csm::DebugMode debug = csm::DebugMode::kNone;
   /// The cascade-visualisation overlay and its parts.
   bool overlay = false;

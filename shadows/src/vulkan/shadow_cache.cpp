@@ -440,12 +440,14 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
   auto drawRect = [&](std::uint32_t cascade, const CacheWindow& w,
                       const std::vector<std::uint32_t>& list, bool dynamic, const LayerRect& lr) {
     std::uint64_t triangles = 0;
-    const std::uint32_t lod = options_.cascadeLod[cascade];
+    const std::uint32_t schedule = options_.cascadeLod[cascade];
     for (std::uint32_t idx : list) {
       const CasterInstance& inst = casters.instances[idx];
       if (inst.dynamic != dynamic) continue;
       if (casterRects[idx].intersect(lr.world).empty()) continue;
-      const MeshDraw& mesh = casters.meshes[inst.meshForLod(lod)];
+      // The LOD of the uncached pass: the schedule and the texel error budget.
+      const MeshDraw& mesh = casters.meshes[inst.meshForLod(
+          casterLod(inst, schedule, w.texel, options_.lodMaxErrorTexels))];
       if (mesh.indexCount == 0) continue;
       if (bound == nullptr || bound->vertexBuffer != mesh.vertexBuffer ||
           bound->vertexBufferOffset != mesh.vertexBufferOffset) {

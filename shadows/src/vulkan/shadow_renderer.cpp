@@ -496,6 +496,11 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
                         options.cascadeLod[c], kMaxCasterLods));
     }
   }
+  if (!(options.lodMaxErrorTexels >= 0.0f && options.lodMaxErrorTexels <= 64.0f)) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("options.lodMaxErrorTexels = %g is invalid: allowed [0, 64] (0 = off)",
+                      double(options.lodMaxErrorTexels)));
+  }
   if ((options.cullMode & ~VkCullModeFlags(VK_CULL_MODE_FRONT_AND_BACK)) != 0) {
     return Status(ErrorCode::kInvalidArgument,
                   fmt("options.cullMode = %u is invalid: allowed VK_CULL_MODE_* flags",
@@ -549,7 +554,8 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
        settings.depthBiasSlope != settings_.depthBiasSlope ||
        settings.minCasterTexels != settings_.minCasterTexels ||
        options.cullMode != options_.cullMode || options.frontFace != options_.frontFace ||
-       options.cascadeLod != options_.cascadeLod)) {
+       options.cascadeLod != options_.cascadeLod ||
+       options.lodMaxErrorTexels != options_.lodMaxErrorTexels)) {
     invalidateAll();
   }
   settings_ = settings;
@@ -1047,6 +1053,13 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
                           "[0, %zu) or kNoMesh",
                           i, k, m, casters.meshes.size()));
       }
+      const float e = casters.instances[i].lodErrorM[k];
+      if (!(e >= 0.0f)) {
+        return Status(ErrorCode::kInvalidArgument,
+                      fmt("casters.instances[%zu].lodErrorM[%u] = %g is invalid: allowed "
+                          "[0, +inf] metres (kUnknownLodError = not known)",
+                          i, k, double(e)));
+      }
     }
   }
   if (visible) {
@@ -1076,6 +1089,14 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
     return recordCachedPass(cmd, frame, casters, *visible);
   }
   recordBegin(cmd, frame);
+  // The mesh cascade c draws instance i with: its LOD by the schedule and the texel error budget.
+  auto lodMesh = [&](std::size_t i, std::uint32_t c) {
+    const CasterInstance& inst = casters.instances[i];
+    const Cascade& cascade = frame.cascades[c];
+    return inst.meshForLod(casterLod(inst, options_.cascadeLod[c],
+                                     glm::min(cascade.texelSizeLs.x, cascade.texelSizeLs.y),
+                                     options_.lodMaxErrorTexels));
+  };
   const glm::dvec3 cam = frame.cameraPositionWs;
   const MeshDraw* bound = nullptr;
   auto drawCaster = [&](std::uint32_t index, std::uint32_t meshIndex, std::uint32_t cascadeOrMask,
@@ -1126,11 +1147,10 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
       // One instanced draw per distinct LOD mesh among the cascades the caster is culled into.
       while (mask != 0) {
         const std::uint32_t first = static_cast<std::uint32_t>(std::countr_zero(mask));
-        const std::uint32_t m = casters.instances[i].meshForLod(options_.cascadeLod[first]);
+        const std::uint32_t m = lodMesh(i, first);
         std::uint32_t same = 0;
         for (std::uint32_t c = first; c < frame.cascadeCount; ++c) {
-          if ((mask & (1u << c)) != 0 &&
-              casters.instances[i].meshForLod(options_.cascadeLod[c]) == m) {
+          if ((mask & (1u << c)) != 0 && lodMesh(i, c) == m) {
             same |= 1u << c;
           }
         }
@@ -1146,14 +1166,11 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
       if (cascadeHook_) cascadeHook_(cmd, c);
       beginLayer(cmd, c, false);
       bound = nullptr;
-      const std::uint32_t lod = options_.cascadeLod[c];
       if (visible) {
-        for (std::uint32_t i : visible->visible[c]) {
-          drawCaster(i, casters.instances[i].meshForLod(lod), c, 1);
-        }
+        for (std::uint32_t i : visible->visible[c]) drawCaster(i, lodMesh(i, c), c, 1);
       } else {
         for (std::size_t i = 0; i < instanceCount; ++i) {
-          drawCaster(static_cast<std::uint32_t>(i), casters.instances[i].meshForLod(lod), c, 1);
+          drawCaster(static_cast<std::uint32_t>(i), lodMesh(i, c), c, 1);
         }
       }
       endLayer(cmd);

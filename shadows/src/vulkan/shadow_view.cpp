@@ -39,6 +39,14 @@ Status checkInstances(std::span<const MeshDraw> meshes, std::span<const CasterIn
                                                      std::to_string(meshes.size()) +
                                                      ") (lodMeshes: or kNoMesh)");
     }
+    for (std::size_t k = 0; k < inst.lodErrorM.size(); ++k) {
+      if (!(inst.lodErrorM[k] >= 0.0f)) {
+        return Status(ErrorCode::kInvalidArgument,
+                      "setCasters: instances[" + std::to_string(i) + "].lodErrorM[" +
+                          std::to_string(k) + "] = " + std::to_string(inst.lodErrorM[k]) +
+                          " is invalid: allowed [0, +inf] metres (kUnknownLodError = not known)");
+      }
+    }
   }
   return {};
 }
@@ -97,7 +105,7 @@ void ShadowView::adoptCasters(std::span<const MeshDraw> meshes,
   if (options_.cache) {
     auto same = [](const CasterInstance& a, const CasterInstance& b) {
       return a.mesh == b.mesh && a.translationWs == b.translationWs && a.linearWs == b.linearWs &&
-             a.lodMeshes == b.lodMeshes && a.dynamic == b.dynamic;
+             a.lodMeshes == b.lodMeshes && a.lodErrorM == b.lodErrorM && a.dynamic == b.dynamic;
     };
     auto sameBox = [](const AabbWs& a, const AabbWs& b) {
       return a.minWs == b.minWs && a.maxWs == b.maxWs;

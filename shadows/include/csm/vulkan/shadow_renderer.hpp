@@ -31,6 +31,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <span>
 #include <vector>
@@ -79,6 +80,9 @@ inline constexpr std::uint32_t kMaxCasterLods = 4;
 /// "No mesh" in CasterInstance::lodMeshes.
 inline constexpr std::uint32_t kNoMesh = UINT32_MAX;
 
+/// "Error not known" in CasterInstance::lodErrorM.
+inline constexpr float kUnknownLodError = std::numeric_limits<float>::infinity();
+
 /// How the vertex buffers of casters are laid out: the depth pass reads a float3 position.
 struct VertexLayout {
   /// Bytes from one vertex to the next.
@@ -118,10 +122,16 @@ struct RendererOptions {
   /// pass (the destination of the pass's final barrier, the source of its first one).
   VkPipelineStageFlags2 consumerStages =
       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  /// The caster LOD each cascade draws, [0, kMaxCasterLods): an instance without that LOD draws
-  /// its nearest coarser-or-equal one it has (see CasterInstance::lodMeshes). All 0: full detail
-  /// everywhere (the default: simplified meshes' silhouettes cost accuracy, see README).
+  /// The caster LOD each cascade draws at least, [0, kMaxCasterLods): an instance without that
+  /// LOD draws its nearest coarser-or-equal one it has (see CasterInstance::lodMeshes). An
+  /// explicit schedule; all 0 (the default) leaves the choice to lodMaxErrorTexels.
   std::array<std::uint32_t, kMaxCascades> cascadeLod{};
+  /// LODs by the error they make in the cascade's texels: cascade c draws an instance with its
+  /// coarsest LOD k whose CasterInstance::lodErrorM[k - 1] is at most lodMaxErrorTexels times
+  /// the cascade's texel size (the coarser of that and cascadeLod[c]). 0 = off (the cascadeLod
+  /// schedule alone); [0, 64]. Default half a texel: a simplified silhouette moves the shadow's
+  /// edge by less than the depth test's own half-texel quantisation (see README).
+  float lodMaxErrorTexels = 0.5f;
   /// Cached cascades (kPerLayer only): static casters' depth is kept per cascade across frames
   /// in a second image and only newly exposed, invalidated or new-window texels are rendered;
   /// layers are addressed toroidally (texels fixed in the world, nothing is moved), each
@@ -153,6 +163,11 @@ struct CasterInstance {
   /// Coarser LODs: lodMeshes[k - 1] is the mesh of LOD k, or kNoMesh when the instance has none
   /// (a cascade asking for LOD k then draws the highest LOD below k that the instance has).
   std::array<std::uint32_t, kMaxCasterLods - 1> lodMeshes{kNoMesh, kNoMesh, kNoMesh};
+  /// Geometric error of each coarser LOD, metres in the world (after linearWs): lodErrorM[k - 1]
+  /// bounds how far LOD k's surface lies from LOD 0's (a Hausdorff distance), >= 0. +infinity
+  /// (the default) = unknown: LOD k is then drawn only where RendererOptions::cascadeLod asks.
+  std::array<float, kMaxCasterLods - 1> lodErrorM{kUnknownLodError, kUnknownLodError,
+                                                  kUnknownLodError};
   /// A caster that moves (or changes) every frame: with RendererOptions::cache it is drawn
   /// every frame over the cached static depth. Static casters (the default) are cached: when
   /// one is added, removed or moved, the host invalidates its old and new bounds
@@ -168,6 +183,26 @@ struct CasterInstance {
     return mesh;
   }
 };
+
+/// The LOD a cascade with texels of `texelSizeM` metres draws `instance` with: the coarsest LOD
+/// the instance has whose lodErrorM is at most maxErrorTexels * texelSizeM, or `scheduledLod`
+/// when that is coarser (RendererOptions::cascadeLod, lodMaxErrorTexels). Draw
+/// instance.meshForLod() of the result.
+[[nodiscard]] inline std::uint32_t casterLod(const CasterInstance& instance,
+                                             std::uint32_t scheduledLod, double texelSizeM,
+                                             float maxErrorTexels) noexcept {
+  std::uint32_t lod = std::min(scheduledLod, kMaxCasterLods - 1);
+  if (maxErrorTexels > 0.0f) {
+    const double budgetM = static_cast<double>(maxErrorTexels) * texelSizeM;
+    for (std::uint32_t k = kMaxCasterLods - 1; k > lod; --k) {
+      if (instance.lodMeshes[k - 1] != kNoMesh &&
+          static_cast<double>(instance.lodErrorM[k - 1]) <= budgetM) {
+        return k;
+      }
+    }
+  }
+  return lod;
+}
 
 /// The caster list of one frame: meshes and their instances.
 struct CasterList {
