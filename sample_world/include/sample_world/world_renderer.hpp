@@ -36,6 +36,7 @@ struct FrameStats {
   std::uint32_t cascadeCount = 0;
   std::array<std::uint32_t, csm::kMaxCascades> casters{};
   std::array<std::uint64_t, csm::kMaxCascades> triangles{};
+  /// The coarsest LOD a cluster was drawn with in each cascade.
   std::array<std::uint32_t, csm::kMaxCascades> lod{};
   std::uint32_t litInstances = 0;
   std::uint64_t litTriangles = 0;
