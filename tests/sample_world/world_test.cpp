@@ -180,7 +180,9 @@ TEST(World, LodErrorsAreRecorded) {
       EXPECT_EQ(c.lodErrorM[2], 0.0f) << c.name;
     } else {
       // Buildings are not simplified (error 0); vegetation is.
-      if (c.name.rfind("vegetation", 0) == 0) EXPECT_GT(c.lodErrorM[1], 0.0f) << c.name;
+      if (c.name.rfind("vegetation", 0) == 0) {
+        EXPECT_GT(c.lodErrorM[1], 0.0f) << c.name;
+      }
       EXPECT_LE(c.lodErrorM[1], c.lodErrorM[2]) << c.name;
       EXPECT_TRUE(std::isfinite(c.lodErrorM[2])) << c.name;
     }
