@@ -584,6 +584,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
     ImGui::PopID();
     s.cascadeLod[c] = static_cast<std::uint32_t>(lod);
   }
+  changed |= ImGui::SliderFloat("LOD max error", &s.lodMaxErrorTexels, 0.0f, 4.0f, "%.2f texels");
   int debug = static_cast<int>(s.debug);
   changed |= ImGui::Combo(
       "debug output", &debug,

@@ -257,11 +257,11 @@ TEST(ShadowView, CascadesDrawTheLodTheSettingsName) {
 TEST(ShadowView, CasterLodIsTheCoarsestWithinTheTexelBudget) {
   csm::vk::CasterInstance in;
   in.lodMeshes = {7, 8, 9};
-  in.lodErrorM = {0.1f, 0.4f, 2.0f};
-  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.1, 0.5f), 0u);   // budget 0.05 m < 0.1 m
-  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.2, 0.5f), 1u);   // budget 0.1 m: LOD 1 exactly
-  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.79, 0.5f), 1u);  // 0.395 m < 0.4 m
-  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.8, 0.5f), 2u);   // 0.4 m
+  in.lodErrorM = {0.125f, 0.375f, 2.0f};                 // exact in float and double
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.2, 0.5f), 0u);   // budget 0.1 m < 0.125 m
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.25, 0.5f), 1u);  // budget 0.125 m: LOD 1 exactly
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.74, 0.5f), 1u);  // 0.37 m < 0.375 m
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.75, 0.5f), 2u);  // 0.375 m
   EXPECT_EQ(csm::vk::casterLod(in, 0, 4.0, 0.5f), 3u);   // 2 m
   EXPECT_EQ(csm::vk::casterLod(in, 0, 4.0, 0.0f), 0u);   // budget off: the schedule alone
   EXPECT_EQ(csm::vk::casterLod(in, 2, 0.1, 0.5f), 2u);   // the schedule is a floor

@@ -40,6 +40,7 @@ struct FrameStats {
   std::array<std::uint64_t, csm::kMaxCascades> texelsRendered{};
   /// Device memory of the static-depth cache (0 without it).
   std::uint64_t cacheBytes = 0;
+  /// The coarsest LOD a cluster was drawn with in each cascade.
   std::array<std::uint32_t, csm::kMaxCascades> lod{};
   std::uint32_t litInstances = 0;
   std::uint64_t litTriangles = 0;
