@@ -257,7 +257,8 @@ json cascadesJson(const world::FrameStats& st) {
                    {"empty", cs.empty},
                    {"lod", st.lod[c]},
                    {"casters", st.casters[c]},
-                   {"triangles", st.triangles[c]}});
+                   {"triangles", st.triangles[c]},
+                   {"texels_rendered", st.texelsRendered[c]}});
   }
   return arr;
 }
@@ -467,8 +468,34 @@ int runHeadless(const Options& o, const std::string& why) {
         {"gpu_lit_ms", mean([](const json& f) { return f["gpu_ms"]["lit"].get<double>(); })},
         {"wall_frame_ms", mean([](const json& f) { return f["wall_ms"].get<double>(); })},
     };
+    // Medians over the frames after the first (the cache's first frame renders everything).
+    auto median = [&](auto get) {
+      std::vector<double> v;
+      for (std::size_t i = 1; i < framesJson.size(); ++i) {
+        if (!framesJson[i].contains("screenshot")) v.push_back(get(framesJson[i]));
+      }
+      if (v.empty()) return 0.0;
+      std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+      return v[v.size() / 2];
+    };
+    summary["shadow_cache"] = o.settings.shadowCache;
+    summary["shadow_cache_bytes"] = lastStats.cacheBytes;
+    summary["gpu_shadow_ms_median"] =
+        median([](const json& f) { return f["gpu_ms"]["shadow"].get<double>(); });
     for (std::uint32_t c = 0; c < o.settings.shadow.cascadeCount; ++c) {
       const std::string k = "shadow c" + std::to_string(c);
+      summary["gpu_" + k + "_ms_median"] = median([&](const json& f) {
+        return f["gpu_ms"].contains(k) ? f["gpu_ms"][k].get<double>() : 0.0;
+      });
+      summary["texels_rendered_c" + std::to_string(c) + "_median"] = median([&](const json& f) {
+        return f["cascades"].size() > c ? f["cascades"][c]["texels_rendered"].get<double>() : 0.0;
+      });
+      summary["triangles_c" + std::to_string(c) + "_median"] = median([&](const json& f) {
+        return f["cascades"].size() > c ? f["cascades"][c]["triangles"].get<double>() : 0.0;
+      });
+      summary["texels_rendered_c" + std::to_string(c)] = mean([&](const json& f) {
+        return f["cascades"].size() > c ? f["cascades"][c]["texels_rendered"].get<double>() : 0.0;
+      });
       summary["gpu_" + k + "_ms"] = mean([&](const json& f) {
         return f["gpu_ms"].contains(k) ? f["gpu_ms"][k].get<double>() : 0.0;
       });
@@ -637,6 +664,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
     s.cascadeLod[c] = static_cast<std::uint32_t>(lod);
   }
   ImGui::EndDisabled();
+  changed |= ImGui::SliderFloat("LOD max error", &s.lodMaxErrorTexels, 0.0f, 4.0f, "%.2f texels");
   int debug = static_cast<int>(s.debug);
   changed |= ImGui::Combo(
       "debug output", &debug,

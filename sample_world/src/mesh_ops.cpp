@@ -114,6 +114,75 @@ MeshData decimate(const MeshData& in, double targetFraction) {
 
 namespace {
 
+// Squared distance from p to triangle abc (closest point by Voronoi regions of the triangle).
+float pointTriangleDistance2(const glm::vec3& p, const glm::vec3& a, const glm::vec3& b,
+                             const glm::vec3& c) {
+  const glm::vec3 ab = b - a, ac = c - a, ap = p - a;
+  const float d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+  auto d2To = [&](const glm::vec3& q) { return glm::dot(p - q, p - q); };
+  if (d1 <= 0.0f && d2 <= 0.0f) return d2To(a);
+  const glm::vec3 bp = p - b;
+  const float d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+  if (d3 >= 0.0f && d4 <= d3) return d2To(b);
+  const float vc = d1 * d4 - d3 * d2;
+  if (vc <= 0.0f && d1 >= 0.0f && d3 <= 0.0f) return d2To(a + ab * (d1 / (d1 - d3)));
+  const glm::vec3 cp = p - c;
+  const float d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+  if (d6 >= 0.0f && d5 <= d6) return d2To(c);
+  const float vb = d5 * d2 - d1 * d6;
+  if (vb <= 0.0f && d2 >= 0.0f && d6 <= 0.0f) return d2To(a + ac * (d2 / (d2 - d6)));
+  const float va = d3 * d6 - d5 * d4;
+  if (va <= 0.0f && (d4 - d3) >= 0.0f && (d5 - d6) >= 0.0f) {
+    return d2To(b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
+  }
+  const float denom = va + vb + vc;
+  if (!(std::abs(denom) > 0.0f)) {  // degenerate triangle: its edges' end points
+    return std::min({d2To(a), d2To(b), d2To(c)});
+  }
+  return d2To(a + ab * (vb / denom) + ac * (vc / denom));
+}
+
+// Largest distance from `from`'s vertices and triangle centroids to the surface of `to`.
+double oneSidedDistance(const MeshData& from, const MeshData& to) {
+  struct Tri {
+    glm::vec3 a, b, c, lo, hi;
+  };
+  std::vector<Tri> tris;
+  tris.reserve(to.indices.size() / 3);
+  for (std::size_t t = 0; t + 2 < to.indices.size(); t += 3) {
+    const glm::vec3 a = to.positions[to.indices[t]], b = to.positions[to.indices[t + 1]],
+                    c = to.positions[to.indices[t + 2]];
+    tris.push_back({a, b, c, glm::min(a, glm::min(b, c)), glm::max(a, glm::max(b, c))});
+  }
+  if (tris.empty()) return from.positions.empty() ? 0.0 : std::numeric_limits<double>::infinity();
+  std::vector<glm::vec3> points = from.positions;
+  for (std::size_t t = 0; t + 2 < from.indices.size(); t += 3) {
+    points.push_back((from.positions[from.indices[t]] + from.positions[from.indices[t + 1]] +
+                      from.positions[from.indices[t + 2]]) /
+                     3.0f);
+  }
+  float worst2 = 0.0f;
+  for (const glm::vec3& p : points) {
+    float best2 = std::numeric_limits<float>::max();
+    for (const Tri& tri : tris) {
+      const glm::vec3 gap = glm::max(glm::max(tri.lo - p, p - tri.hi), glm::vec3(0.0f));
+      if (glm::dot(gap, gap) >= best2) continue;
+      best2 = std::min(best2, pointTriangleDistance2(p, tri.a, tri.b, tri.c));
+      if (best2 <= worst2) break;  // cannot raise the maximum
+    }
+    worst2 = std::max(worst2, best2);
+  }
+  return std::sqrt(static_cast<double>(worst2));
+}
+
+}  // namespace
+
+double simplificationErrorM(const MeshData& original, const MeshData& simplified) {
+  return std::max(oneSidedDistance(original, simplified), oneSidedDistance(simplified, original));
+}
+
+namespace {
+
 std::string lower(std::string s) {
   std::transform(s.begin(), s.end(), s.begin(),
                  [](unsigned char c) { return static_cast<char>(std::tolower(c)); });

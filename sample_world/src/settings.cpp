@@ -176,6 +176,7 @@ const std::vector<Entry>& table() {
       number<float>("shadow.normalOffset", "texels in [0, 16]", 0, 16, false,
                     [](AppSettings& s) -> float& { return s.shadow.normalOffsetTexels; }),
       boolean("shadow.stabilize", [](AppSettings& s) -> bool& { return s.shadow.stabilize; }),
+      boolean("shadow.cache", [](AppSettings& s) -> bool& { return s.shadowCache; }),
       number<float>("shadow.minCasterTexels", "texels in [0, 1e6]", 0, 1e6, false,
                     [](AppSettings& s) -> float& { return s.shadow.minCasterTexels; }),
       choice("shadow.depthFormat", "one of d32, d16", kDepthFormats,
@@ -218,6 +219,8 @@ const std::vector<Entry>& table() {
          return nlohmann::json(
              std::vector<std::uint32_t>(s.cascadeLod.begin(), s.cascadeLod.end()));
        }},
+      number<float>("lod.maxErrorTexels", "texels in [0, 64] (0 = the lod.cascades schedule alone)",
+                    0, 64, false, [](AppSettings& s) -> float& { return s.lodMaxErrorTexels; }),
       number<float>("ambient", "a number in [0, 1]", 0, 1, false,
                     [](AppSettings& s) -> float& { return s.ambient; }),
       choice("debug", "one of none, normal, shadow, lightcoords, depth, depthdiff, cascade",
@@ -256,7 +259,6 @@ AppSettings::AppSettings() {
   shadow.splitLambda = 0.8;
   // A moving sun changes the maps only every quarter degree (issue 10).
   shadow.lightStepDeg = 0.25;
-  cascadeLod = {0, 1, 2, 2, 2, 2, 2, 2};
 }
 
 std::optional<std::string> setSetting(AppSettings& s, const std::string& key,

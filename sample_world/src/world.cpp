@@ -168,12 +168,26 @@ struct Shape {
   }
 };
 
+// Records each LOD's geometric error against LOD 0 (0 where the LOD is LOD 0's mesh).
+void measureLodErrors(MeshAsset& asset) {
+  asset.lodErrorM[0] = 0.0f;
+  for (std::uint32_t l = 1; l < kLodCount; ++l) {
+    const bool same = asset.lods[l].indices == asset.lods[0].indices &&
+                      asset.lods[l].positions == asset.lods[0].positions;
+    asset.lodErrorM[l] =
+        same ? 0.0f
+             : std::max(asset.lodErrorM[l - 1],
+                        static_cast<float>(simplificationErrorM(asset.lods[0], asset.lods[l])));
+  }
+}
+
 MeshAsset makeAsset(std::string name, const Shape& shape, double lod1, double lod2) {
   MeshAsset asset;
   asset.name = std::move(name);
   asset.lods[0] = finishMesh(shape.p, shape.i);
   asset.lods[1] = lod1 < 1.0 ? decimate(asset.lods[0], lod1) : asset.lods[0];
   asset.lods[2] = lod2 < 1.0 ? decimate(asset.lods[1], lod2 / lod1) : asset.lods[1];
+  measureLodErrors(asset);
   return asset;
 }
 
@@ -604,6 +618,7 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
     a.lods[0] = std::move(*userMesh);
     a.lods[1] = decimate(a.lods[0], 0.3);
     a.lods[2] = decimate(a.lods[1], 0.3);
+    measureLodErrors(a);
     const std::uint32_t m = addAsset(std::move(a));
     const double x = centre.x - 60.0, z = centre.z - 80.0;
     place(m, Kind::kUser, {x, heightWs(x, z), z}, yawScale(0.0, 1.0), {0.85f, 0.55f, 0.3f});
@@ -645,6 +660,7 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
       c.name = w.meshes[ob.mesh].name;
       c.originWs = ob.translationWs;
       c.asset = static_cast<std::int32_t>(ob.mesh);
+      c.lodErrorM = w.meshes[ob.mesh].lodErrorM;  // terrain chunks are placed unscaled
       c.boundsWs = ob.boundsWs;
       c.objectCount = 1;
       w.clusters.push_back(std::move(c));
@@ -664,8 +680,13 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
     for (std::uint32_t k : members[m]) {
       const Object& ob = w.objects[k];
       const glm::vec3 offset(ob.translationWs - c.originWs);
+      // Distances grow at most by the transform's largest column length (its largest stretch
+      // for the sample world's rotation-times-scale transforms).
+      const float stretch = std::max(
+          {glm::length(ob.linear[0]), glm::length(ob.linear[1]), glm::length(ob.linear[2])});
       for (std::uint32_t l = 0; l < kLodCount; ++l) {
         appendTransformed(c.lods[l], w.meshes[ob.mesh].lods[l], offset, ob.linear);
+        c.lodErrorM[l] = std::max(c.lodErrorM[l], w.meshes[ob.mesh].lodErrorM[l] * stretch);
       }
       c.boundsWs.minWs = glm::min(c.boundsWs.minWs, ob.boundsWs.minWs);
       c.boundsWs.maxWs = glm::max(c.boundsWs.maxWs, ob.boundsWs.maxWs);

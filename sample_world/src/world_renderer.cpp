@@ -85,8 +85,8 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
     throw std::runtime_error("world too large for 32-bit mesh indices");
   }
   meshes_ =
-      std::make_unique<engine::MeshStore>(ctx, static_cast<std::uint32_t>(vertices + 16),
-                                          static_cast<std::uint32_t>(indices + 16), "world.meshes");
+      std::make_unique<engine::MeshStore>(ctx, static_cast<std::uint32_t>(vertices + 64),
+                                          static_cast<std::uint32_t>(indices + 64), "world.meshes");
   for (const MeshAsset& a : world.meshes) {
     std::array<engine::MeshRange, kLodCount> r{};
     for (std::uint32_t l = 0; l < kLodCount; ++l) r[l] = upload(*meshes_, a.lods[l]);
@@ -112,7 +112,23 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
     chunkBounds_[ob.chunk].minWs = glm::min(chunkBounds_[ob.chunk].minWs, ob.boundsWs.minWs);
     chunkBounds_[ob.chunk].maxWs = glm::max(chunkBounds_[ob.chunk].maxWs, ob.boundsWs.maxWs);
   }
-  maxInstances_ = static_cast<std::uint32_t>(world.objects.size());
+  // Dynamic casters: a unit cube asset after the world's meshes.
+  {
+    std::vector<engine::Vertex> v;
+    std::vector<std::uint32_t> idx;
+    engine::makeCube(v, idx);
+    const engine::MeshRange cube = meshes_->upload(v, idx);
+    cubeMesh_ = static_cast<std::uint32_t>(assetRanges_.size());
+    assetRanges_.push_back({cube, cube, cube});
+    // Six vehicles on circles of 12-90 m about the camera's ground point (cars and trucks),
+    // and a crane jib swinging 25 m above the ground 45 m from it.
+    movers_ = {
+        {12.0, 0.020, 0.0, {4.5, 1.6, 2.0}, false},  {22.0, -0.012, 1.0, {4.5, 1.6, 2.0}, false},
+        {35.0, 0.009, 2.0, {9.0, 3.2, 2.6}, false},  {50.0, -0.007, 3.0, {4.5, 1.6, 2.0}, false},
+        {70.0, 0.005, 4.0, {12.0, 3.6, 2.6}, false}, {90.0, -0.004, 5.0, {4.5, 1.6, 2.0}, false},
+        {30.0, 0.01, 0.0, {30.0, 1.2, 1.2}, true}};
+  }
+  maxInstances_ = static_cast<std::uint32_t>(world.objects.size() + movers_.size());
   bucketObjects_.resize(world.meshes.size() * kLodCount);
 
   // ---- Shadow renderer ----------------------------------------------------------------------
@@ -125,6 +141,9 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
     csm::vk::CasterInstance in;
     in.mesh = static_cast<std::uint32_t>(draws.size());
     in.translationWs = world.clusters[k].originWs;
+    for (std::uint32_t l = 1; l < kLodCount; ++l) {
+      in.lodErrorM[l - 1] = world.clusters[k].lodErrorM[l];
+    }
     for (std::uint32_t l = 0; l < kLodCount; ++l) {
       const engine::MeshRange& r = clusterRanges_[k][l];
       csm::vk::MeshDraw d;
@@ -139,6 +158,26 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
     instances.push_back(in);
     bounds.push_back(world.clusters[k].boundsWs);
   }
+  // The movers' casters follow the static clusters (one mesh, drawn at every LOD).
+  staticCasters_ = instances.size();
+  csm::vk::MeshDraw cubeDraw;
+  cubeDraw.vertexBuffer = meshes_->vertexBuffer();
+  cubeDraw.indexBuffer = meshes_->indexBuffer();
+  cubeDraw.firstIndex = assetRanges_[cubeMesh_][0].firstIndex;
+  cubeDraw.indexCount = assetRanges_[cubeMesh_][0].indexCount;
+  cubeDraw.vertexOffset = assetRanges_[cubeMesh_][0].vertexOffset;
+  const std::uint32_t cubeDrawIndex = static_cast<std::uint32_t>(draws.size());
+  draws.push_back(cubeDraw);
+  for (std::size_t k = 0; k < movers_.size(); ++k) {
+    csm::vk::CasterInstance in;
+    in.mesh = cubeDrawIndex;
+    in.dynamic = true;
+    instances.push_back(in);
+    bounds.push_back({glm::dvec3(0.0), glm::dvec3(1.0)});
+  }
+  casterDraws_ = draws;
+  casterInstances_ = instances;
+  casterBounds_ = bounds;
   csm::vk::Status casterStatus = shadow_->setCasters(draws, instances, bounds);
   if (casterStatus.ok()) casterStatus = shadow_->setSceneBounds(&world.boundsWs);
   if (!casterStatus.ok()) throw std::runtime_error("ShadowView: " + casterStatus.message());
@@ -260,10 +299,14 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   csm::vk::RendererOptions options;
   options.depthFormat = settings.depth16 ? VK_FORMAT_D16_UNORM : VK_FORMAT_D32_SFLOAT;
   options.consumerStages = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  options.cache = settings.shadowCache;
   if (settings.casterLods) {
     for (std::uint32_t c = 0; c < csm::kMaxCascades; ++c) {
       options.cascadeLod[c] = std::min(settings.cascadeLod[c], kLodCount - 1);
     }
+    options.lodMaxErrorTexels = settings.lodMaxErrorTexels;
+  } else {
+    options.lodMaxErrorTexels = 0.0f;
   }
   const csm::vk::Status s = shadow_->setSettings(effectiveShadow(settings), options);
   if (!s.ok()) return s.message();
@@ -294,9 +337,10 @@ std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, 
   c.farM = camera.farM;
   const csm::DirectionalLight light{lightDirection(settings_)};
 
-  // The shadows: cascades for this camera, and the casters culled into them.
+  // The shadows: dynamic casters moved, cascades for this camera, the casters culled into them.
   auto t0 = Clock::now();
   shadow_->setReceiverDepthRange(settings_.receiverSplits ? receiverRange_ : std::nullopt);
+  moveDynamicCasters();
   const csm::vk::Status r = shadow_->compute(c, light);
   stats.cpuSetupMs = msSince(t0);
   if (!r.ok()) return r.message();
@@ -358,11 +402,71 @@ std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, 
         std::uint64_t(assetRanges_[bucket.mesh][bucket.lod].indexCount / 3) * bucket.count;
     buckets_.push_back(bucket);
   }
+  if (!moverInstances_.empty()) {
+    Bucket bucket;
+    bucket.mesh = cubeMesh_;
+    bucket.lod = 0;
+    bucket.first = static_cast<std::uint32_t>(instances_.size());
+    instances_.insert(instances_.end(), moverInstances_.begin(), moverInstances_.end());
+    bucket.count = static_cast<std::uint32_t>(moverInstances_.size());
+    stats.litTriangles += std::uint64_t(assetRanges_[cubeMesh_][0].indexCount / 3) * bucket.count;
+    buckets_.push_back(bucket);
+  }
   stats.litInstances = static_cast<std::uint32_t>(instances_.size());
   stats.cpuCullMs = msSince(t0);
   stats.cascades = cascades;
   stats.cascadeCount = cascades.cascadeCount;
   return std::nullopt;
+}
+
+void WorldRenderer::moveDynamicCasters() {
+  const double t = double(frameCounter_++);
+  const glm::dvec3 cam = camera_.positionWs;
+  moverInstances_.clear();
+  for (std::size_t k = 0; k < movers_.size(); ++k) {
+    const Mover& m = movers_[k];
+    const double a = m.phase + m.speed * t;
+    glm::dvec3 at;
+    double yaw;
+    if (m.crane) {
+      // The crane's mast stands 45 m from the camera's ground point; its jib swings about it.
+      const glm::dvec3 mast(cam.x + 45.0, 0.0, cam.z + 20.0);
+      at = mast + glm::dvec3(std::cos(a), 0.0, std::sin(a)) * (0.5 * m.sizeM.x);
+      at.y = world_->heightAt(mast.x, mast.z) + 25.0;
+      yaw = -a;
+    } else {
+      at = glm::dvec3(cam.x + m.radiusM * std::cos(a), 0.0, cam.z + m.radiusM * std::sin(a));
+      at.y = world_->heightAt(at.x, at.z) + 0.5 * m.sizeM.y + 0.3;
+      yaw = -a + (m.speed > 0 ? -1.0 : 1.0) * 1.5707963;  // along the circle
+    }
+    const double c = std::cos(yaw), s = std::sin(yaw);
+    // The unit cube spans [-1, 1]: half extents.
+    const glm::dmat3 linear =
+        glm::dmat3(glm::dvec3(c, 0, -s), glm::dvec3(0, 1, 0), glm::dvec3(s, 0, c)) *
+        glm::dmat3(0.5 * m.sizeM.x, 0, 0, 0, 0.5 * m.sizeM.y, 0, 0, 0, 0.5 * m.sizeM.z);
+    csm::vk::CasterInstance& in = casterInstances_[staticCasters_ + k];
+    in.translationWs = at;
+    in.linearWs = glm::mat3(linear);
+    csm::AabbWs b{glm::dvec3(1e300), glm::dvec3(-1e300)};
+    for (int i = 0; i < 8; ++i) {
+      const glm::dvec3 p =
+          at + linear * glm::dvec3((i & 1) ? 1 : -1, (i & 2) ? 1 : -1, (i & 4) ? 1 : -1);
+      b.minWs = glm::min(b.minWs, p);
+      b.maxWs = glm::max(b.maxWs, p);
+    }
+    casterBounds_[staticCasters_ + k] = b;
+    Instance li;
+    const glm::vec3 tr(at - cam);
+    for (int row = 0; row < 3; ++row) {
+      li.rows[row] =
+          glm::vec4(float(linear[0][row]), float(linear[1][row]), float(linear[2][row]), tr[row]);
+    }
+    li.color = m.crane ? glm::vec4(0.95f, 0.75f, 0.1f, 1.0f) : glm::vec4(0.7f, 0.1f, 0.1f, 1.0f);
+    moverInstances_.push_back(li);
+  }
+  // Only the dynamic instances changed: the view keeps the static cache (it compares).
+  const csm::vk::Status s = shadow_->setCasters(casterDraws_, casterInstances_, casterBounds_);
+  if (!s.ok()) throw std::runtime_error("ShadowView::setCasters: " + s.message());
 }
 
 void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool overlay,
@@ -382,9 +486,23 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
   stats.triangles = {};
   for (std::uint32_t c = 0; c < cascades.cascadeCount; ++c) {
     if (cascades.cascades[c].empty) continue;
-    const std::uint32_t lod = shadow_->options().cascadeLod[c];
-    stats.lod[c] = lod;
+    // The LOD the module draws each cluster with (schedule and texel error budget); stats.lod
+    // is the coarsest one the cascade drew.
+    const csm::vk::RendererOptions& options = shadow_->options();
+    const double texelM =
+        std::min(cascades.cascades[c].texelSizeLs.x, cascades.cascades[c].texelSizeLs.y);
+    stats.lod[c] = 0;
     for (std::uint32_t k : culled.visible[c]) {
+      if (k >= clusterRanges_.size()) {  // a dynamic caster (the cube, every LOD)
+        ++stats.casters[c];
+        stats.triangles[c] += assetRanges_[cubeMesh_][0].indexCount / 3;
+        continue;
+      }
+      const std::uint32_t lod =
+          std::min(csm::vk::casterLod(shadow_->instances()[k], options.cascadeLod[c], texelM,
+                                      options.lodMaxErrorTexels),
+                   kLodCount - 1);
+      stats.lod[c] = std::max(stats.lod[c], lod);
       const engine::MeshRange& r = clusterRanges_[k][lod];
       if (r.indexCount == 0) continue;
       ++stats.casters[c];
@@ -409,6 +527,19 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
   if (!openScope.empty()) timer.end(cmd, openScope);
   timer.end(cmd, "shadow");
   if (!s.ok()) throw std::runtime_error("ShadowView::recordPass: " + s.message());
+  // What was drawn: with the cache only the re-rendered texels and their casters' triangles.
+  stats.texelsRendered = {};
+  stats.cacheBytes = shadow_->renderer().cacheBytes();
+  for (std::uint32_t c = 0; c < cascades.cascadeCount; ++c) {
+    if (cascades.cascades[c].empty) continue;
+    if (shadow_->options().cache) {
+      const csm::vk::CascadeCacheStats& cs = shadow_->renderer().cacheStats()[c];
+      stats.texelsRendered[c] = cs.staticTexels;
+      stats.triangles[c] = cs.staticTriangles + cs.dynamicTriangles;
+    } else {
+      stats.texelsRendered[c] = std::uint64_t(cascades.resolution) * cascades.resolution;
+    }
+  }
 
   // ---- Lit pass ---------------------------------------------------------------------------------
   WorldFrameGpu gpu{};
@@ -571,7 +702,7 @@ void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& 
       const glm::vec4 tint(csm::cascadeTint(c), 0.9f);
       const float dot = 1.0f + 0.5f * static_cast<float>(c);
       for (std::uint32_t k : culled.visible[static_cast<std::size_t>(c)]) {
-        const csm::AabbWs& b = world_->clusters[k].boundsWs;
+        const csm::AabbWs& b = casterBounds_[k];  // clusters, then the dynamic casters
         const glm::vec2 p = toMap(0.5 * (b.minWs + b.maxWs));
         if (p.x < origin.x || p.y < origin.y || p.x > origin.x + size || p.y > origin.y + size) {
           continue;

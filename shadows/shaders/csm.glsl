@@ -33,6 +33,7 @@ struct CsmCascade {
   vec4 splitTexel;  // x split near (m), y split far (m), z texel size (m), w kernel scale
   vec4 depthInfo;   // x blend band start (view depth, m), y metres per unit of stored depth,
                     // zw world-grid index of texel (0, 0) mod CSM_WORLD_TEXEL_PERIOD
+  vec4 wrapInfo;    // xy cached cascades: wrap offset (texels) of the box's texel (0, 0)
 };
 
 layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniformBlock {
@@ -40,7 +41,7 @@ layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniform
   vec4 cameraForward;   // xyz camera forward, w shadow far (m)
   vec4 lightDirection;  // xyz direction the light travels
   vec4 params;          // x blend band, y normal offset (texels), z resolution, w 1 / resolution
-  uvec4 counts;         // x cascade count, y non-empty mask, z debug mode
+  uvec4 counts;         // x cascade count, y non-empty mask, z debug mode, w wrapped (cache)
   vec4 biasParams;      // x depth floor (texels), y depth floor (units of stored depth)
   vec4 softParams;      // x tan(light angular diameter / 2), y largest penumbra radius (m)
 } csmU;
@@ -102,9 +103,40 @@ float csmKernelRadius() {
   return CSM_KERNEL_RADIUS_1TAP;
 }
 
+/// Cached cascades (CsmUniforms.counts.w != 0) address each layer toroidally: texel t of the
+/// cascade's box lives at layer texel t + wrap offset (wrapInfo.xy), modulo the resolution, and
+/// the samplers REPEAT. Box texel coordinates -> layer uv; identity when not cached.
+vec2 csmWrapUv(vec2 t, int cascade) {
+  const vec2 offset = csmU.counts.w != 0u ? csmU.cascades[cascade].wrapInfo.xy : vec2(0.0);
+  return (t + offset) * csmU.params.w;
+}
+
 /// One bilinear comparison tap at shadow-map texel coordinates `t` (texel centres at i + 0.5).
-/// Explicit zero gradients: valid in every stage, compute included.
+/// Explicit zero gradients: valid in every stage, compute included. Texels outside the
+/// cascade's box read lit (depth 1, the border of the unwrapped map): in a wrapped layer a tap
+/// that straddles the box's edge is filtered by hand from a gather, its outside texels lit.
 float csmTap(vec2 t, float layer, float depth) {
+  if (csmU.counts.w != 0u) {
+    const float res = csmU.params.z;
+    const vec2 f = t - 0.5;
+    const vec2 i0 = floor(f);
+    if (any(lessThan(i0, vec2(0.0))) || any(greaterThan(i0 + 1.0, vec2(res - 1.0)))) {
+      // textureGather order: (i0, j1), (i1, j1), (i1, j0), (i0, j0).
+      const vec4 g = textureGather(csmShadowMap, vec3(csmWrapUv(i0 + 1.0, int(layer)), layer),
+                                   depth);
+      const bvec2 in0 = bvec2(i0.x >= 0.0 && i0.x <= res - 1.0, i0.y >= 0.0 && i0.y <= res - 1.0);
+      const bvec2 in1 = bvec2(i0.x + 1.0 >= 0.0 && i0.x + 1.0 <= res - 1.0,
+                              i0.y + 1.0 >= 0.0 && i0.y + 1.0 <= res - 1.0);
+      const float t00 = in0.x && in0.y ? g.w : 1.0;
+      const float t10 = in1.x && in0.y ? g.z : 1.0;
+      const float t01 = in0.x && in1.y ? g.x : 1.0;
+      const float t11 = in1.x && in1.y ? g.y : 1.0;
+      const vec2 w = f - i0;
+      return mix(mix(t00, t10, w.x), mix(t01, t11, w.x), w.y);
+    }
+    return textureGrad(csmShadowMap, vec4(csmWrapUv(t, int(layer)), layer, depth), vec2(0.0),
+                       vec2(0.0));
+  }
   return textureGrad(csmShadowMap, vec4(t * csmU.params.w, layer, depth), vec2(0.0), vec2(0.0));
 }
 
@@ -245,8 +277,19 @@ float csmPcssBlockerDistance(int i, vec3 c, vec2 slope, float radius, float angl
   for (int k = 0; k < csmPcssTaps; ++k) {
     const vec2 p = c.xy + csmVogel(k, csmPcssTaps, angle) * radius;
     const vec2 base = floor(p - 0.5);  // texel (i0, j0) of the 2x2 footprint about p
-    const vec4 d = textureGather(csmDepthMap, vec3((base + 1.0) * csmU.params.w, layer));
+    vec4 d = textureGather(csmDepthMap, vec3(csmWrapUv(base + 1.0, i), layer));
     // Gather order: (i0, j1), (i1, j1), (i1, j0), (i0, j0); texel centres at index + 0.5.
+    if (csmU.counts.w != 0u) {
+      // A wrapped layer repeats: texels outside the cascade's box read the far plane (no
+      // blocker), as the border of an unwrapped map does.
+      const float res = csmU.params.z;
+      const bvec2 in0 = bvec2(base.x >= 0.0 && base.x <= res - 1.0,
+                              base.y >= 0.0 && base.y <= res - 1.0);
+      const bvec2 in1 = bvec2(base.x + 1.0 >= 0.0 && base.x + 1.0 <= res - 1.0,
+                              base.y + 1.0 >= 0.0 && base.y + 1.0 <= res - 1.0);
+      d = vec4(in0.x && in1.y ? d.x : 1.0, in1.x && in1.y ? d.y : 1.0,
+               in1.x && in0.y ? d.z : 1.0, in0.x && in0.y ? d.w : 1.0);
+    }
     const vec2 o = base + 0.5 - c.xy;
     const vec4 ref = c.z + vec4(dot(slope, o + vec2(0.0, 1.0)), dot(slope, o + vec2(1.0, 1.0)),
                                 dot(slope, o + vec2(1.0, 0.0)), dot(slope, o));
@@ -373,7 +416,8 @@ vec3 csmDebugColor(vec3 posCr, vec3 normalWs, vec2 pixel, float shadow, vec3 sha
     const vec3 c = csmShadowCoord(sel.index, posCr, normalWs);
     const vec2 uv = c.xy * csmU.params.w;
     if (mode == CSM_DEBUG_LIGHT_COORDS) return vec3(uv, c.z);
-    const float stored = textureLod(csmDepthMap, vec3(uv, float(sel.index)), 0.0).r;
+    const float stored =
+        textureLod(csmDepthMap, vec3(csmWrapUv(c.xy, sel.index), float(sel.index)), 0.0).r;
     if (mode == CSM_DEBUG_SAMPLED_DEPTH) return vec3(stored);
     // Depth difference in texels of this cascade: red behind the stored depth, green in front.
     const vec4 st = csmU.cascades[sel.index].splitTexel;

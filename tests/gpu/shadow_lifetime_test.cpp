@@ -5,7 +5,9 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "sample_world/shadow_host.hpp"
 #include "shadow_scene.hpp"
@@ -245,6 +247,122 @@ TEST(ShadowView, CascadesDrawTheLodTheSettingsName) {
       EXPECT_GT(analytic[2], 100u);
       EXPECT_EQ(dark[0] + dark[2], 0u);  // LOD 1 is empty: nothing casts there
     }
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+// LOD choice by texel error (csm::vk::casterLod): the coarsest LOD the instance has whose error
+// is within maxErrorTexels of the cascade's texel; the schedule is a floor; unknown errors and a
+// zero budget leave the schedule alone.
+TEST(ShadowView, CasterLodIsTheCoarsestWithinTheTexelBudget) {
+  csm::vk::CasterInstance in;
+  in.lodMeshes = {7, 8, 9};
+  in.lodErrorM = {0.125f, 0.375f, 2.0f};                 // exact in float and double
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.2, 0.5f), 0u);   // budget 0.1 m < 0.125 m
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.25, 0.5f), 1u);  // budget 0.125 m: LOD 1 exactly
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.74, 0.5f), 1u);  // 0.37 m < 0.375 m
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 0.75, 0.5f), 2u);  // 0.375 m
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 4.0, 0.5f), 3u);   // 2 m
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 4.0, 0.0f), 0u);   // budget off: the schedule alone
+  EXPECT_EQ(csm::vk::casterLod(in, 2, 0.1, 0.5f), 2u);   // the schedule is a floor
+  EXPECT_EQ(csm::vk::casterLod(in, 9, 0.1, 0.5f), 3u);   // clamped to the LODs there are
+  in.lodMeshes[2] = csm::vk::kNoMesh;                    // no LOD 3: the next one that exists
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 4.0, 0.5f), 2u);
+  in.lodErrorM = {csm::vk::kUnknownLodError, csm::vk::kUnknownLodError, csm::vk::kUnknownLodError};
+  EXPECT_EQ(csm::vk::casterLod(in, 0, 1e6, 64.0f), 0u);  // unknown error: never by error
+  EXPECT_EQ(csm::vk::casterLod(in, 1, 1e6, 64.0f), 1u);
+}
+
+// The renderer draws the LOD casterLod() chooses per (caster, cascade): every caster but the
+// ground gets an empty LOD 1 whose error lies between the texels of cascades 1 and 2, so with
+// half a texel of budget cascade 2 draws LOD 1 (no shadow) and cascades 0 and 1 draw LOD 0; with
+// the budget off every cascade casts again. Per-layer and layered alike. Invalid budgets and
+// errors are refused by name.
+TEST(ShadowView, CascadesDrawTheLodTheirTexelErrorBudgetAllows) {
+  {
+    ShadowScene scene;
+    CSM_ASSERT_OK(scene.update(testSettings(3, 1024)));
+    const Rendered first = scene.render(csm::PcfKernel::k1Tap, csm::DebugMode::kShadowFactor);
+    const double t1 =
+        std::min(first.frame.cascades[1].texelSizeLs.x, first.frame.cascades[1].texelSizeLs.y);
+    const double t2 =
+        std::min(first.frame.cascades[2].texelSizeLs.x, first.frame.cascades[2].texelSizeLs.y);
+    ASSERT_LT(t1 * 1.5, t2);
+    // Half a texel of cascade 2 covers it, half a texel of cascade 1 does not.
+    const float errorM = static_cast<float>(0.5 * std::sqrt(t1 * t2));
+    std::printf("texels %.4f / %.4f m, LOD 1 error %.4f m\n", t1, t2, double(errorM));
+    csm::vk::ShadowView& view = scene.view();
+    std::vector<csm::vk::MeshDraw> meshes(view.meshes().begin(), view.meshes().end());
+    std::vector<csm::vk::CasterInstance> instances(view.instances().begin(),
+                                                   view.instances().end());
+    const std::uint32_t empty = static_cast<std::uint32_t>(meshes.size());
+    meshes.push_back(csm::vk::MeshDraw{});  // indexCount 0: draws nothing
+    for (std::size_t i = 1; i < instances.size(); ++i) {
+      instances[i].lodMeshes[0] = empty;
+      instances[i].lodErrorM[0] = errorM;
+    }
+    std::vector<csm::AabbWs> bounds;
+    bounds.push_back({scene.planeCenterWs - glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM),
+                      scene.planeCenterWs + glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM)});
+    for (const SphereWs& sp : scene.spheres) {
+      bounds.push_back(
+          {sp.centerWs - glm::dvec3(sp.radiusM), sp.centerWs + glm::dvec3(sp.radiusM)});
+    }
+    for (const csm::AabbWs& b : scene.boxes) bounds.push_back(b);
+    CSM_ASSERT_OK(view.setCasters(meshes, instances, bounds));
+
+    std::vector<csm::vk::RenderMode> modes = {csm::vk::RenderMode::kPerLayer};
+    if (scene.context().features().shaderOutputLayer)
+      modes.push_back(csm::vk::RenderMode::kLayered);
+    for (csm::vk::RenderMode mode : modes) {
+      for (float budget : {0.5f, 0.0f}) {
+        SCOPED_TRACE(mode == csm::vk::RenderMode::kLayered ? "layered" : "per-layer");
+        SCOPED_TRACE(budget);
+        csm::vk::RendererOptions options;
+        options.renderMode = mode;
+        options.lodMaxErrorTexels = budget;
+        CSM_ASSERT_OK(scene.update(testSettings(3, 1024), options));
+        const Rendered r = scene.render(csm::PcfKernel::k1Tap, csm::DebugMode::kShadowFactor);
+        std::array<uint64_t, 3> dark{}, analytic{};
+        for (uint32_t y = 0; y < r.image.height; ++y) {
+          for (uint32_t x = 0; x < r.image.width; ++x) {
+            const ShadowScene::Hit hit = scene.trace(x, y);
+            if (!hit.hit || !hit.plane) continue;
+            const csm::CascadeSelection sel = csm::selectCascade(
+                r.frame, csm::viewDepthM(r.frame, hit.posWs), scene.settings().blendBand);
+            if (sel.index < 0 || sel.blendIndex >= 0) continue;
+            dark[sel.index] += r.image.at(x, y)[0] < 128 ? 1 : 0;
+            analytic[sel.index] += scene.shadowedAnalytic(hit.posWs) ? 1 : 0;
+          }
+        }
+        std::printf(
+            "lodMaxErrorTexels %.1f: shadowed pixels per cascade %llu, %llu, %llu (analytic "
+            "%llu, %llu, %llu)\n",
+            double(budget), (unsigned long long)dark[0], (unsigned long long)dark[1],
+            (unsigned long long)dark[2], (unsigned long long)analytic[0],
+            (unsigned long long)analytic[1], (unsigned long long)analytic[2]);
+        EXPECT_GT(analytic[1], 100u);
+        EXPECT_GT(analytic[2], 100u);
+        EXPECT_GT(dark[1], analytic[1] / 2);  // LOD 0: its error exceeds half a texel
+        if (budget > 0.0f) {
+          EXPECT_EQ(dark[2], 0u);  // the empty LOD 1 is within half a texel
+        } else {
+          EXPECT_GT(dark[2], analytic[2] / 2);  // budget off, schedule all 0: full detail
+        }
+      }
+    }
+    auto expectRefused = [](const csm::vk::Status& s, const char* name) {
+      EXPECT_EQ(s.code(), csm::vk::ErrorCode::kInvalidArgument) << s.message();
+      EXPECT_NE(s.message().find(name), std::string::npos) << s.message();
+      std::printf("refused: %s\n", s.message().c_str());
+    };
+    for (float bad : {-0.5f, 65.0f, std::numeric_limits<float>::quiet_NaN()}) {
+      csm::vk::RendererOptions options;
+      options.lodMaxErrorTexels = bad;
+      expectRefused(scene.update(testSettings(3, 1024), options), "options.lodMaxErrorTexels");
+    }
+    instances[1].lodErrorM[0] = -1.0f;
+    expectRefused(view.setCasters(meshes, instances, bounds), "instances[1].lodErrorM[0]");
   }
   EXPECT_EQ(validationMessages(), 0u);
 }

@@ -136,6 +136,61 @@ TEST(World, NormalsAreUnitAndLodsSimplify) {
   }
 }
 
+// The simplification error: 0 for the same mesh, the offset for a displaced triangle, the bump
+// height for a flat square against one with a raised centre (both directions).
+TEST(World, SimplificationErrorIsTheHausdorffDistance) {
+  world::MeshData tri;
+  tri.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  tri.indices = {0, 1, 2};
+  EXPECT_EQ(world::simplificationErrorM(tri, tri), 0.0);
+  world::MeshData lifted = tri;
+  for (glm::vec3& p : lifted.positions) p.z += 0.25f;
+  EXPECT_NEAR(world::simplificationErrorM(tri, lifted), 0.25, 1e-6);
+  world::MeshData flat;
+  flat.positions = {{-1, 0, -1}, {1, 0, -1}, {1, 0, 1}, {-1, 0, 1}};
+  flat.indices = {0, 1, 2, 0, 2, 3};
+  world::MeshData bump;
+  bump.positions = flat.positions;
+  bump.positions.push_back({0, 0.5f, 0});
+  bump.indices = {0, 1, 4, 1, 2, 4, 2, 3, 4, 3, 0, 4};
+  EXPECT_NEAR(world::simplificationErrorM(bump, flat), 0.5, 1e-6);
+  EXPECT_NEAR(world::simplificationErrorM(flat, bump), 0.5, 1e-6);
+}
+
+// Every LOD's error is recorded: 0 for terrain (never simplified), positive and growing with the
+// LOD for the simplified trees (buildings keep full detail: 0); clusters carry the largest of their
+// objects' scaled errors.
+TEST(World, LodErrorsAreRecorded) {
+  const world::World& w = defaultWorld();
+  bool sawTree = false;
+  for (const world::MeshAsset& a : w.meshes) {
+    EXPECT_EQ(a.lodErrorM[0], 0.0f) << a.name;
+    EXPECT_LE(a.lodErrorM[1], a.lodErrorM[2]) << a.name;
+    EXPECT_TRUE(std::isfinite(a.lodErrorM[2])) << a.name;
+    if (a.name.rfind("terrain", 0) == 0) {
+      EXPECT_EQ(a.lodErrorM[2], 0.0f) << a.name;
+    }
+    if (a.name == "conifer") {
+      sawTree = true;
+      EXPECT_GT(a.lodErrorM[1], 0.01f);
+      std::printf("conifer LOD errors %.3f / %.3f m\n", a.lodErrorM[1], a.lodErrorM[2]);
+    }
+  }
+  EXPECT_TRUE(sawTree);
+  for (const world::CasterCluster& c : w.clusters) {
+    if (c.asset >= 0) {
+      EXPECT_EQ(c.lodErrorM[2], 0.0f) << c.name;
+    } else {
+      // Buildings are not simplified (error 0); vegetation is.
+      if (c.name.rfind("vegetation", 0) == 0) {
+        EXPECT_GT(c.lodErrorM[1], 0.0f) << c.name;
+      }
+      EXPECT_LE(c.lodErrorM[1], c.lodErrorM[2]) << c.name;
+      EXPECT_TRUE(std::isfinite(c.lodErrorM[2])) << c.name;
+    }
+  }
+}
+
 TEST(World, SameFlightAnywhere) {
   // The "far" path is the forest pass with the world 10^7 m away: the same relative poses.
   const world::World& w = defaultWorld();
@@ -289,6 +344,15 @@ TEST(Settings, InvalidValuesListWhatIsAllowed) {
   EXPECT_FALSE(world::setSetting(s, "lod.cascades", "0,1,2"));
   EXPECT_EQ(s.cascadeLod[5], 2u);
   EXPECT_TRUE(world::setSetting(s, "lod.cascades", "0,3"));
+  // LODs by texel error: half a texel by default, the schedule all 0.
+  const world::AppSettings defaults;
+  EXPECT_EQ(defaults.lodMaxErrorTexels, 0.5f);
+  EXPECT_EQ(defaults.cascadeLod[3], 0u);
+  EXPECT_FALSE(world::setSetting(s, "lod.maxErrorTexels", "1.5"));
+  EXPECT_EQ(s.lodMaxErrorTexels, 1.5f);
+  err = world::setSetting(s, "lod.maxErrorTexels", "-1");
+  ASSERT_TRUE(err);
+  EXPECT_NE(err->find("lod.maxErrorTexels"), std::string::npos) << *err;
 }
 
 }  // namespace

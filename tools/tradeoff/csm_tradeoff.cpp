@@ -65,21 +65,37 @@ struct Config {
   csm::PcfKernel kernel = csm::PcfKernel::kTent3;
   double blendBand = 0.1;
   VkFormat format = VK_FORMAT_D32_SFLOAT;
-  /// Caster LODs: cascade c draws the sample world's simplified meshes at the fly-through's
-  /// default LOD for it (world::AppSettings::cascadeLod: 0, 1, 2, 2, ...).
+  /// Caster LODs: cascade c draws each cluster's coarsest simplified mesh whose geometric error
+  /// is at most maxErrorTexels of its texels (the module's default, RendererOptions::
+  /// lodMaxErrorTexels), and at least the schedule's LOD.
   bool lods = true;
   /// Box fit, size ladder (rungs per octave, 0 = off) and receiver-driven splits (the range of
   /// the pose's full-range frame, as the depth reduction would report it).
   csm::BoxFit fit = csm::BoxFit::kSphere;
   double ladderSteps = 8.0;
   bool receivers = false;
-  /// The LOD each cascade draws when `lods` (--lod-study varies it; empty: the default).
+  /// The LOD each cascade draws at least when `lods` (--lod-study varies it; empty: all 0).
   std::vector<uint32_t> schedule;
+  /// RendererOptions::lodMaxErrorTexels when `lods` (0: the schedule alone).
+  float maxErrorTexels = csm::vk::RendererOptions{}.lodMaxErrorTexels;
+  /// The LODs column: on (the default), off, a schedule "0122" and/or an error budget "e0.25".
+  [[nodiscard]] std::string lodLabel() const {
+    if (!lods) return "off";
+    std::string s;
+    for (uint32_t l : schedule) s += std::to_string(l);
+    if (maxErrorTexels != csm::vk::RendererOptions{}.lodMaxErrorTexels) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%se%.2g", s.empty() ? "" : " ", double(maxErrorTexels));
+      if (maxErrorTexels != 0.0f) s += buf;
+    }
+    return s.empty() ? "on" : s;
+  }
   [[nodiscard]] bool isDefault() const {
     const csm::ShadowSettings d;
     return cascades == d.cascadeCount && resolution == d.resolution && lambda == d.splitLambda &&
            kernel == csm::PcfKernel::kTent3 && blendBand == d.blendBand &&
-           format == VK_FORMAT_D32_SFLOAT && lods && schedule.empty() && fit == d.boxFit &&
+           format == VK_FORMAT_D32_SFLOAT && lods && schedule.empty() &&
+           maxErrorTexels == csm::vk::RendererOptions{}.lodMaxErrorTexels && fit == d.boxFit &&
            ladderSteps == d.ladderStepsPerOctave && !receivers;
   }
   [[nodiscard]] std::string fitLabel() const {
@@ -110,9 +126,9 @@ struct Config {
     }
     if (format == VK_FORMAT_D16_UNORM) s += " D16";
     if (!lods) s += " noLOD";
-    if (lods && !schedule.empty()) {
-      s += " LOD";
-      for (uint32_t l : schedule) s += std::to_string(l);
+    if (lods && lodLabel() != "on") {
+      s += " LOD ";
+      s += lodLabel();
     }
     return s + fitLabel();
   }
@@ -122,8 +138,9 @@ struct Config {
                   csm::kernelName(kernel), blendBand, format == VK_FORMAT_D16_UNORM ? "D16" : "D32",
                   lods ? "LOD" : "noLOD");
     std::string label = buf;
-    if (lods && !schedule.empty()) {
-      for (uint32_t l : schedule) label += std::to_string(l);
+    if (lods && lodLabel() != "on") {
+      label += ' ';
+      label += lodLabel();
     }
     return label + fitLabel();
   }
@@ -470,16 +487,18 @@ int run(int argc, char** argv) {
         o.quick ? std::vector<uint32_t>{512, 1024, 2048}
                 : std::vector<uint32_t>{512, 1024, 2048, 4096, 8192};
     if (o.lodStudy) {
-      // The default configuration with per-cascade LOD schedules, from today's default to none.
+      // The default configuration with error-bounded LODs at several budgets (the default: half
+      // a texel), then explicit per-cascade schedules alone (the former default 0,1,2,2 first).
+      for (float e : {0.5f, 2.0f, 8.0f, 32.0f, 64.0f}) {
+        Config cfg;
+        cfg.maxErrorTexels = e;
+        configs.push_back(cfg);
+      }
       for (const std::vector<uint32_t>& schedule :
-           std::vector<std::vector<uint32_t>>{{0, 1, 2, 2},
-                                              {0, 0, 1, 2},
-                                              {0, 0, 0, 1},
-                                              {0, 0, 0, 2},
-                                              {0, 0, 1, 1},
-                                              {0, 0, 0, 0}}) {
+           std::vector<std::vector<uint32_t>>{{0, 1, 2, 2}, {0, 0, 0, 1}, {0, 0, 0, 0}}) {
         Config cfg;
         cfg.schedule = schedule;
+        cfg.maxErrorTexels = 0.0f;
         configs.push_back(cfg);
       }
       Config none;
@@ -559,6 +578,7 @@ int run(int argc, char** argv) {
       harness.setReceiverRange(std::nullopt);
       csm::vk::RendererOptions ro;
       ro.depthFormat = cfg.format;
+      ro.lodMaxErrorTexels = cfg.lods ? cfg.maxErrorTexels : 0.0f;
       const csm::vk::Status st = harness.configure(s, ro);
       if (!st.ok()) {
         std::fprintf(stderr, "\nskipping %s: %s\n", cfg.label().c_str(), st.message().c_str());
@@ -569,7 +589,8 @@ int run(int argc, char** argv) {
         lodOfCascade[c] = cfg.schedule[c];
       }
       harness.setCasterLods(cfg.lods ? worldScene.lodMeshes : std::vector<std::vector<uint32_t>>{},
-                            lodOfCascade);
+                            lodOfCascade,
+                            cfg.lods ? worldScene.lodErrorM : std::vector<std::vector<float>>{});
       Row row;
       row.config = cfg;
       row.memoryMiB = double(harness.shadowMapBytes()) / (1024.0 * 1024.0);
@@ -695,7 +716,7 @@ int run(int argc, char** argv) {
         "| %u | %u | %.2f | %s | %.2f | %s | %s | %.2f | %.2f | %.2f | %.0f | %.3f%% | %.4f | "
         "%.4f | %.0f | %s | %s |\n",
         c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
-        c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lods ? "on" : "off", r.shadowMs, r.litMs,
+        c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lodLabel().c_str(), r.shadowMs, r.litMs,
         r.cpuMs, r.memoryMiB, 100.0 * r.misclassification, r.meanError, r.shimmerMax, r.triangles,
         c.fitLabel().empty() ? "-" : c.fitLabel().c_str() + 1,
         r.pareto ? (c.isDefault() ? "yes (default)" : "yes") : (c.isDefault() ? "(default)" : ""));

@@ -27,18 +27,24 @@ struct AppSettings {
   csm::PcfKernel kernel = csm::PcfKernel::kTent3;
   /// true: D16_UNORM shadow maps, false: D32_SFLOAT.
   bool depth16 = false;
+  /// Cached cascades (csm::vk::RendererOptions::cache): static casters' depth kept across
+  /// frames, only what changed re-rendered; the world's dynamic casters drawn every frame.
+  bool shadowCache = false;
   /// PCF kernel of constant size in metres across cascades.
   bool worldSpaceKernel = false;
   /// Sun direction: azimuth from +x toward +z, elevation above the horizon, degrees.
   double lightAzimuthDeg = 140.0;
   double lightElevationDeg = 32.0;
   float ambient = 0.3f;
-  /// Far cascades draw simplified caster meshes: cascade c draws LOD cascadeLod[c].
+  /// Caster LODs on: each cascade draws a cluster's coarsest LOD whose geometric error is at
+  /// most lodMaxErrorTexels of its texels (csm::vk::RendererOptions::lodMaxErrorTexels), and at
+  /// least LOD cascadeLod[c] (an explicit schedule; all 0 by default).
   bool casterLods = true;
   /// Receiver-driven splits: the splits follow the visible receivers' depth range, reduced on
   /// the GPU from the lit pass's depth buffer (csm::vk::DepthRangeReducer) a few frames late.
   bool receiverSplits = false;
   std::array<std::uint32_t, csm::kMaxCascades> cascadeLod{};
+  float lodMaxErrorTexels = 0.5f;
   csm::DebugMode debug = csm::DebugMode::kNone;
   /// The cascade-visualisation overlay and its parts.
   bool overlay = false;

@@ -34,6 +34,8 @@ struct MeshData {
 struct MeshAsset {
   std::string name;
   std::array<MeshData, kLodCount> lods;
+  /// lodErrorM[l]: simplificationErrorM(lods[0], lods[l]) in the asset's metres (0 for LOD 0).
+  std::array<float, kLodCount> lodErrorM{};
 };
 
 /// What kind of thing an object is (colour, report statistics).
@@ -77,6 +79,9 @@ struct CasterCluster {
   /// When >= 0 the cluster draws that mesh asset (a terrain chunk) and `lods` is empty.
   std::int32_t asset = -1;
   std::array<MeshData, kLodCount> lods;
+  /// lodErrorM[l]: bound on how far LOD l lies from LOD 0 in world metres (the largest of its
+  /// objects' asset errors scaled by their transforms; for a terrain chunk its asset's).
+  std::array<float, kLodCount> lodErrorM{};
   csm::AabbWs boundsWs{};
   std::uint32_t objectCount = 0;
 };
@@ -136,6 +141,12 @@ struct WorldError {
 /// Simplifies `mesh` with OpenMesh's Decimater (quadric error, no normal flips, boundary
 /// locked) toward `targetFraction` of its vertices; normals recomputed by OpenMesh.
 [[nodiscard]] MeshData decimate(const MeshData& mesh, double targetFraction);
+
+/// Geometric error of a simplified mesh, metres in the mesh's space: the larger of the largest
+/// distance from `original`'s vertices and triangle centroids to `simplified`'s surface and the
+/// reverse (a sampled symmetric Hausdorff distance). Bounds how far the simplified silhouette
+/// moves.
+[[nodiscard]] double simplificationErrorM(const MeshData& original, const MeshData& simplified);
 
 /// 64-bit FNV-1a hash of a mesh's positions, normals and indices (bit patterns).
 [[nodiscard]] std::uint64_t meshHash(const MeshData& mesh) noexcept;

@@ -36,7 +36,12 @@ struct FrameStats {
   double cpuRecordMs = 0.0;  ///< recording the command buffer
   std::uint32_t cascadeCount = 0;
   std::array<std::uint32_t, csm::kMaxCascades> casters{};
-  std::array<std::uint64_t, csm::kMaxCascades> triangles{};
+  std::array<std::uint64_t, csm::kMaxCascades> triangles{};  ///< drawn this frame
+  /// Shadow-map texels re-rendered this frame (the whole layer without the cache).
+  std::array<std::uint64_t, csm::kMaxCascades> texelsRendered{};
+  /// Device memory of the static-depth cache (0 without it).
+  std::uint64_t cacheBytes = 0;
+  /// The coarsest LOD a cluster was drawn with in each cascade.
   std::array<std::uint32_t, csm::kMaxCascades> lod{};
   std::uint32_t litInstances = 0;
   std::uint64_t litTriangles = 0;
@@ -127,6 +132,25 @@ class WorldRenderer {
   engine::DeviceHandle<VkShaderModule> worldVert_, worldFrag_, overlayVert_, overlayFrag_;
   std::map<std::uint32_t, engine::GraphicsPipeline> litPipelines_;  // by kernel
   engine::GraphicsPipeline overlayTris_, overlayLines_;
+
+  // Dynamic shadow casters (vehicles, a swinging crane jib): unit cubes moved every frame,
+  // drawn by the shadow view over its cached static depth and by the lit pass.
+  struct Mover {
+    double radiusM;  // vehicles: circle about the camera's ground point; crane: jib length
+    double speed;    // radians per frame
+    double phase;
+    glm::dvec3 sizeM;  // full extents
+    bool crane;
+  };
+  void moveDynamicCasters();
+  std::vector<Mover> movers_;
+  std::uint32_t cubeMesh_ = 0;  // index into assetRanges_ (after the world's meshes)
+  std::uint64_t frameCounter_ = 0;
+  std::vector<csm::vk::MeshDraw> casterDraws_;
+  std::vector<csm::vk::CasterInstance> casterInstances_;
+  std::vector<csm::AabbWs> casterBounds_;
+  std::size_t staticCasters_ = 0;
+  std::vector<Instance> moverInstances_;
 
   std::vector<Instance> instances_;
   std::vector<Bucket> buckets_;

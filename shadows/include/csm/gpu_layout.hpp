@@ -44,7 +44,7 @@ enum class PcfKernel : std::uint32_t {
 /// centre: the radius the normal offset is scaled by. Mirrors csmKernelRadius() in csm.glsl.
 [[nodiscard]] float kernelRadiusTexels(PcfKernel kernel) noexcept;
 
-/// One cascade as the shader sees it (std140 array element, 96 bytes).
+/// One cascade as the shader sees it (std140 array element, 112 bytes).
 struct CsmCascadeGpu {
   /// Camera-relative world position -> shadow clip space (x, y in [-1, 1], z depth in [0, 1]).
   glm::mat4 viewProjCr{1.0f};
@@ -57,6 +57,9 @@ struct CsmCascadeGpu {
   /// (stabilised cascades; PCSS rotates its taps by a hash of the world texel, so that the noise
   /// stays on the ground when the map moves).
   glm::vec4 depthInfo{0.0f};
+  /// x, y: with cached cascades (counts.w = 1) the wrap offset in texels of the box's texel
+  /// (0, 0) in the toroidally addressed layer (RendererOptions::cache), else 0; z, w: 0.
+  glm::vec4 wrapInfo{0.0f};
 };
 
 /// The whole block (std140, set CSM_SET, binding CSM_BINDING_UNIFORMS in csm.glsl).
@@ -69,7 +72,8 @@ struct CsmUniforms {
   /// x: blend band (fraction of a cascade's depth range), y: normal offset (texels), z: shadow
   /// map resolution (texels), w: 1 / resolution.
   glm::vec4 params{0.0f};
-  /// x: cascade count, y: bit mask of non-empty cascades, z: debug mode (DebugMode), w: 0.
+  /// x: cascade count, y: bit mask of non-empty cascades, z: debug mode (DebugMode), w: 1 when
+  /// the layers are addressed toroidally (cached cascades), else 0.
   glm::uvec4 counts{0u};
   /// Bias of the shadow test beyond the normal offset (params.y): x depth floor in texels of the
   /// receiver's cascade (ShadowSettings::depthFloorTexels), y depth floor in units of stored

@@ -7,18 +7,19 @@ namespace csm {
 
 // std140 offsets, pinned. csm.glsl declares the same members in the same order; a change here
 // without the same change there (or the reverse) breaks these asserts or the GPU tests.
-static_assert(sizeof(CsmCascadeGpu) == 96);
+static_assert(sizeof(CsmCascadeGpu) == 112);
 static_assert(offsetof(CsmCascadeGpu, viewProjCr) == 0);
 static_assert(offsetof(CsmCascadeGpu, splitTexel) == 64);
 static_assert(offsetof(CsmCascadeGpu, depthInfo) == 80);
+static_assert(offsetof(CsmCascadeGpu, wrapInfo) == 96);
 static_assert(offsetof(CsmUniforms, cascades) == 0);
-static_assert(offsetof(CsmUniforms, cameraForward) == 96 * CSM_MAX_CASCADES);
-static_assert(offsetof(CsmUniforms, lightDirection) == 96 * CSM_MAX_CASCADES + 16);
-static_assert(offsetof(CsmUniforms, params) == 96 * CSM_MAX_CASCADES + 32);
-static_assert(offsetof(CsmUniforms, counts) == 96 * CSM_MAX_CASCADES + 48);
-static_assert(offsetof(CsmUniforms, biasParams) == 96 * CSM_MAX_CASCADES + 64);
-static_assert(offsetof(CsmUniforms, softParams) == 96 * CSM_MAX_CASCADES + 80);
-static_assert(sizeof(CsmUniforms) == 96 * CSM_MAX_CASCADES + 96);
+static_assert(offsetof(CsmUniforms, cameraForward) == 112 * CSM_MAX_CASCADES);
+static_assert(offsetof(CsmUniforms, lightDirection) == 112 * CSM_MAX_CASCADES + 16);
+static_assert(offsetof(CsmUniforms, params) == 112 * CSM_MAX_CASCADES + 32);
+static_assert(offsetof(CsmUniforms, counts) == 112 * CSM_MAX_CASCADES + 48);
+static_assert(offsetof(CsmUniforms, biasParams) == 112 * CSM_MAX_CASCADES + 64);
+static_assert(offsetof(CsmUniforms, softParams) == 112 * CSM_MAX_CASCADES + 80);
+static_assert(sizeof(CsmUniforms) == 112 * CSM_MAX_CASCADES + 96);
 static_assert(sizeof(CsmUniforms) <= 16384, "must fit the minimum maxUniformBufferRange");
 static_assert(sizeof(CsmUniforms) % 4 == 0, "vkCmdUpdateBuffer needs a multiple of 4 bytes");
 static_assert(CSM_MAX_CASCADES <= 32, "the non-empty mask is one 32-bit word");

@@ -304,6 +304,18 @@ Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout
     ci.compareOp = VK_COMPARE_OP_ALWAYS;
     CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &depthSampler_));
     setName(handleBits(depthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler");
+    // Cached cascades: layers addressed toroidally; csm.glsl keeps outside-the-box = lit itself.
+    ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+    ci.addressModeV = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapDepthSampler_));
+    setName(handleBits(wrapDepthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler (wrap)");
+    ci.magFilter = VK_FILTER_LINEAR;
+    ci.minFilter = VK_FILTER_LINEAR;
+    ci.compareEnable = VK_TRUE;
+    ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapCompareSampler_));
+    setName(handleBits(wrapCompareSampler_), VK_OBJECT_TYPE_SAMPLER,
+            "csm comparison sampler (wrap)");
   }
   {
     auto ci = vkInit<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
@@ -377,6 +389,10 @@ ShadowRenderer::~ShadowRenderer() {
   collectRetired(true);
   destroyPipelines();
   destroyImage();
+  retireStaticImage();
+  collectRetired(true);
+  vkDestroySampler(dev, wrapCompareSampler_, nullptr);
+  vkDestroySampler(dev, wrapDepthSampler_, nullptr);
   vkDestroyCommandPool(dev, clearPool_, nullptr);
   vkDestroyFence(dev, clearFence_, nullptr);
   vkDestroyShaderModule(dev, vertexModule_, nullptr);
@@ -520,15 +536,34 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
                         options.cascadeLod[c], kMaxCasterLods));
     }
   }
+  if (!(options.lodMaxErrorTexels >= 0.0f && options.lodMaxErrorTexels <= 64.0f)) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("options.lodMaxErrorTexels = %g is invalid: allowed [0, 64] (0 = off)",
+                      double(options.lodMaxErrorTexels)));
+  }
   if ((options.cullMode & ~VkCullModeFlags(VK_CULL_MODE_FRONT_AND_BACK)) != 0) {
     return Status(ErrorCode::kInvalidArgument,
                   fmt("options.cullMode = %u is invalid: allowed VK_CULL_MODE_* flags",
                       unsigned(options.cullMode)));
   }
 
+  if (options.cache && !settings.stabilize) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "options.cache = true needs settings.stabilize = true (cached texels must be "
+                  "fixed in the world: boxes snapped to whole texels)");
+  }
+  if (options.cache && mode != RenderMode::kPerLayer) {
+    if (options.renderMode == RenderMode::kAuto) {
+      mode = RenderMode::kPerLayer;  // the cache renders scissored regions per layer
+    } else {
+      return Status(ErrorCode::kInvalidArgument,
+                    "options.cache = true needs options.renderMode = kPerLayer or kAuto");
+    }
+  }
   const bool newImage = image_ == VK_NULL_HANDLE || settings.resolution != resolution_ ||
                         settings.cascadeCount != layerCount_ ||
-                        options.depthFormat != options_.depthFormat;
+                        options.depthFormat != options_.depthFormat ||
+                        options.cache != options_.cache;
   const bool newPipelines = !pipelinesBuilt_ || options.depthFormat != options_.depthFormat;
   // Nothing waits for the GPU: what is replaced is retired (collectRetired).
   if (newPipelines) {
@@ -536,9 +571,32 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
     if (!s.ok()) return s;
   }
   if (newImage) {
+    const bool oldWrap = wrapSampling_;
+    wrapSampling_ = options.cache;
     s = createImage(settings, options.depthFormat);
-    if (!s.ok()) return s;
+    if (!s.ok()) {
+      wrapSampling_ = oldWrap;
+      return s;
+    }
     pendingClear_ = true;
+    // A new image (resolution, count, format, cache) invalidates every cached cascade.
+    retireStaticImage();
+    windows_ = {};
+    invalidBoxes_.clear();
+    if (options.cache) {
+      s = createStaticImage(settings, options.depthFormat);
+      if (!s.ok()) return s;
+    }
+  }
+  // Cached cascades: what changes the static depth without a new image re-renders it.
+  if (!newImage && options.cache &&
+      (settings.depthBiasConstant != settings_.depthBiasConstant ||
+       settings.depthBiasSlope != settings_.depthBiasSlope ||
+       settings.minCasterTexels != settings_.minCasterTexels ||
+       options.cullMode != options_.cullMode || options.frontFace != options_.frontFace ||
+       options.cascadeLod != options_.cascadeLod ||
+       options.lodMaxErrorTexels != options_.lodMaxErrorTexels)) {
+    invalidateAll();
   }
   settings_ = settings;
   options_ = options;
@@ -663,7 +721,7 @@ Status ShadowRenderer::createImage(const ShadowSettings& settings, VkFormat form
   ci.samples = VK_SAMPLE_COUNT_1_BIT;
   ci.tiling = VK_IMAGE_TILING_OPTIMAL;
   ci.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT |
-             VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+             VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
   ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   ci.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
   VkResult r = vkCreateImage(dev, &ci, nullptr, &image);
@@ -834,8 +892,10 @@ Status ShadowRenderer::writeLightingSet(VkDescriptorSet set) const {
   }
   if (set == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "set is VK_NULL_HANDLE");
   VkDescriptorBufferInfo bi{uniformBuffer_, 0, sizeof(CsmUniforms)};
-  VkDescriptorImageInfo compare{compareSampler_, arrayView_, sampledLayout()};
-  VkDescriptorImageInfo depth{depthSampler_, arrayView_, sampledLayout()};
+  VkDescriptorImageInfo compare{wrapSampling_ ? wrapCompareSampler_ : compareSampler_, arrayView_,
+                                sampledLayout()};
+  VkDescriptorImageInfo depth{wrapSampling_ ? wrapDepthSampler_ : depthSampler_, arrayView_,
+                              sampledLayout()};
   VkWriteDescriptorSet w[3]{};
   for (auto& x : w) {
     x.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -1035,6 +1095,13 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
                           "[0, %zu) or kNoMesh",
                           i, k, m, casters.meshes.size()));
       }
+      const float e = casters.instances[i].lodErrorM[k];
+      if (!(e >= 0.0f)) {
+        return Status(ErrorCode::kInvalidArgument,
+                      fmt("casters.instances[%zu].lodErrorM[%u] = %g is invalid: allowed "
+                          "[0, +inf] metres (kUnknownLodError = not known)",
+                          i, k, double(e)));
+      }
     }
   }
   if (visible) {
@@ -1050,7 +1117,28 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
     }
   }
 
+  if (options_.cache) {
+    if (visible == nullptr) {
+      return Status(ErrorCode::kInvalidArgument,
+                    "options.cache = true needs the cull lists (visible) of the frame");
+    }
+    if (casters.boundsWs.size() != instanceCount) {
+      return Status(ErrorCode::kInvalidArgument,
+                    fmt("options.cache = true needs casters.boundsWs for every instance: %zu "
+                        "bounds for %zu instances",
+                        casters.boundsWs.size(), instanceCount));
+    }
+    return recordCachedPass(cmd, frame, casters, *visible);
+  }
   recordBegin(cmd, frame);
+  // The mesh cascade c draws instance i with: its LOD by the schedule and the texel error budget.
+  auto lodMesh = [&](std::size_t i, std::uint32_t c) {
+    const CasterInstance& inst = casters.instances[i];
+    const Cascade& cascade = frame.cascades[c];
+    return inst.meshForLod(casterLod(inst, options_.cascadeLod[c],
+                                     glm::min(cascade.texelSizeLs.x, cascade.texelSizeLs.y),
+                                     options_.lodMaxErrorTexels));
+  };
   const glm::dvec3 cam = frame.cameraPositionWs;
   const MeshDraw* bound = nullptr;
   auto drawCaster = [&](std::uint32_t index, std::uint32_t meshIndex, std::uint32_t cascadeOrMask,
@@ -1101,11 +1189,10 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
       // One instanced draw per distinct LOD mesh among the cascades the caster is culled into.
       while (mask != 0) {
         const std::uint32_t first = static_cast<std::uint32_t>(std::countr_zero(mask));
-        const std::uint32_t m = casters.instances[i].meshForLod(options_.cascadeLod[first]);
+        const std::uint32_t m = lodMesh(i, first);
         std::uint32_t same = 0;
         for (std::uint32_t c = first; c < frame.cascadeCount; ++c) {
-          if ((mask & (1u << c)) != 0 &&
-              casters.instances[i].meshForLod(options_.cascadeLod[c]) == m) {
+          if ((mask & (1u << c)) != 0 && lodMesh(i, c) == m) {
             same |= 1u << c;
           }
         }
@@ -1121,14 +1208,11 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
       if (cascadeHook_) cascadeHook_(cmd, c);
       beginLayer(cmd, c, false);
       bound = nullptr;
-      const std::uint32_t lod = options_.cascadeLod[c];
       if (visible) {
-        for (std::uint32_t i : visible->visible[c]) {
-          drawCaster(i, casters.instances[i].meshForLod(lod), c, 1);
-        }
+        for (std::uint32_t i : visible->visible[c]) drawCaster(i, lodMesh(i, c), c, 1);
       } else {
         for (std::size_t i = 0; i < instanceCount; ++i) {
-          drawCaster(static_cast<std::uint32_t>(i), casters.instances[i].meshForLod(lod), c, 1);
+          drawCaster(static_cast<std::uint32_t>(i), lodMesh(i, c), c, 1);
         }
       }
       endLayer(cmd);
@@ -1146,6 +1230,11 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
   if (!s.ok()) return s;
   if (cmd == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "cmd is VK_NULL_HANDLE");
   if (!draw) return Status(ErrorCode::kInvalidArgument, "draw callback is empty");
+  if (options_.cache) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "options.cache = true: use the caster-list form of recordShadowPass (the "
+                  "cache draws scissored regions with the casters' bounds)");
+  }
   recordBegin(cmd, frame);
   bool any = false;
   for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {

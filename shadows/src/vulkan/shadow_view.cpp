@@ -1,6 +1,7 @@
 // ShadowView: one view's settings, casters, history, frame and cull lists around a renderer.
 #include "csm/vulkan/shadow_view.hpp"
 
+#include <algorithm>
 #include <string>
 
 namespace csm::vk {
@@ -38,6 +39,14 @@ Status checkInstances(std::span<const MeshDraw> meshes, std::span<const CasterIn
                                                      std::to_string(meshes.size()) +
                                                      ") (lodMeshes: or kNoMesh)");
     }
+    for (std::size_t k = 0; k < inst.lodErrorM.size(); ++k) {
+      if (!(inst.lodErrorM[k] >= 0.0f)) {
+        return Status(ErrorCode::kInvalidArgument,
+                      "setCasters: instances[" + std::to_string(i) + "].lodErrorM[" +
+                          std::to_string(k) + "] = " + std::to_string(inst.lodErrorM[k]) +
+                          " is invalid: allowed [0, +inf] metres (kUnknownLodError = not known)");
+      }
+    }
   }
   return {};
 }
@@ -65,9 +74,7 @@ Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
   }
   set.build();
   casterSet_ = std::move(set);
-  meshes_.assign(meshes.begin(), meshes.end());
-  instances_.assign(instances.begin(), instances.end());
-  computed_ = false;
+  adoptCasters(meshes, instances);
   return {};
 }
 
@@ -83,10 +90,54 @@ Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
   if (!s.ok()) return s;
   casterSet_ = casterSet;
   if (!casterSet_.built()) casterSet_.build();
+  adoptCasters(meshes, instances);
+  return {};
+}
+
+void ShadowView::adoptCasters(std::span<const MeshDraw> meshes,
+                              std::span<const CasterInstance> instances) {
+  std::vector<AabbWs> bounds(casterSet_.size());
+  for (std::size_t i = 0; i < bounds.size(); ++i) {
+    bounds[i] = casterSet_.bounds(static_cast<std::uint32_t>(i));
+  }
+  // Cached cascades: a static caster whose index, mesh, transform or bounds changed (or that was
+  // added or removed) invalidates its old and new bounds; dynamic ones are drawn every frame.
+  if (options_.cache) {
+    auto same = [](const CasterInstance& a, const CasterInstance& b) {
+      return a.mesh == b.mesh && a.translationWs == b.translationWs && a.linearWs == b.linearWs &&
+             a.lodMeshes == b.lodMeshes && a.lodErrorM == b.lodErrorM && a.dynamic == b.dynamic;
+    };
+    auto sameBox = [](const AabbWs& a, const AabbWs& b) {
+      return a.minWs == b.minWs && a.maxWs == b.maxWs;
+    };
+    const bool meshesSame =
+        meshes.size() == meshes_.size() &&
+        std::equal(meshes.begin(), meshes.end(), meshes_.begin(), [](const auto& a, const auto& b) {
+          return a.vertexBuffer == b.vertexBuffer && a.indexBuffer == b.indexBuffer &&
+                 a.vertexBufferOffset == b.vertexBufferOffset &&
+                 a.indexBufferOffset == b.indexBufferOffset && a.firstIndex == b.firstIndex &&
+                 a.indexCount == b.indexCount && a.vertexOffset == b.vertexOffset;
+        });
+    if (!meshesSame) {
+      renderer_->invalidateAll();
+    } else {
+      const std::size_t n = std::max(instances.size(), instances_.size());
+      for (std::size_t i = 0; i < n; ++i) {
+        const bool hasOld = i < instances_.size() && !instances_[i].dynamic;
+        const bool hasNew = i < instances.size() && !instances[i].dynamic;
+        if (hasOld && hasNew && same(instances_[i], instances[i]) &&
+            sameBox(boundsWs_[i], bounds[i])) {
+          continue;
+        }
+        if (hasOld) (void)renderer_->invalidate(boundsWs_[i]);
+        if (hasNew) (void)renderer_->invalidate(bounds[i]);
+      }
+    }
+  }
   meshes_.assign(meshes.begin(), meshes.end());
   instances_.assign(instances.begin(), instances.end());
+  boundsWs_ = std::move(bounds);
   computed_ = false;
-  return {};
 }
 
 Status ShadowView::setSceneBounds(const AabbWs* boundsWs) {
@@ -115,10 +166,13 @@ Status ShadowView::record(VkCommandBuffer cmd, const CascadeFrame& frame) {
     return Status(ErrorCode::kWrongOrder, "ShadowView::record before a successful setSettings()");
   }
   computed_ = false;
-  cullCasters(casterSet_, frame, settings_.minCasterTexels, cull_);
-  Status s = renderer_->recordShadowPass(cmd, frame, CasterList{meshes_, instances_}, &cull_);
+  CascadeFrame windowed = frame;
+  renderer_->applyCacheWindows(windowed);  // cached cascades: the depth windows (else no-op)
+  cullCasters(casterSet_, windowed, settings_.minCasterTexels, cull_);
+  Status s = renderer_->recordShadowPass(cmd, windowed, CasterList{meshes_, instances_, boundsWs_},
+                                         &cull_);
   if (!s.ok()) return s;
-  frame_ = frame;
+  frame_ = windowed;
   return {};
 }
 
@@ -132,6 +186,7 @@ Status ShadowView::compute(const Camera& camera, const DirectionalLight& light) 
   if (!frame.ok()) return Status(ErrorCode::kInvalidArgument, frame.error().message());
   history_ = history;
   frame_ = frame.value();
+  renderer_->applyCacheWindows(frame_);  // cached cascades: the depth windows (else no-op)
   cullCasters(casterSet_, frame_, settings_.minCasterTexels, cull_);
   computed_ = true;
   return {};
@@ -141,7 +196,8 @@ Status ShadowView::recordPass(VkCommandBuffer cmd) {
   if (!computed_) {
     return Status(ErrorCode::kWrongOrder, "ShadowView::recordPass without a compute() before it");
   }
-  return renderer_->recordShadowPass(cmd, frame_, CasterList{meshes_, instances_}, &cull_);
+  return renderer_->recordShadowPass(cmd, frame_, CasterList{meshes_, instances_, boundsWs_},
+                                     &cull_);
 }
 
 Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,

@@ -16,6 +16,7 @@
 #include <sample_world/shadow_host.hpp>
 
 #include <algorithm>
+#include <cstdlib>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -192,7 +193,13 @@ void Harness::setScene(const Scene& scene) {
 }
 
 void Harness::setCasterLods(std::vector<std::vector<uint32_t>> lodMeshes,
-                            const std::array<uint32_t, csm::kMaxCascades>& cascadeLod) {
+                            const std::array<uint32_t, csm::kMaxCascades>& cascadeLod,
+                            const std::vector<std::vector<float>>& lodErrorM) {
+  if (!lodErrorM.empty() && lodErrorM.size() != lodMeshes.size()) {
+    throw std::invalid_argument("setCasterLods: " + std::to_string(lodErrorM.size()) +
+                                " LOD error lists for " + std::to_string(lodMeshes.size()) +
+                                " LOD lists: one per instance or none required");
+  }
   if (!lodMeshes.empty() && lodMeshes.size() != instances_.size()) {
     throw std::invalid_argument("setCasterLods: " + std::to_string(lodMeshes.size()) +
                                 " LOD lists for " + std::to_string(instances_.size()) +
@@ -219,6 +226,9 @@ void Harness::setCasterLods(std::vector<std::vector<uint32_t>> lodMeshes,
     casters[i].mesh = lodMeshes[i][0];
     for (uint32_t k = 1; k < csm::vk::kMaxCasterLods; ++k) {
       casters[i].lodMeshes[k - 1] = k < lodMeshes[i].size() ? lodMeshes[i][k] : csm::vk::kNoMesh;
+      casters[i].lodErrorM[k - 1] = !lodErrorM.empty() && k < lodErrorM[i].size()
+                                        ? lodErrorM[i][k]
+                                        : csm::vk::kUnknownLodError;
     }
   }
   csm::vk::Status s = view_->setCasters(meshDraws_, casters, casterSet_);
@@ -234,6 +244,13 @@ csm::vk::Status Harness::configure(const csm::ShadowSettings& settings,
   // The caster LODs of setCasterLods() stay in force.
   csm::vk::RendererOptions withLods = options;
   withLods.cascadeLod = options_.cascadeLod;
+  // CSM_SHADOW_CACHE=1: every measurement through cached cascades (the stability tests run
+  // once more so, ctest stability.cached.*), except where a layered pass is asked for.
+  if (const char* cache = std::getenv("CSM_SHADOW_CACHE");
+      cache != nullptr && std::string(cache) == "1" &&
+      options.renderMode != csm::vk::RenderMode::kLayered && settings.stabilize) {
+    withLods.cache = true;
+  }
   const csm::vk::Status s = view_->setSettings(settings, withLods);
   if (s.ok()) options_ = withLods;
   return s;
@@ -257,13 +274,17 @@ void Harness::recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame) 
   view_->setUniformOptions({});
   const csm::vk::Status s = view_->record(cmd, frame);
   if (!s.ok()) throw std::runtime_error("ShadowView::record: " + s.message());
-  // Triangles drawn: each cascade's culled casters at that cascade's LOD.
+  // Triangles drawn: each cascade's culled casters at the LOD the module chose for them there.
   shadowTriangles_ = 0;
   for (uint32_t c = 0; c < frame.cascadeCount; ++c) {
-    if (frame.cascades[c].empty) continue;
+    const csm::Cascade& cascade = frame.cascades[c];
+    if (cascade.empty) continue;
     const std::span<const csm::vk::CasterInstance> casters = view_->instances();
     for (uint32_t i : view_->cull().visible[c]) {
-      shadowTriangles_ += meshDraws_[casters[i].meshForLod(options_.cascadeLod[c])].indexCount / 3;
+      const uint32_t lod = csm::vk::casterLod(
+          casters[i], options_.cascadeLod[c],
+          std::min(cascade.texelSizeLs.x, cascade.texelSizeLs.y), options_.lodMaxErrorTexels);
+      shadowTriangles_ += meshDraws_[casters[i].meshForLod(lod)].indexCount / 3;
     }
   }
 }

@@ -57,6 +57,7 @@ WorldScene sceneFromWorld(const world::World& w) {
                        {0.6f, 0.65f, 0.5f, 1.0f},
                        c.asset >= 0 ? InstanceKind::kGround : InstanceKind::kBuilding});
     out.lodMeshes.push_back(std::move(lodMeshes));
+    out.lodErrorM.emplace_back(c.lodErrorM.begin(), c.lodErrorM.end());
   }
   return out;
 }

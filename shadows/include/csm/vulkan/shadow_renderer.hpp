@@ -31,6 +31,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <span>
 #include <vector>
@@ -79,6 +80,9 @@ inline constexpr std::uint32_t kMaxCasterLods = 4;
 /// "No mesh" in CasterInstance::lodMeshes.
 inline constexpr std::uint32_t kNoMesh = UINT32_MAX;
 
+/// "Error not known" in CasterInstance::lodErrorM.
+inline constexpr float kUnknownLodError = std::numeric_limits<float>::infinity();
+
 /// How the vertex buffers of casters are laid out: the depth pass reads a float3 position.
 struct VertexLayout {
   /// Bytes from one vertex to the next.
@@ -118,10 +122,23 @@ struct RendererOptions {
   /// pass (the destination of the pass's final barrier, the source of its first one).
   VkPipelineStageFlags2 consumerStages =
       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  /// The caster LOD each cascade draws, [0, kMaxCasterLods): an instance without that LOD draws
-  /// its nearest coarser-or-equal one it has (see CasterInstance::lodMeshes). All 0: full detail
-  /// everywhere (the default: simplified meshes' silhouettes cost accuracy, see README).
+  /// The caster LOD each cascade draws at least, [0, kMaxCasterLods): an instance without that
+  /// LOD draws its nearest coarser-or-equal one it has (see CasterInstance::lodMeshes). An
+  /// explicit schedule; all 0 (the default) leaves the choice to lodMaxErrorTexels.
   std::array<std::uint32_t, kMaxCascades> cascadeLod{};
+  /// LODs by the error they make in the cascade's texels: cascade c draws an instance with its
+  /// coarsest LOD k whose CasterInstance::lodErrorM[k - 1] is at most lodMaxErrorTexels times
+  /// the cascade's texel size (the coarser of that and cascadeLod[c]). 0 = off (the cascadeLod
+  /// schedule alone); [0, 64]. Default half a texel: a simplified silhouette moves the shadow's
+  /// edge by less than the depth test's own half-texel quantisation (see README).
+  float lodMaxErrorTexels = 0.5f;
+  /// Cached cascades (kPerLayer only): static casters' depth is kept per cascade across frames
+  /// in a second image and only newly exposed, invalidated or new-window texels are rendered;
+  /// layers are addressed toroidally (texels fixed in the world, nothing is moved), each
+  /// cascade's depth window is world-anchored; dynamic casters are drawn every frame over a copy
+  /// of the static depth. csm.glsl reads the same world texels (wrap offsets in the uniforms).
+  /// Costs one more depth image of the same size (cacheBytes()). Needs settings.stabilize.
+  bool cache = false;
 };
 
 /// A range of an index buffer drawn as one caster mesh.
@@ -146,6 +163,17 @@ struct CasterInstance {
   /// Coarser LODs: lodMeshes[k - 1] is the mesh of LOD k, or kNoMesh when the instance has none
   /// (a cascade asking for LOD k then draws the highest LOD below k that the instance has).
   std::array<std::uint32_t, kMaxCasterLods - 1> lodMeshes{kNoMesh, kNoMesh, kNoMesh};
+  /// Geometric error of each coarser LOD, metres in the world (after linearWs): lodErrorM[k - 1]
+  /// bounds how far LOD k's surface lies from LOD 0's (a Hausdorff distance), >= 0. +infinity
+  /// (the default) = unknown: LOD k is then drawn only where RendererOptions::cascadeLod asks.
+  std::array<float, kMaxCasterLods - 1> lodErrorM{kUnknownLodError, kUnknownLodError,
+                                                  kUnknownLodError};
+  /// A caster that moves (or changes) every frame: with RendererOptions::cache it is drawn
+  /// every frame over the cached static depth. Static casters (the default) are cached: when
+  /// one is added, removed or moved, the host invalidates its old and new bounds
+  /// (ShadowView::setCasters does it for instances whose index, mesh, transform or bounds
+  /// changed; ShadowRenderer::invalidate for a world box).
+  bool dynamic = false;
 
   /// The mesh drawn for `lod`.
   [[nodiscard]] std::uint32_t meshForLod(std::uint32_t lod) const noexcept {
@@ -156,10 +184,47 @@ struct CasterInstance {
   }
 };
 
+/// The LOD a cascade with texels of `texelSizeM` metres draws `instance` with: the coarsest LOD
+/// the instance has whose lodErrorM is at most maxErrorTexels * texelSizeM, or `scheduledLod`
+/// when that is coarser (RendererOptions::cascadeLod, lodMaxErrorTexels). Draw
+/// instance.meshForLod() of the result.
+[[nodiscard]] inline std::uint32_t casterLod(const CasterInstance& instance,
+                                             std::uint32_t scheduledLod, double texelSizeM,
+                                             float maxErrorTexels) noexcept {
+  std::uint32_t lod = std::min(scheduledLod, kMaxCasterLods - 1);
+  if (maxErrorTexels > 0.0f) {
+    const double budgetM = static_cast<double>(maxErrorTexels) * texelSizeM;
+    for (std::uint32_t k = kMaxCasterLods - 1; k > lod; --k) {
+      if (instance.lodMeshes[k - 1] != kNoMesh &&
+          static_cast<double>(instance.lodErrorM[k - 1]) <= budgetM) {
+        return k;
+      }
+    }
+  }
+  return lod;
+}
+
 /// The caster list of one frame: meshes and their instances.
 struct CasterList {
   std::span<const MeshDraw> meshes;
   std::span<const CasterInstance> instances;
+  /// World bounds of each instance (boundsWs[i] belongs to instances[i]): needed with
+  /// RendererOptions::cache (a scissored region draws only the casters over it), else unused.
+  std::span<const AabbWs> boundsWs{};
+};
+
+/// What the cached pass did in one cascade in its last record (RendererOptions::cache).
+struct CascadeCacheStats {
+  /// Static texels re-rendered (newly exposed, invalidated, or the whole layer on a new window).
+  std::uint64_t staticTexels = 0;
+  /// Triangles drawn into the static layer and, over it, of dynamic casters.
+  std::uint64_t staticTriangles = 0;
+  std::uint64_t dynamicTriangles = 0;
+  /// The layer was copied from the static cache (something changed under it).
+  bool copied = false;
+  /// The cascade's window was new (first frame, or a change of size, light, depth range,
+  /// resolution or format): the whole layer was re-rendered.
+  bool newWindow = false;
 };
 
 /// What a draw callback gets for one cascade: the command buffer inside the cascade's render
@@ -268,6 +333,28 @@ class ShadowRenderer {
   /// The renderer's uniform buffer holding that block (updated inside the recorded pass).
   [[nodiscard]] VkBuffer uniformBuffer() const noexcept { return uniformBuffer_; }
 
+  // --- Cached cascades (RendererOptions::cache) -------------------------------------------------
+  /// Fits each non-empty cascade of `frame` into its cached depth window (world-anchored,
+  /// quantised, with hysteresis; a new window when the texel size, the light, the needed depth
+  /// range or the viewport range no longer fits) and rewrites the cascade's depth range and
+  /// viewProjCr to that window's. Call it before culling (ShadowView does); the cached
+  /// recordShadowPass refuses a frame it was not applied to. No-op without the cache.
+  void applyCacheWindows(CascadeFrame& frame);
+  /// Marks the static depth under a world box stale in every cascade (a static caster added,
+  /// removed or moved; terrain streamed in): only the texels under it are re-rendered at the
+  /// next record. Invalid boxes are refused.
+  Status invalidate(const AabbWs& boxWs);
+  /// Marks every cascade stale (the next record re-renders all static texels).
+  void invalidateAll() noexcept;
+  /// What the last cached record did per cascade.
+  [[nodiscard]] const std::array<CascadeCacheStats, kMaxCascades>& cacheStats() const noexcept {
+    return cacheStats_;
+  }
+  /// Device memory of the static-depth cache image (0 without the cache).
+  [[nodiscard]] VkDeviceSize cacheBytes() const noexcept { return cacheBytes_; }
+  /// The static-depth image (DEPTH_ATTACHMENT_OPTIMAL after a cached record; null without cache).
+  [[nodiscard]] VkImage staticImage() const noexcept { return staticImage_; }
+
   /// Descriptor set layout of csm.glsl's resources: CSM_BINDING_UNIFORMS (uniform buffer),
   /// CSM_BINDING_SHADOW_MAP (comparison sampler + array view), CSM_BINDING_SHADOW_DEPTH (depth
   /// sampler + array view), visible to fragment and compute shaders.
@@ -297,6 +384,10 @@ class ShadowRenderer {
   void beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered);
   void endLayer(VkCommandBuffer cmd);
   void setName(std::uint64_t handle, VkObjectType type, const char* name) const;
+  Status createStaticImage(const ShadowSettings& settings, VkFormat format);
+  void retireStaticImage() noexcept;
+  Status recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame, const CasterList& casters,
+                          const CullResult& visible);
 
   DeviceInfo device_{};
   VertexLayout layout_{};
@@ -355,6 +446,29 @@ class ShadowRenderer {
   std::uint32_t resolution_ = 0;
   VkPipeline pipeline_ = VK_NULL_HANDLE;         // per-layer
   VkPipeline layeredPipeline_ = VK_NULL_HANDLE;  // layered (when supported)
+
+  // Cached cascades: the static-depth image, per-cascade windows, pending invalidated boxes.
+  struct CacheWindow {
+    bool valid = false;
+    double texel = 0.0;
+    glm::dvec3 lightDirection{0.0};
+    std::int64_t anchorX = 0, anchorY = 0;  // world texel index drawn at layer texel (0, 0)
+    double zNear = 0.0, zFar = 0.0;         // absolute light-space depth window
+    bool staticValid = false;               // the static layer holds box (boxX, boxY)
+    std::int64_t boxX = 0, boxY = 0;
+    bool dynamicLast = false;  // dynamic casters were drawn into the sampled layer last time
+  };
+  std::array<CacheWindow, kMaxCascades> windows_{};
+  std::vector<AabbWs> invalidBoxes_;
+  std::array<CascadeCacheStats, kMaxCascades> cacheStats_{};
+  VkImage staticImage_ = VK_NULL_HANDLE;
+  VkDeviceMemory staticMemory_ = VK_NULL_HANDLE;
+  VkImageView staticViews_[kMaxCascades] = {};
+  bool staticInitialised_ = false;
+  VkDeviceSize cacheBytes_ = 0;
+  bool wrapSampling_ = false;  // the lighting set uses the REPEAT samplers (cache on)
+  VkSampler wrapCompareSampler_ = VK_NULL_HANDLE;
+  VkSampler wrapDepthSampler_ = VK_NULL_HANDLE;
 
   // Scratch for the layered mode (cascade mask per caster), reused across frames.
   std::vector<std::uint32_t> casterMasks_;

@@ -94,6 +94,14 @@ class ShadowView {
   void setReceiverDepthRange(std::optional<ReceiverDepthRange> range) noexcept {
     receiverRange_ = range;
   }
+  /// Cached cascades (RendererOptions::cache): marks the static depth under a world box stale
+  /// (only the texels under it are re-rendered at the next record). setCasters() already does
+  /// this for static instances that changed; call it for anything else the casters do not show
+  /// (a mesh's vertices edited in place, terrain streamed into the same buffers).
+  Status invalidate(const AabbWs& boxWs) { return renderer_->invalidate(boxWs); }
+  /// Re-renders every cascade's static depth at the next record.
+  void invalidateAll() noexcept { renderer_->invalidateAll(); }
+
   /// Forgets the history (after a camera cut, so sizes need not shrink step by step).
   void resetHistory() noexcept { history_ = {}; }
   /// Per-cascade hook of the pass (GPU timestamps, labels): see CascadeHook.
@@ -120,6 +128,7 @@ class ShadowView {
 
  private:
   ShadowView() = default;
+  void adoptCasters(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances);
 
   std::unique_ptr<ShadowRenderer> renderer_;
   ShadowSettings settings_{};
@@ -128,6 +137,7 @@ class ShadowView {
   CasterSet casterSet_;
   std::vector<MeshDraw> meshes_;
   std::vector<CasterInstance> instances_;
+  std::vector<AabbWs> boundsWs_;  // casterSet_.bounds(i), for the cached pass's regions
   AabbWs sceneBounds_{};
   bool hasSceneBounds_ = false;
   std::optional<ReceiverDepthRange> receiverRange_;

@@ -98,8 +98,11 @@ class Harness {
   /// empty `lodMeshes` turns LODs off (every cascade draws the instances' meshes). Throws
   /// std::invalid_argument for a size or mesh index out of range (at most
   /// csm::vk::kMaxCasterLods LODs).
+  /// `lodErrorM[i][l]` (optional, one list per instance) is LOD l's error in metres
+  /// (CasterInstance::lodErrorM; RendererOptions::lodMaxErrorTexels of configure() chooses by it).
   void setCasterLods(std::vector<std::vector<uint32_t>> lodMeshes,
-                     const std::array<uint32_t, csm::kMaxCascades>& cascadeLod);
+                     const std::array<uint32_t, csm::kMaxCascades>& cascadeLod,
+                     const std::vector<std::vector<float>>& lodErrorM = {});
   /// Triangles the last recorded shadow pass drew, summed over its cascades.
   uint64_t shadowTriangles() const { return shadowTriangles_; }
   /// Applies shadow settings and renderer options.

@@ -18,6 +18,8 @@ namespace csm_measure {
 struct WorldScene {
   Scene scene;
   std::vector<std::vector<uint32_t>> lodMeshes;
+  /// lodErrorM[i][l]: the world's recorded geometric error of instance i's LOD l, metres.
+  std::vector<std::vector<float>> lodErrorM;
 };
 
 WorldScene sceneFromWorld(const world::World& w);

@@ -1,0 +1,402 @@
+// Cached cascades (RendererOptions::cache) against a full re-render of the same frame: every
+// frame of a flight, with dynamic casters moving and static casters added and removed, all
+// texels of every non-empty cascade are bit-identical; validation (synchronization included)
+// stays silent.
+#include <gtest/gtest.h>
+
+#include <csm/core.hpp>
+#include <csm/vulkan/shadow_view.hpp>
+#include <engine/context.hpp>
+#include <engine/debug.hpp>
+#include <engine/memory.hpp>
+#include <engine/mesh_store.hpp>
+#include <sample_world/shadow_host.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace {
+
+constexpr std::uint32_t kResolution = 512;
+constexpr std::uint32_t kCascades = 3;
+
+/// One view and the buffer its layers are read back into.
+struct ViewRig {
+  std::unique_ptr<csm::vk::ShadowView> view;
+  std::unique_ptr<engine::Buffer> readback;
+};
+
+class CacheRig {
+ public:
+  CacheRig() {
+    engine::resetValidationCounts();
+    engine::ContextDesc desc;
+    desc.appName = "csm cache tests";
+    desc.validation = true;
+    ctx_ = std::make_unique<engine::Context>(desc);
+    meshes_ = std::make_unique<engine::MeshStore>(*ctx_, 1 << 14, 1 << 15, "cache test meshes");
+    std::vector<engine::Vertex> v = {{{-1, 0, -1}, {0, 1, 0}},
+                                     {{1, 0, -1}, {0, 1, 0}},
+                                     {{1, 0, 1}, {0, 1, 0}},
+                                     {{-1, 0, 1}, {0, 1, 0}}};
+    std::vector<std::uint32_t> idx = {0, 2, 1, 0, 3, 2};
+    const engine::MeshRange plane = meshes_->upload(v, idx);
+    engine::makeCube(v, idx);
+    const engine::MeshRange cube = meshes_->upload(v, idx);
+    for (const engine::MeshRange& m : {plane, cube}) {
+      csm::vk::MeshDraw d;
+      d.vertexBuffer = meshes_->vertexBuffer();
+      d.indexBuffer = meshes_->indexBuffer();
+      d.firstIndex = m.firstIndex;
+      d.indexCount = m.indexCount;
+      d.vertexOffset = m.vertexOffset;
+      meshDraws_.push_back(d);
+    }
+    // Static: a 400 m ground and a grid of boxes of varied sizes and yaw.
+    addStatic(0, {0, 0, 0}, glm::dvec3(200, 1, 200), 0.0);
+    for (int i = -8; i <= 8; ++i) {
+      for (int j = -8; j <= 8; ++j) {
+        const double h = 1.0 + double((i * 7 + j * 13) & 7);
+        const double s = 0.6 + 0.15 * double((i * 3 + j * 5) & 7);
+        addStatic(1, {i * 11.0 + 3.0, h * 0.5, j * 11.0 - 2.0}, {s, h, s}, 0.3 * (i + j));
+      }
+    }
+    staticCount_ = instances_.size();
+  }
+
+  ~CacheRig() {
+    if (ctx_) ctx_->waitIdle();
+    views_.clear();
+    meshes_.reset();
+    if (ctx_) ctx_->shutdown();
+  }
+
+  void addStatic(std::uint32_t mesh, const glm::dvec3& at, const glm::dvec3& size, double yaw) {
+    csm::vk::CasterInstance inst;
+    inst.mesh = mesh;
+    inst.translationWs = at;
+    const double c = std::cos(yaw), s = std::sin(yaw);
+    // Unit cube [-1, 1]^3 / quad scaled to `size` (half extents), then yawed.
+    inst.linearWs =
+        glm::mat3(glm::dmat3(glm::dvec3(c, 0, -s), glm::dvec3(0, 1, 0), glm::dvec3(s, 0, c)) *
+                  glm::dmat3(glm::dvec3(size.x * 0.5, 0, 0),
+                             glm::dvec3(0, size.y * (mesh == 0 ? 1.0 : 0.5), 0),
+                             glm::dvec3(0, 0, size.z * 0.5)));
+    instances_.push_back(inst);
+    bounds_.push_back(boundsOf(inst));
+  }
+
+  /// World bounds of a unit-cube (or quad) instance: its transformed corners.
+  static csm::AabbWs boundsOf(const csm::vk::CasterInstance& inst) {
+    csm::AabbWs b{glm::dvec3(1e300), glm::dvec3(-1e300)};
+    for (int k = 0; k < 8; ++k) {
+      const glm::dvec3 p((k & 1) ? 1 : -1, (k & 2) ? 1 : -1, (k & 4) ? 1 : -1);
+      const glm::dvec3 q = inst.translationWs + glm::dvec3(glm::dmat3(inst.linearWs) * p);
+      b.minWs = glm::min(b.minWs, q);
+      b.maxWs = glm::max(b.maxWs, q);
+    }
+    return b;
+  }
+
+  /// Adds a view: cached, or the reference (cached but fully re-rendered every frame).
+  ViewRig& addView() {
+    ViewRig rig;
+    rig.view = world::createShadowView(*ctx_);
+    csm::ShadowSettings settings;
+    settings.cascadeCount = kCascades;
+    settings.resolution = kResolution;
+    settings.shadowDistanceM = 120.0;
+    csm::vk::RendererOptions options;
+    options.cache = true;
+    options.renderMode = csm::vk::RenderMode::kPerLayer;
+    csm::vk::Status s = rig.view->setSettings(settings, options);
+    if (!s.ok()) throw std::runtime_error(s.message());
+    const csm::AabbWs scene{{-200, -1, -200}, {200, 20, 200}};
+    s = rig.view->setSceneBounds(&scene);
+    if (!s.ok()) throw std::runtime_error(s.message());
+    const VkDeviceSize bytes = VkDeviceSize(kResolution) * kResolution * 4 * kCascades;
+    rig.readback =
+        std::make_unique<engine::Buffer>(*ctx_, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                         engine::MemoryUsage::Readback, "cache test readback");
+    views_.push_back(std::move(rig));
+    return views_.back();
+  }
+
+  /// Dynamic casters at frame `f`: a "vehicle" driving along x and a turning "blade".
+  void setDynamic(int f) {
+    instances_.resize(staticCount_ + extra_.size());
+    bounds_.resize(instances_.size());
+    for (std::size_t k = 0; k < extra_.size(); ++k) {
+      instances_[staticCount_ + k] = extra_[k];
+      bounds_[staticCount_ + k] = boundsOf(extra_[k]);
+    }
+    csm::vk::CasterInstance car;
+    car.mesh = 1;
+    car.dynamic = true;
+    car.translationWs = {-60.0 + 0.7 * f, 1.0, -4.0};
+    car.linearWs = glm::mat3(glm::dmat3(2.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0));
+    csm::vk::CasterInstance blade = car;
+    const double a = 0.05 * f;
+    blade.translationWs = {2.0, 9.0, -14.0};
+    blade.linearWs =
+        glm::mat3(glm::dmat3(glm::dvec3(std::cos(a), std::sin(a), 0),
+                             glm::dvec3(-std::sin(a), std::cos(a), 0), glm::dvec3(0, 0, 1)) *
+                  glm::dmat3(6.0, 0, 0, 0, 0.3, 0, 0, 0, 0.3));
+    for (const auto& d : {car, blade}) {
+      instances_.push_back(d);
+      bounds_.push_back(boundsOf(d));
+    }
+  }
+
+  /// Records every view's pass for `camera` and `light`, submits, and reads the layers back.
+  void frame(const csm::Camera& camera, const csm::DirectionalLight& light,
+             const std::vector<bool>& fullRender) {
+    for (std::size_t v = 0; v < views_.size(); ++v) {
+      if (fullRender[v]) views_[v].view->invalidateAll();
+    }
+    ctx_->submitAndWait([&](VkCommandBuffer cmd) {
+      for (ViewRig& rig : views_) {
+        csm::vk::Status s = rig.view->record(cmd, camera, light);
+        ASSERT_TRUE(s.ok()) << s.message();
+      }
+      for (ViewRig& rig : views_) {
+        VkImage image = rig.view->renderer().image();
+        VkImageMemoryBarrier2 b{};
+        b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
+        b.srcStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+        b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+        b.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
+        b.oldLayout = csm::vk::ShadowRenderer::sampledLayout();
+        b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+        b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        b.image = image;
+        b.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, kCascades};
+        VkDependencyInfo dep{};
+        dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+        dep.imageMemoryBarrierCount = 1;
+        dep.pImageMemoryBarriers = &b;
+        vkCmdPipelineBarrier2(cmd, &dep);
+        VkBufferImageCopy region{};
+        region.imageSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 0, kCascades};
+        region.imageExtent = {kResolution, kResolution, 1};
+        vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                               rig.readback->handle(), 1, &region);
+        b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+        b.srcAccessMask = VK_ACCESS_2_NONE;
+        b.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+        b.dstAccessMask = VK_ACCESS_2_NONE;
+        b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+        b.newLayout = csm::vk::ShadowRenderer::sampledLayout();
+        vkCmdPipelineBarrier2(cmd, &dep);
+      }
+    });
+  }
+
+  /// Texels of non-empty cascades where views a and b differ (bitwise), and the first one.
+  std::uint64_t differences(std::size_t a, std::size_t b, std::string* first) const {
+    const auto* pa = static_cast<const std::uint32_t*>(views_[a].readback->mapped());
+    const auto* pb = static_cast<const std::uint32_t*>(views_[b].readback->mapped());
+    const csm::CascadeFrame& fa = views_[a].view->frame();
+    std::uint64_t n = 0;
+    const std::size_t layer = std::size_t(kResolution) * kResolution;
+    for (std::uint32_t c = 0; c < kCascades; ++c) {
+      if (fa.cascades[c].empty) continue;
+      for (std::size_t t = 0; t < layer; ++t) {
+        if (pa[c * layer + t] != pb[c * layer + t]) {
+          if (n == 0 && first != nullptr) {
+            float x, y;
+            std::memcpy(&x, &pa[c * layer + t], 4);
+            std::memcpy(&y, &pb[c * layer + t], 4);
+            *first = "cascade " + std::to_string(c) + " texel (" + std::to_string(t % kResolution) +
+                     ", " + std::to_string(t / kResolution) + "): " + std::to_string(x) + " vs " +
+                     std::to_string(y);
+          }
+          ++n;
+        }
+      }
+    }
+    return n;
+  }
+
+  std::unique_ptr<engine::Context> ctx_;
+  std::unique_ptr<engine::MeshStore> meshes_;
+  std::vector<csm::vk::MeshDraw> meshDraws_;
+  std::vector<csm::vk::CasterInstance> instances_;
+  std::vector<csm::AabbWs> bounds_;
+  std::vector<csm::vk::CasterInstance> extra_;  // static casters added mid-flight
+  std::size_t staticCount_ = 0;
+  std::vector<ViewRig> views_;
+};
+
+/// The camera of frame f on a path: "walk" (1.4 m/s at 60 Hz, turning), "fast" (100 m/s,
+/// straight and climbing), "turn" (in place, looking around), "sun" (walk with the sun moving
+/// every 40 frames: new windows).
+csm::Camera pathCamera(const std::string& path, int f) {
+  csm::Camera cam;
+  cam.aspect = 16.0 / 9.0;
+  cam.nearM = 0.1;
+  cam.farM = 400.0;
+  double x = 0, z = 0, y = 2.0, yaw = 0.0, pitch = -0.15;
+  if (path == "walk" || path == "sun") {
+    x = 0.023 * f;
+    z = -0.02 * f;
+    yaw = 0.004 * f;
+  } else if (path == "fast") {
+    x = -90.0 + 1.6 * f;
+    z = 10.0 - 0.4 * f;
+    y = 3.0 + 0.05 * f;
+    yaw = -1.2;
+  } else {
+    x = 1.0 + 0.01 * f;
+    yaw = 0.03 * f;
+    pitch = -0.1 - 0.2 * std::sin(0.02 * f);
+  }
+  cam.positionWs = {x, y, z};
+  cam.orientationWs =
+      glm::angleAxis(yaw, glm::dvec3(0, 1, 0)) * glm::angleAxis(pitch, glm::dvec3(1, 0, 0));
+  return cam;
+}
+
+csm::DirectionalLight pathLight(const std::string& path, int f) {
+  double a = 0.0;
+  if (path == "sun") a = 0.02 * double(f / 40);
+  return {glm::normalize(glm::dvec3(0.5 + a, -1.0, -0.3))};
+}
+
+int flightFrames() {
+  const char* env = std::getenv("CSM_CACHE_TEST_FRAMES");
+  return env != nullptr ? std::max(2, std::atoi(env)) : 240;
+}
+
+class CacheFlight : public ::testing::TestWithParam<std::string> {};
+
+// Views: 0 cached, 1 the reference (fully re-rendered every frame), 2 cached but never given the
+// caster added mid-flight (the map without it).
+TEST_P(CacheFlight, EveryFrameBitIdenticalToFullRender) {
+  const std::string path = GetParam();
+  CacheRig rig;
+  rig.addView();
+  rig.addView();
+  rig.addView();
+  const int frames = flightFrames();
+  const int addAt = frames / 3, removeAt = 2 * frames / 3;
+  std::uint64_t cachedTexels = 0, fullTexels = 0;
+  for (int f = 0; f < frames; ++f) {
+    const csm::Camera cam = pathCamera(path, f);
+    const csm::DirectionalLight light = pathLight(path, f);
+    // A static box near the camera, added and removed mid-flight (views 0 and 1 only).
+    rig.extra_.clear();
+    if (f >= addAt && f < removeAt) {
+      csm::vk::CasterInstance box;
+      box.mesh = 1;
+      const glm::dvec3 at =
+          pathCamera(path, addAt).positionWs + pathCamera(path, addAt).forwardWs() * 8.0;
+      box.translationWs = {at.x, 2.0, at.z};
+      box.linearWs = glm::mat3(glm::dmat3(1.5, 0, 0, 0, 2.0, 0, 0, 0, 1.5));
+      rig.extra_.push_back(box);
+    }
+    rig.setDynamic(f);
+    // View 2 never sees the extra box: set its casters without it.
+    {
+      auto instances = rig.instances_;
+      auto bounds = rig.bounds_;
+      if (!rig.extra_.empty()) {
+        instances.erase(instances.begin() + std::ptrdiff_t(rig.staticCount_));
+        bounds.erase(bounds.begin() + std::ptrdiff_t(rig.staticCount_));
+      }
+      csm::vk::Status s = rig.views_[2].view->setCasters(rig.meshDraws_, instances, bounds);
+      ASSERT_TRUE(s.ok()) << s.message();
+    }
+    for (std::size_t v = 0; v < 2; ++v) {
+      csm::vk::Status s =
+          rig.views_[v].view->setCasters(rig.meshDraws_, rig.instances_, rig.bounds_);
+      ASSERT_TRUE(s.ok()) << s.message();
+    }
+    rig.frame(cam, light, {false, true, false});
+    if (HasFailure()) return;
+    std::string first;
+    const std::uint64_t diff = rig.differences(0, 1, &first);
+    ASSERT_EQ(diff, 0u) << path << " frame " << f << ": " << diff
+                        << " texels differ from the full render, first at " << first;
+    const std::uint64_t withoutBox = rig.differences(0, 2, nullptr);
+    if (f == addAt) {
+      EXPECT_GT(withoutBox, 0u) << "the added box does not show on the frame it was added";
+    }
+    if (f == removeAt || f < addAt) {
+      EXPECT_EQ(withoutBox, 0u) << path << " frame " << f
+                                << ": the removed box still shows (or the views diverged)";
+    }
+    for (std::uint32_t c = 0; c < kCascades; ++c) {
+      cachedTexels += rig.views_[0].view->renderer().cacheStats()[c].staticTexels;
+      fullTexels += rig.views_[1].view->renderer().cacheStats()[c].staticTexels;
+    }
+  }
+  EXPECT_EQ(engine::validationMessageCount(), 0u);
+  // The cache renders a fraction of the texels (it can fail: a cache that re-rendered
+  // everything would pass the identity above).
+  std::printf("[cache] %s: %d frames, static texels re-rendered cached %llu, full %llu (%.2f%%)\n",
+              path.c_str(), frames, static_cast<unsigned long long>(cachedTexels),
+              static_cast<unsigned long long>(fullTexels),
+              100.0 * double(cachedTexels) / double(std::max<std::uint64_t>(fullTexels, 1)));
+  EXPECT_LT(cachedTexels * 4, fullTexels);
+}
+
+// A still camera re-renders nothing; an invalidated box re-renders only the texels under it
+// (and the result is still bit-identical to a full render).
+TEST(ShadowCache, InvalidatedBoxRerendersOnlyItsTexels) {
+  CacheRig rig;
+  rig.addView();
+  rig.addView();
+  const csm::Camera cam = pathCamera("walk", 0);
+  const csm::DirectionalLight light = pathLight("walk", 0);
+  for (std::size_t v = 0; v < 2; ++v) {
+    csm::vk::Status s = rig.views_[v].view->setCasters(rig.meshDraws_, rig.instances_, rig.bounds_);
+    ASSERT_TRUE(s.ok()) << s.message();
+  }
+  rig.frame(cam, light, {false, true});
+  rig.frame(cam, light, {false, true});
+  const auto& stats = rig.views_[0].view->renderer().cacheStats();
+  for (std::uint32_t c = 0; c < kCascades; ++c) {
+    EXPECT_EQ(stats[c].staticTexels, 0u) << "cascade " << c;
+    EXPECT_FALSE(stats[c].copied) << "cascade " << c << ": nothing changed, nothing copied";
+  }
+  const csm::AabbWs box{{1.0, 0.0, -8.0}, {3.0, 3.0, -6.0}};
+  ASSERT_TRUE(rig.views_[0].view->invalidate(box).ok());
+  rig.frame(cam, light, {false, true});
+  std::string first;
+  EXPECT_EQ(rig.differences(0, 1, &first), 0u) << first;
+  const std::uint64_t layer = std::uint64_t(kResolution) * kResolution;
+  EXPECT_GT(stats[0].staticTexels, 0u);
+  EXPECT_LT(stats[0].staticTexels * 50, layer) << "a 2 m box is a small part of cascade 0";
+  // Refused: an invalid box, caching without stabilised cascades or with a layered pass.
+  EXPECT_FALSE(rig.views_[0].view->invalidate({{0.0, 0.0, 0.0}, {-1.0, 1.0, 1.0}}).ok());
+  csm::ShadowSettings settings = rig.views_[0].view->settings();
+  csm::vk::RendererOptions options = rig.views_[0].view->options();
+  settings.stabilize = false;
+  csm::vk::Status s = rig.views_[0].view->setSettings(settings, options);
+  EXPECT_EQ(s.code(), csm::vk::ErrorCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("stabilize"), std::string::npos) << s.message();
+  settings.stabilize = true;
+  options.renderMode = csm::vk::RenderMode::kLayered;
+  s = rig.views_[0].view->setSettings(settings, options);
+  EXPECT_EQ(s.code(), csm::vk::ErrorCode::kInvalidArgument);
+  // A frame the windows were not applied to is refused by the renderer.
+  auto frame = rig.views_[0].view->computeFrame(cam, light);
+  ASSERT_TRUE(frame.ok());
+  rig.ctx_->submitAndWait([&](VkCommandBuffer cmd) {
+    const csm::vk::Status r = rig.views_[0].view->renderer().recordShadowPass(
+        cmd, frame.value(), csm::vk::CasterList{rig.meshDraws_, rig.instances_, rig.bounds_},
+        &rig.views_[0].view->cull());
+    EXPECT_EQ(r.code(), csm::vk::ErrorCode::kInvalidArgument) << r.message();
+  });
+  EXPECT_EQ(engine::validationMessageCount(), 0u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Paths, CacheFlight, ::testing::Values("walk", "fast", "turn", "sun"),
+                         [](const auto& info) { return info.param; });
+
+}  // namespace
