@@ -14,6 +14,9 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 // Receiver-driven splits span at least this ratio of far to near.
 constexpr double kMinSpanRatio = 1.1;
+// The depth window's anchor grid (and its margin on each side) as a fraction of the depth
+// range's far side: a power of two, so the step is exact on the ladder's rungs.
+constexpr double kDepthStepFraction = 0.125;
 
 std::array<glm::dvec3, 8> aabbCorners(const AabbWs& b) noexcept {
   std::array<glm::dvec3, 8> c{};
@@ -34,7 +37,9 @@ bool sphereTouchesAabb(const glm::dvec3& c, double r, const AabbWs& b) noexcept 
 // translation is formed in double from two nearby points, so it is exact far from the origin.
 glm::mat4 cameraRelativeViewProj(const glm::dmat3& basis, const glm::dvec3& cameraWs,
                                  const Cascade& c) noexcept {
-  const glm::dvec3 t = glm::transpose(basis) * (cameraWs - c.boxCenterWs);
+  glm::dvec3 t = glm::transpose(basis) * (cameraWs - c.boxCenterWs);
+  // The depth origin from the box's anchored depth, independent of its x, y snap.
+  t.z = glm::dot(basis[2], cameraWs) - c.depthOriginLs;
   const double dz = c.depthFarLs - c.depthNearLs;
   const glm::dvec3 scale(1.0 / c.halfExtentLs.x, 1.0 / c.halfExtentLs.y, 1.0 / dz);
   const glm::dvec3 offset(t.x * scale.x, t.y * scale.y, (t.z - c.depthNearLs) * scale.z);
@@ -148,6 +153,8 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
     if (history->cascadeCount != count) {
       history->sizeRung = detail::noRungs<kMaxCascades>();
       history->depthRung = detail::noRungs<kMaxCascades>();
+      history->depthAnchorLs = {};
+      history->depthAnchorStepLs = {};
       history->splitRung = detail::noRungs<kMaxCascades + 1>();
     }
     history->shadowFarM = 0.0;
@@ -209,10 +216,9 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   frame.shadowFarM = quantizedShadowFar(neededFarM, maxFarM, minFarM,
                                         history != nullptr ? history->shadowFarM : 0.0);
   if (history != nullptr) history->shadowFarM = frame.shadowFarM;
-  frame.splitsM =
-      settings.explicitSplits()
-          ? explicitSplits(splitNearM, frame.shadowFarM, count, settings.splitPositions)
-          : practicalSplits(splitNearM, frame.shadowFarM, count, settings.splitLambda);
+  frame.splitsM = settings.explicitSplits()
+                      ? explicitSplits(splitNearM, frame.shadowFarM, count, settings.splitPositions)
+                      : practicalSplits(splitNearM, frame.shadowFarM, count, settings.splitLambda);
   std::array<int, kMaxCascades + 1> splitRungs = detail::noRungs<kMaxCascades + 1>();
   if (ladder) ladderSplits(frame.splitsM, count, steps, hysteresis, history, splitRungs);
 
@@ -272,12 +278,35 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
       const double texel = 2.0 * half / res;
       c.halfExtentLs = glm::dvec2(half);
       c.texelSizeLs = glm::dvec2(texel);
+      // The depth window is world-anchored too: its origin (the box centre's light-space z) sits
+      // on a grid of depthStep = depthFarLs / 8 about the world origin, in double, and holds
+      // while the sphere stays inside the window (which gets one step of margin on each side);
+      // it moves to the nearest grid point when the sphere leaves it or at a depth rung event.
+      // So between events no stored or receiver depth is re-rounded (a depth origin that follows
+      // the sphere continuously moves every depth by a fraction of a quantum each frame, and
+      // receivers on a depth tie, e.g. ground at a caster's foot, flip).
+      const double depthStep = c.depthFarLs * kDepthStepFraction;
+      double anchorZ = std::round(centerLs.z / depthStep) * depthStep;
+      if (ladder && history != nullptr && history->depthRung[i] == c.depthRung &&
+          history->depthAnchorStepLs[i] == depthStep &&
+          std::abs(centerLs.z - history->depthAnchorLs[i]) <= depthStep) {
+        anchorZ = history->depthAnchorLs[i];
+      }
+      c.depthAnchorMoved =
+          history != nullptr && history->depthAnchorStepLs[i] > 0.0 &&
+          (history->depthAnchorLs[i] != anchorZ || history->depthAnchorStepLs[i] != depthStep);
+      if (history != nullptr) {
+        history->depthAnchorLs[i] = anchorZ;
+        history->depthAnchorStepLs[i] = depthStep;
+      }
+      c.depthFarLs += depthStep;
       // Snap the centre on the light-space grid anchored at the world origin, in double.
       const glm::dvec3 snappedLs(std::round(centerLs.x / texel) * texel,
-                                 std::round(centerLs.y / texel) * texel, centerLs.z);
+                                 std::round(centerLs.y / texel) * texel, anchorZ);
       c.boxCenterWs = basis * snappedLs;
-      // Make the box centre's depth exactly the sphere centre's (only x, y are snapped).
-      c.boxCenterWs += basis[2] * (centerLs.z - glm::dot(basis[2], c.boxCenterWs));
+      // Make the box centre's depth exactly the anchored one.
+      c.boxCenterWs += basis[2] * (anchorZ - glm::dot(basis[2], c.boxCenterWs));
+      c.depthOriginLs = anchorZ;
       depthNearLs = -c.depthFarLs;
     } else {
       // Tight fit to the slice's light-space bounds; no snapping (the comparison mode).
@@ -290,6 +319,7 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
       }
       const glm::dvec3 centerLs = 0.5 * (lo + hi);
       c.boxCenterWs = camera.positionWs + basis * centerLs;
+      c.depthOriginLs = glm::dot(basis[2], c.boxCenterWs);
       c.halfExtentLs = glm::max(glm::dvec2(0.5 * (hi - lo)), glm::dvec2(1e-9));
       c.texelSizeLs = 2.0 * c.halfExtentLs / res;
       c.depthFarLs = std::max(0.5 * (hi.z - lo.z), 1e-9);
@@ -302,7 +332,7 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
     if (sceneBounds != nullptr) {
       double sceneNearLs = kInf;
       for (const glm::dvec3& p : sceneCorners) {
-        sceneNearLs = std::min(sceneNearLs, glm::dot(basis[2], p - c.boxCenterWs));
+        sceneNearLs = std::min(sceneNearLs, glm::dot(basis[2], p) - c.depthOriginLs);
       }
       if (sceneNearLs < depthNearLs) {
         const double step = 0.5 * c.depthFarLs;
