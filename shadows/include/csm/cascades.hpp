@@ -120,6 +120,11 @@ struct CascadeHistory {
   /// grid step; step 0 before the first frame.
   std::array<double, kMaxCascades> depthAnchorLs{};
   std::array<double, kMaxCascades> depthAnchorStepLs{};
+  /// Each box centre's light-space x, y (a point of the world-anchored texel grid) and the texel
+  /// size it was snapped with; texel 0 before the first frame. The box holds it while the size
+  /// is the same and the sphere (or tight square) stays inside.
+  std::array<glm::dvec2, kMaxCascades> boxCenterLs{};
+  std::array<double, kMaxCascades> boxTexelLs{};
   /// Rung of the receiver-driven near end of the splits (kNoRung without a receiver range).
   int receiverNearRung = INT_MIN;
   /// Rung events counted since the history started (never reset): changes of each cascade's

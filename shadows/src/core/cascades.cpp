@@ -155,6 +155,8 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
       history->depthRung = detail::noRungs<kMaxCascades>();
       history->depthAnchorLs = {};
       history->depthAnchorStepLs = {};
+      history->boxCenterLs = {};
+      history->boxTexelLs = {};
       history->splitRung = detail::noRungs<kMaxCascades + 1>();
     }
     history->shadowFarM = 0.0;
@@ -300,9 +302,27 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
         history->depthAnchorStepLs[i] = depthStep;
       }
       c.depthFarLs += depthStep;
-      // Snap the centre on the light-space grid anchored at the world origin, in double.
-      const glm::dvec3 snappedLs(std::round(centerLs.x / texel) * texel,
-                                 std::round(centerLs.y / texel) * texel, anchorZ);
+      // Snap the centre on the light-space grid anchored at the world origin, in double. With
+      // the ladder, the box holds last frame's grid point while the texel size is the same and
+      // what it must cover (the sphere's disk, or the tight square) is still inside: a snap
+      // moves the map by whole texels, but the casters are rasterised anew at the shifted
+      // offset and every stored depth is re-rounded (a receiver on a depth tie, e.g. ground at
+      // a caster's foot, flips). Between events the box then does not move at all.
+      glm::dvec2 gridLs(std::round(centerLs.x / texel) * texel,
+                        std::round(centerLs.y / texel) * texel);
+      if (ladder && history != nullptr && history->boxTexelLs[i] == texel) {
+        const glm::dvec2 heldLs = history->boxCenterLs[i];
+        const double coverHalf = neededHalf / snapMargin;
+        if (std::abs(centerLs.x - heldLs.x) + coverHalf <= half &&
+            std::abs(centerLs.y - heldLs.y) + coverHalf <= half) {
+          gridLs = heldLs;
+        }
+      }
+      if (history != nullptr) {
+        history->boxCenterLs[i] = gridLs;
+        history->boxTexelLs[i] = texel;
+      }
+      const glm::dvec3 snappedLs(gridLs.x, gridLs.y, anchorZ);
       c.boxCenterWs = basis * snappedLs;
       // Make the box centre's depth exactly the anchored one.
       c.boxCenterWs += basis[2] * (anchorZ - glm::dot(basis[2], c.boxCenterWs));
