@@ -266,6 +266,8 @@ TEST_P(LadderMotionTest, DepthWindowIsWorldAnchoredBetweenEvents) {
       const double sphereZ = glm::dot(cur.lightBasisWs[2], k.sphereCenterWs) - k.depthOriginLs;
       ASSERT_GE(sphereZ - k.sphereRadiusM, k.depthNearLs);
       ASSERT_LE(sphereZ + k.sphereRadiusM, k.depthFarLs);
+      // The camera holds its position: the window is anchored from the first frame on.
+      ASSERT_TRUE(k.depthAnchored);
       if (f == 0) continue;
       const Cascade& p = prev.cascades[c];
       if (k.sizeRung != p.sizeRung || k.depthRung != p.depthRung || cur.lightStepped) {

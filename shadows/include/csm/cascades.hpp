@@ -44,7 +44,7 @@ struct Cascade {
 
   // ---- The size ladder (set in stabilised mode with settings.sizeLadder; else kNoRung) ----
   /// Rung of the box half side (halfExtentLs = ladderValue(sizeRung)), of the depth range's far
-  /// side (depthFarLs = ladderValue(depthRung) x 9/8: the rung plus the depth anchor's margin) and
+  /// side (depthFarLs = ladderValue(depthRung), x 9/8 with depthAnchored: the anchor's margin) and
   /// of this cascade's far split (kNoRung for the last cascade, which ends at the shadow far
   /// distance).
   int sizeRung = INT_MIN;
@@ -62,6 +62,10 @@ struct Cascade {
   /// moved this frame against the history: the sphere left the window (or the depth rung
   /// changed). Between such moves and rung events the depth mapping is bit-identical.
   bool depthAnchorMoved = false;
+  /// The depth window is held on its world-anchored grid this frame (ladder on, camera holding
+  /// its position): depthFarLs carries the anchor's margin and viewProjCr's depth row is formed
+  /// from depthOriginLs. Otherwise the window is centred on the sphere, as without the ladder.
+  bool depthAnchored = false;
 
   /// Largest texel side in metres (both sides are equal when stabilised).
   [[nodiscard]] double texelSizeM() const noexcept {
@@ -122,9 +126,11 @@ struct CascadeHistory {
   std::array<double, kMaxCascades> depthAnchorStepLs{};
   /// Each box centre's light-space x, y (a point of the world-anchored texel grid) and the texel
   /// size it was snapped with; texel 0 before the first frame. The box holds it while the size
-  /// is the same and the sphere (or tight square) stays inside.
+  /// is the same, the camera holds its position and the sphere (or tight square) stays inside.
   std::array<glm::dvec2, kMaxCascades> boxCenterLs{};
   std::array<double, kMaxCascades> boxTexelLs{};
+  /// Last frame's camera position (the box holds its x, y only while the camera does).
+  glm::dvec3 cameraPositionWs{0.0};
   /// Rung of the receiver-driven near end of the splits (kNoRung without a receiver range).
   int receiverNearRung = INT_MIN;
   /// Rung events counted since the history started (never reset): changes of each cascade's

@@ -39,7 +39,7 @@ glm::mat4 cameraRelativeViewProj(const glm::dmat3& basis, const glm::dvec3& came
                                  const Cascade& c) noexcept {
   glm::dvec3 t = glm::transpose(basis) * (cameraWs - c.boxCenterWs);
   // The depth origin from the box's anchored depth, independent of its x, y snap.
-  t.z = glm::dot(basis[2], cameraWs) - c.depthOriginLs;
+  if (c.depthAnchored) t.z = glm::dot(basis[2], cameraWs) - c.depthOriginLs;
   const double dz = c.depthFarLs - c.depthNearLs;
   const glm::dvec3 scale(1.0 / c.halfExtentLs.x, 1.0 / c.halfExtentLs.y, 1.0 / dz);
   const glm::dvec3 offset(t.x * scale.x, t.y * scale.y, (t.z - c.depthNearLs) * scale.z);
@@ -165,6 +165,13 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
     history->cascadeCount = count;
   }
   if (history != nullptr) ++history->frames;
+  // The camera holds its position (a zoom, a resize, a turn; or the history's first frame): the
+  // depth window and the box may hold their grid points (below). When the camera moves, every
+  // camera-relative position and the matrices change anyway, and the box takes the grid point
+  // nearest the sphere's centre (most slack).
+  const bool cameraHeld = history != nullptr &&
+                          (history->frames == 1 || history->cameraPositionWs == camera.positionWs);
+  if (history != nullptr) history->cameraPositionWs = camera.positionWs;
 
   // How far receivers reach along the view: the scene's depth interval.
   double sceneMinDepthM = -kInf;
@@ -287,30 +294,35 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
       // So between events no stored or receiver depth is re-rounded (a depth origin that follows
       // the sphere continuously moves every depth by a fraction of a quantum each frame, and
       // receivers on a depth tie, e.g. ground at a caster's foot, flip).
-      const double depthStep = c.depthFarLs * kDepthStepFraction;
-      double anchorZ = std::round(centerLs.z / depthStep) * depthStep;
-      if (ladder && history != nullptr && history->depthRung[i] == c.depthRung &&
-          history->depthAnchorStepLs[i] == depthStep &&
-          std::abs(centerLs.z - history->depthAnchorLs[i]) <= depthStep) {
-        anchorZ = history->depthAnchorLs[i];
-      }
-      c.depthAnchorMoved =
-          history != nullptr && history->depthAnchorStepLs[i] > 0.0 &&
-          (history->depthAnchorLs[i] != anchorZ || history->depthAnchorStepLs[i] != depthStep);
-      if (history != nullptr) {
+      // (Held while the camera holds its position, with the ladder; a moving camera changes
+      // every camera-relative position anyway, and the window follows the sphere's centre.)
+      double anchorZ = centerLs.z;
+      c.depthAnchored = ladder && cameraHeld;
+      if (c.depthAnchored) {
+        const double depthStep = c.depthFarLs * kDepthStepFraction;
+        anchorZ = std::round(centerLs.z / depthStep) * depthStep;
+        if (history->depthRung[i] == c.depthRung && history->depthAnchorStepLs[i] == depthStep &&
+            std::abs(centerLs.z - history->depthAnchorLs[i]) <= depthStep) {
+          anchorZ = history->depthAnchorLs[i];
+        }
+        c.depthAnchorMoved =
+            history->depthAnchorLs[i] != anchorZ || history->depthAnchorStepLs[i] != depthStep;
         history->depthAnchorLs[i] = anchorZ;
         history->depthAnchorStepLs[i] = depthStep;
+        c.depthFarLs += depthStep;
+      } else if (history != nullptr) {
+        history->depthAnchorStepLs[i] = 0.0;
       }
-      c.depthFarLs += depthStep;
       // Snap the centre on the light-space grid anchored at the world origin, in double. With
       // the ladder, the box holds last frame's grid point while the texel size is the same and
-      // what it must cover (the sphere's disk, or the tight square) is still inside: a snap
+      // what it must cover (the sphere's disk, or the tight square) is still inside and the
+      // camera has not moved: a snap
       // moves the map by whole texels, but the casters are rasterised anew at the shifted
       // offset and every stored depth is re-rounded (a receiver on a depth tie, e.g. ground at
       // a caster's foot, flips). Between events the box then does not move at all.
       glm::dvec2 gridLs(std::round(centerLs.x / texel) * texel,
                         std::round(centerLs.y / texel) * texel);
-      if (ladder && history != nullptr && history->boxTexelLs[i] == texel) {
+      if (ladder && history != nullptr && history->boxTexelLs[i] == texel && cameraHeld) {
         const glm::dvec2 heldLs = history->boxCenterLs[i];
         const double coverHalf = neededHalf / snapMargin;
         if (std::abs(centerLs.x - heldLs.x) + coverHalf <= half &&
@@ -352,7 +364,9 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
     if (sceneBounds != nullptr) {
       double sceneNearLs = kInf;
       for (const glm::dvec3& p : sceneCorners) {
-        sceneNearLs = std::min(sceneNearLs, glm::dot(basis[2], p) - c.depthOriginLs);
+        sceneNearLs =
+            std::min(sceneNearLs, c.depthAnchored ? glm::dot(basis[2], p) - c.depthOriginLs
+                                                  : glm::dot(basis[2], p - c.boxCenterWs));
       }
       if (sceneNearLs < depthNearLs) {
         const double step = 0.5 * c.depthFarLs;
