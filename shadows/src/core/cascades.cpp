@@ -369,7 +369,9 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
                                                   : glm::dot(basis[2], p - c.boxCenterWs));
       }
       if (sceneNearLs < depthNearLs) {
-        const double step = 0.5 * c.depthFarLs;
+        // (Steps of the depth range's own rung: the anchor's margin does not coarsen them.)
+        const double step =
+            0.5 * (c.depthAnchored ? c.depthFarLs / (1.0 + kDepthStepFraction) : c.depthFarLs);
         const double needed = -std::ceil(-sceneNearLs / step) * step;
         depthNearLs = needed;
         if (history != nullptr) {
