@@ -228,6 +228,82 @@ INSTANTIATE_TEST_SUITE_P(Origins, LadderMotionTest, ::testing::Values(0.0, 1e6, 
                                                   : "at1e" + std::to_string(info.index + 5);
                          });
 
+// The depth window is world-anchored like the texel grid: under a zoom (the slice spheres'
+// centres slide along the view axis every frame), between events of a cascade (size or depth
+// rung, or its depth anchor moving because the sphere left the window) its depth origin,
+// depthNearLs, depthFarLs and the depth row of viewProjCr are bit-identical, so no stored or
+// receiver depth is re-rounded; the box's x, y hold as well while the sphere stays inside (the
+// whole matrix is then bit-identical); and every slice corner stays inside the box.
+TEST_P(LadderMotionTest, DepthWindowIsWorldAnchoredBetweenEvents) {
+  const glm::dvec3 origin = GetParam() * glm::dvec3(0.6, 0.0, -0.8);
+  const Motion zoom = motions()[0];
+  // A scene (ground with casters up to 30 m), so the depth range extends toward the light.
+  const AabbWs scene{origin + glm::dvec3(-100.0, -5.0, -100.0),
+                     origin + glm::dvec3(100.0, 30.0, 100.0)};
+  CascadeHistory h;
+  CascadeFrame prev;
+  std::uint32_t held = 0, anchorMoves = 0, otherEvents = 0, boxMoves = 0;
+  for (int f = 0; f < zoom.frames; ++f) {
+    Camera cam = baseCamera(origin);
+    ShadowSettings s = baseSettings();
+    DirectionalLight light{{0.75, -0.6, 0.3}};
+    zoom.apply(cam, s, light, double(f) / double(zoom.frames - 1));
+    const CascadeFrame cur = test::computeOrDie(s, cam, light, &scene, &h);
+    for (std::uint32_t c = 0; c < cur.cascadeCount; ++c) {
+      SCOPED_TRACE("frame " + std::to_string(f) + " cascade " + std::to_string(c));
+      const Cascade& k = cur.cascades[c];
+      // Every slice corner (and the sphere) lies inside the depth range.
+      for (const glm::dvec3& pCr : sliceCornersCr(cam, k.splitNearM, k.splitFarM)) {
+        const glm::dvec3 t = shadowTexelCoord(k, cur, cam.positionWs + pCr);
+        ASSERT_GE(t.z, 0.0);
+        ASSERT_LE(t.z, 1.0);
+        // (and inside the box, which may hold its grid point while the sphere stays inside)
+        ASSERT_GE(t.x, -1e-6);
+        ASSERT_LE(t.x, s.resolution + 1e-6);
+        ASSERT_GE(t.y, -1e-6);
+        ASSERT_LE(t.y, s.resolution + 1e-6);
+      }
+      const double sphereZ = glm::dot(cur.lightBasisWs[2], k.sphereCenterWs) - k.depthOriginLs;
+      ASSERT_GE(sphereZ - k.sphereRadiusM, k.depthNearLs);
+      ASSERT_LE(sphereZ + k.sphereRadiusM, k.depthFarLs);
+      // The camera holds its position: the window is anchored from the first frame on.
+      ASSERT_TRUE(k.depthAnchored);
+      if (f == 0) continue;
+      const Cascade& p = prev.cascades[c];
+      if (k.sizeRung != p.sizeRung || k.depthRung != p.depthRung || cur.lightStepped) {
+        ++otherEvents;
+        continue;
+      }
+      if (k.depthAnchorMoved) {
+        ++anchorMoves;
+        continue;
+      }
+      ++held;
+      ASSERT_EQ(k.depthOriginLs, p.depthOriginLs);
+      ASSERT_EQ(k.depthNearLs, p.depthNearLs);
+      ASSERT_EQ(k.depthFarLs, p.depthFarLs);
+      for (int col = 0; col < 4; ++col) ASSERT_EQ(k.viewProjCr[col][2], p.viewProjCr[col][2]);
+      // The box holds its x, y too while the sphere stays inside: then the whole map is
+      // rendered with a bit-identical matrix (the camera holds its position in a zoom).
+      if (k.boxCenterWs != p.boxCenterWs) {
+        ++boxMoves;
+      } else {
+        ASSERT_EQ(k.viewProjCr, p.viewProjCr);
+      }
+    }
+    prev = cur;
+  }
+  // Most cascade-frames hold their depth window; the anchor moves rarely on its own (the sphere
+  // left the window between rung events).
+  EXPECT_GT(held, 4u * 170u);
+  EXPECT_LE(anchorMoves, 4u);
+  EXPECT_LE(boxMoves, 8u);
+  std::printf(
+      "zoom at %.0e m: depth window held on %u cascade-frames (box x, y moved on %u of them), "
+      "anchor moves between rung events %u, cascade-frames with a rung event %u\n",
+      GetParam(), held, boxMoves, anchorMoves, otherEvents);
+}
+
 TEST(Ladder, SunMovingTenDegreesStepsTheLightDirection) {
   // A sun moving 10 degrees over 600 frames with 0.5 degree steps: the direction used changes
   // on about 20 frames, never lags the real one by more than the step, and between steps the

@@ -27,9 +27,15 @@ struct Cascade {
   /// World size of one shadow texel along light-space x and y (= 2 * halfExtent / resolution).
   glm::dvec2 texelSizeLs{0.0};
   /// Light-space depth range: near side (toward the light, negative, extended to the scene's
-  /// casters) and far side (at the sphere). Depth 0 maps to depthNearLs, 1 to depthFarLs.
+  /// casters) and far side (the sphere plus the depth anchor's margin, stabilised mode). Depth 0
+  /// maps to depthNearLs, 1 to depthFarLs.
   double depthNearLs = 0.0;
   double depthFarLs = 0.0;
+  /// Light-space z of boxCenterWs about the world origin (the depth window's origin). Stabilised:
+  /// a world-anchored grid point that holds between events, so the depth row of viewProjCr is
+  /// bit-identical while the camera holds its position (it is formed from this value, not from
+  /// boxCenterWs, whose x and y snap).
+  double depthOriginLs = 0.0;
   /// Camera-relative world position (posWs - cameraPositionWs, as float) -> shadow clip space:
   /// x, y in [-1, 1] across the box (uv = xy * 0.5 + 0.5), z in [0, 1].
   glm::mat4 viewProjCr{1.0f};
@@ -38,8 +44,9 @@ struct Cascade {
 
   // ---- The size ladder (set in stabilised mode with settings.sizeLadder; else kNoRung) ----
   /// Rung of the box half side (halfExtentLs = ladderValue(sizeRung)), of the depth range's far
-  /// side (depthFarLs = ladderValue(depthRung)) and of this cascade's far split (kNoRung for the
-  /// last cascade, which ends at the shadow far distance).
+  /// side (depthFarLs = ladderValue(depthRung), x 9/8 with depthAnchored: the anchor's margin) and
+  /// of this cascade's far split (kNoRung for the last cascade, which ends at the shadow far
+  /// distance).
   int sizeRung = INT_MIN;
   int depthRung = INT_MIN;
   int splitFarRung = INT_MIN;
@@ -51,6 +58,14 @@ struct Cascade {
   double neededHalfExtentM = 0.0;
   /// The texel size changed this frame (a rung event of the box size) against the history.
   bool sizeRungChanged = false;
+  /// The depth window's world-anchored origin (the box centre's light-space z, stabilised mode)
+  /// moved this frame against the history: the sphere left the window (or the depth rung
+  /// changed). Between such moves and rung events the depth mapping is bit-identical.
+  bool depthAnchorMoved = false;
+  /// The depth window is held on its world-anchored grid this frame (ladder on, camera holding
+  /// its position): depthFarLs carries the anchor's margin and viewProjCr's depth row is formed
+  /// from depthOriginLs. Otherwise the window is centred on the sphere, as without the ladder.
+  bool depthAnchored = false;
 
   /// Largest texel side in metres (both sides are equal when stabilised).
   [[nodiscard]] double texelSizeM() const noexcept {
@@ -105,6 +120,17 @@ struct CascadeHistory {
   std::array<int, kMaxCascades> sizeRung = detail::noRungs<kMaxCascades>();
   std::array<int, kMaxCascades> depthRung = detail::noRungs<kMaxCascades>();
   std::array<int, kMaxCascades + 1> splitRung = detail::noRungs<kMaxCascades + 1>();
+  /// The depth window's anchor (light-space z about the world origin of each box centre) and its
+  /// grid step; step 0 before the first frame.
+  std::array<double, kMaxCascades> depthAnchorLs{};
+  std::array<double, kMaxCascades> depthAnchorStepLs{};
+  /// Each box centre's light-space x, y (a point of the world-anchored texel grid) and the texel
+  /// size it was snapped with; texel 0 before the first frame. The box holds it while the size
+  /// is the same, the camera holds its position and the sphere (or tight square) stays inside.
+  std::array<glm::dvec2, kMaxCascades> boxCenterLs{};
+  std::array<double, kMaxCascades> boxTexelLs{};
+  /// Last frame's camera position (the box holds its x, y only while the camera does).
+  glm::dvec3 cameraPositionWs{0.0};
   /// Rung of the receiver-driven near end of the splits (kNoRung without a receiver range).
   int receiverNearRung = INT_MIN;
   /// Rung events counted since the history started (never reset): changes of each cascade's

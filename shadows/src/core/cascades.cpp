@@ -14,6 +14,9 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 // Receiver-driven splits span at least this ratio of far to near.
 constexpr double kMinSpanRatio = 1.1;
+// The depth window's anchor grid (and its margin on each side) as a fraction of the depth
+// range's far side: a power of two, so the step is exact on the ladder's rungs.
+constexpr double kDepthStepFraction = 0.125;
 
 std::array<glm::dvec3, 8> aabbCorners(const AabbWs& b) noexcept {
   std::array<glm::dvec3, 8> c{};
@@ -34,7 +37,9 @@ bool sphereTouchesAabb(const glm::dvec3& c, double r, const AabbWs& b) noexcept 
 // translation is formed in double from two nearby points, so it is exact far from the origin.
 glm::mat4 cameraRelativeViewProj(const glm::dmat3& basis, const glm::dvec3& cameraWs,
                                  const Cascade& c) noexcept {
-  const glm::dvec3 t = glm::transpose(basis) * (cameraWs - c.boxCenterWs);
+  glm::dvec3 t = glm::transpose(basis) * (cameraWs - c.boxCenterWs);
+  // The depth origin from the box's anchored depth, independent of its x, y snap.
+  if (c.depthAnchored) t.z = glm::dot(basis[2], cameraWs) - c.depthOriginLs;
   const double dz = c.depthFarLs - c.depthNearLs;
   const glm::dvec3 scale(1.0 / c.halfExtentLs.x, 1.0 / c.halfExtentLs.y, 1.0 / dz);
   const glm::dvec3 offset(t.x * scale.x, t.y * scale.y, (t.z - c.depthNearLs) * scale.z);
@@ -148,6 +153,10 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
     if (history->cascadeCount != count) {
       history->sizeRung = detail::noRungs<kMaxCascades>();
       history->depthRung = detail::noRungs<kMaxCascades>();
+      history->depthAnchorLs = {};
+      history->depthAnchorStepLs = {};
+      history->boxCenterLs = {};
+      history->boxTexelLs = {};
       history->splitRung = detail::noRungs<kMaxCascades + 1>();
     }
     history->shadowFarM = 0.0;
@@ -156,6 +165,13 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
     history->cascadeCount = count;
   }
   if (history != nullptr) ++history->frames;
+  // The camera holds its position (a zoom, a resize, a turn; or the history's first frame): the
+  // depth window and the box may hold their grid points (below). When the camera moves, every
+  // camera-relative position and the matrices change anyway, and the box takes the grid point
+  // nearest the sphere's centre (most slack).
+  const bool cameraHeld = history != nullptr &&
+                          (history->frames == 1 || history->cameraPositionWs == camera.positionWs);
+  if (history != nullptr) history->cameraPositionWs = camera.positionWs;
 
   // How far receivers reach along the view: the scene's depth interval.
   double sceneMinDepthM = -kInf;
@@ -209,10 +225,9 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   frame.shadowFarM = quantizedShadowFar(neededFarM, maxFarM, minFarM,
                                         history != nullptr ? history->shadowFarM : 0.0);
   if (history != nullptr) history->shadowFarM = frame.shadowFarM;
-  frame.splitsM =
-      settings.explicitSplits()
-          ? explicitSplits(splitNearM, frame.shadowFarM, count, settings.splitPositions)
-          : practicalSplits(splitNearM, frame.shadowFarM, count, settings.splitLambda);
+  frame.splitsM = settings.explicitSplits()
+                      ? explicitSplits(splitNearM, frame.shadowFarM, count, settings.splitPositions)
+                      : practicalSplits(splitNearM, frame.shadowFarM, count, settings.splitLambda);
   std::array<int, kMaxCascades + 1> splitRungs = detail::noRungs<kMaxCascades + 1>();
   if (ladder) ladderSplits(frame.splitsM, count, steps, hysteresis, history, splitRungs);
 
@@ -272,12 +287,58 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
       const double texel = 2.0 * half / res;
       c.halfExtentLs = glm::dvec2(half);
       c.texelSizeLs = glm::dvec2(texel);
-      // Snap the centre on the light-space grid anchored at the world origin, in double.
-      const glm::dvec3 snappedLs(std::round(centerLs.x / texel) * texel,
-                                 std::round(centerLs.y / texel) * texel, centerLs.z);
+      // The depth window is world-anchored too: its origin (the box centre's light-space z) sits
+      // on a grid of depthStep = depthFarLs / 8 about the world origin, in double, and holds
+      // while the sphere stays inside the window (which gets one step of margin on each side);
+      // it moves to the nearest grid point when the sphere leaves it or at a depth rung event.
+      // So between events no stored or receiver depth is re-rounded (a depth origin that follows
+      // the sphere continuously moves every depth by a fraction of a quantum each frame, and
+      // receivers on a depth tie, e.g. ground at a caster's foot, flip).
+      // (Held while the camera holds its position, with the ladder; a moving camera changes
+      // every camera-relative position anyway, and the window follows the sphere's centre.)
+      double anchorZ = centerLs.z;
+      c.depthAnchored = ladder && cameraHeld;
+      if (c.depthAnchored) {
+        const double depthStep = c.depthFarLs * kDepthStepFraction;
+        anchorZ = std::round(centerLs.z / depthStep) * depthStep;
+        if (history->depthRung[i] == c.depthRung && history->depthAnchorStepLs[i] == depthStep &&
+            std::abs(centerLs.z - history->depthAnchorLs[i]) <= depthStep) {
+          anchorZ = history->depthAnchorLs[i];
+        }
+        c.depthAnchorMoved =
+            history->depthAnchorLs[i] != anchorZ || history->depthAnchorStepLs[i] != depthStep;
+        history->depthAnchorLs[i] = anchorZ;
+        history->depthAnchorStepLs[i] = depthStep;
+        c.depthFarLs += depthStep;
+      } else if (history != nullptr) {
+        history->depthAnchorStepLs[i] = 0.0;
+      }
+      // Snap the centre on the light-space grid anchored at the world origin, in double. With
+      // the ladder, the box holds last frame's grid point while the texel size is the same and
+      // what it must cover (the sphere's disk, or the tight square) is still inside and the
+      // camera has not moved: a snap
+      // moves the map by whole texels, but the casters are rasterised anew at the shifted
+      // offset and every stored depth is re-rounded (a receiver on a depth tie, e.g. ground at
+      // a caster's foot, flips). Between events the box then does not move at all.
+      glm::dvec2 gridLs(std::round(centerLs.x / texel) * texel,
+                        std::round(centerLs.y / texel) * texel);
+      if (ladder && history != nullptr && history->boxTexelLs[i] == texel && cameraHeld) {
+        const glm::dvec2 heldLs = history->boxCenterLs[i];
+        const double coverHalf = neededHalf / snapMargin;
+        if (std::abs(centerLs.x - heldLs.x) + coverHalf <= half &&
+            std::abs(centerLs.y - heldLs.y) + coverHalf <= half) {
+          gridLs = heldLs;
+        }
+      }
+      if (history != nullptr) {
+        history->boxCenterLs[i] = gridLs;
+        history->boxTexelLs[i] = texel;
+      }
+      const glm::dvec3 snappedLs(gridLs.x, gridLs.y, anchorZ);
       c.boxCenterWs = basis * snappedLs;
-      // Make the box centre's depth exactly the sphere centre's (only x, y are snapped).
-      c.boxCenterWs += basis[2] * (centerLs.z - glm::dot(basis[2], c.boxCenterWs));
+      // Make the box centre's depth exactly the anchored one.
+      c.boxCenterWs += basis[2] * (anchorZ - glm::dot(basis[2], c.boxCenterWs));
+      c.depthOriginLs = anchorZ;
       depthNearLs = -c.depthFarLs;
     } else {
       // Tight fit to the slice's light-space bounds; no snapping (the comparison mode).
@@ -290,6 +351,7 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
       }
       const glm::dvec3 centerLs = 0.5 * (lo + hi);
       c.boxCenterWs = camera.positionWs + basis * centerLs;
+      c.depthOriginLs = glm::dot(basis[2], c.boxCenterWs);
       c.halfExtentLs = glm::max(glm::dvec2(0.5 * (hi - lo)), glm::dvec2(1e-9));
       c.texelSizeLs = 2.0 * c.halfExtentLs / res;
       c.depthFarLs = std::max(0.5 * (hi.z - lo.z), 1e-9);
@@ -302,10 +364,14 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
     if (sceneBounds != nullptr) {
       double sceneNearLs = kInf;
       for (const glm::dvec3& p : sceneCorners) {
-        sceneNearLs = std::min(sceneNearLs, glm::dot(basis[2], p - c.boxCenterWs));
+        sceneNearLs =
+            std::min(sceneNearLs, c.depthAnchored ? glm::dot(basis[2], p) - c.depthOriginLs
+                                                  : glm::dot(basis[2], p - c.boxCenterWs));
       }
       if (sceneNearLs < depthNearLs) {
-        const double step = 0.5 * c.depthFarLs;
+        // (Steps of the depth range's own rung: the anchor's margin does not coarsen them.)
+        const double step =
+            0.5 * (c.depthAnchored ? c.depthFarLs / (1.0 + kDepthStepFraction) : c.depthFarLs);
         const double needed = -std::ceil(-sceneNearLs / step) * step;
         depthNearLs = needed;
         if (history != nullptr) {
