@@ -3,6 +3,7 @@
 // (Embree). On an analytic scene (a tall box and a thin pole on a plane): the mean |s - v_soft|
 // of every kernel, the penumbra width across a box edge at several distances from contact, and
 // PCSS's stabilised shimmer. Writes soft.json, soft_penumbra.json and soft_strip.png.
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -427,9 +428,10 @@ TEST(SoftShadows, PcssPenumbraWidthGrowsWithDistanceFromContactAsTheTruthDoes) {
   for (size_t i = 2; i < heights.size(); ++i) {
     EXPECT_GT(widths[i].pcssM, widths[i - 1].pcssM - 0.5 * widths[i].texelM) << heights[i];
   }
-  // Near contact the width is held up by the map's own edge (about a texel), so the growth
-  // asserted is less than the truth's (6.8x from 0.5 m to 11 m): 2.5x.
-  EXPECT_GT(widths.back().pcssM, 2.5 * widths[1].pcssM);
+  // Near contact the width is held up by the map's own edge (about a texel; 0.8-1.2 texels at
+  // 0.1-0.5 m with the bias floor), so the growth asserted, from the narrower of the two
+  // near-contact widths, is less than the truth's (6.8x from 0.5 m to 11 m): 2.5x.
+  EXPECT_GT(widths.back().pcssM, 2.5 * std::min(widths[0].pcssM, widths[1].pcssM));
   EXPECT_GT(widths.back().truthM, 4.0 * widths[1].truthM) << "the truth itself must grow";
   // The same penumbra in another cascade.
   ASSERT_NE(farOther.cascade, widths[5].cascade) << "the second view must use another cascade";
