@@ -299,7 +299,9 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   csm::vk::RendererOptions options;
   options.depthFormat = settings.depth16 ? VK_FORMAT_D16_UNORM : VK_FORMAT_D32_SFLOAT;
   options.consumerStages = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-  options.cache = settings.shadowCache;
+  // The cache needs stabilised cascades (texels fixed in the world); the unstabilised comparison
+  // mode renders every frame in full instead of being refused.
+  options.cache = settings.shadowCache && settings.shadow.stabilize;
   if (settings.casterLods) {
     for (std::uint32_t c = 0; c < csm::kMaxCascades; ++c) {
       options.cascadeLod[c] = std::min(settings.cascadeLod[c], kLodCount - 1);
