@@ -160,6 +160,14 @@ struct CascadeHistory {
                                                    CascadeHistory* history = nullptr,
                                                    const ReceiverDepthRange* receivers = nullptr);
 
+/// Camera-relative world position -> the cascade's shadow clip space (Cascade::viewProjCr) for
+/// a camera at `cameraWs`, formed in double from the cascade's box, depth range and (when
+/// anchored) depth origin. computeCascades fills viewProjCr with it; a renderer that moves a
+/// cascade's window (the cache) recomputes it with the same function.
+[[nodiscard]] glm::mat4 cameraRelativeViewProj(const glm::dmat3& basisWs,
+                                               const glm::dvec3& cameraWs,
+                                               const Cascade& cascade) noexcept;
+
 /// Shadow-map coordinates of a world point in one cascade, in double precision:
 /// x, y in texels (0 .. resolution across the box), z the depth in [0, 1].
 [[nodiscard]] glm::dvec3 shadowTexelCoord(const Cascade& cascade, const CascadeFrame& frame,

@@ -33,27 +33,6 @@ bool sphereTouchesAabb(const glm::dvec3& c, double r, const AabbWs& b) noexcept 
   return glm::dot(d, d) <= r * r;
 }
 
-// Camera-relative world -> shadow clip space. p_Ls = B^T (p_Cr + camera - boxCenter); the
-// translation is formed in double from two nearby points, so it is exact far from the origin.
-glm::mat4 cameraRelativeViewProj(const glm::dmat3& basis, const glm::dvec3& cameraWs,
-                                 const Cascade& c) noexcept {
-  glm::dvec3 t = glm::transpose(basis) * (cameraWs - c.boxCenterWs);
-  // The depth origin from the box's anchored depth, independent of its x, y snap.
-  if (c.depthAnchored) t.z = glm::dot(basis[2], cameraWs) - c.depthOriginLs;
-  const double dz = c.depthFarLs - c.depthNearLs;
-  const glm::dvec3 scale(1.0 / c.halfExtentLs.x, 1.0 / c.halfExtentLs.y, 1.0 / dz);
-  const glm::dvec3 offset(t.x * scale.x, t.y * scale.y, (t.z - c.depthNearLs) * scale.z);
-  glm::mat4 m(0.0f);
-  for (int row = 0; row < 3; ++row) {
-    for (int col = 0; col < 3; ++col) {
-      m[col][row] = static_cast<float>(basis[row][col] * scale[row]);
-    }
-    m[3][row] = static_cast<float>(offset[row]);
-  }
-  m[3][3] = 1.0f;
-  return m;
-}
-
 // The light direction used for shadows: with settings.lightStepDeg > 0 and a history, the
 // direction last used holds until the light has turned more than the step away from it.
 glm::dvec3 heldLightDirection(const ShadowSettings& settings, const glm::dvec3& directionWs,
@@ -392,6 +371,27 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
     c.viewProjCr = cameraRelativeViewProj(basis, camera.positionWs, c);
   }
   return frame;
+}
+
+// p_Ls = B^T (p_Cr + camera - boxCenter); the translation is formed in double from two nearby
+// points, so it is exact far from the origin.
+glm::mat4 cameraRelativeViewProj(const glm::dmat3& basis, const glm::dvec3& cameraWs,
+                                 const Cascade& c) noexcept {
+  glm::dvec3 t = glm::transpose(basis) * (cameraWs - c.boxCenterWs);
+  // The depth origin from the box's anchored depth, independent of its x, y snap.
+  if (c.depthAnchored) t.z = glm::dot(basis[2], cameraWs) - c.depthOriginLs;
+  const double dz = c.depthFarLs - c.depthNearLs;
+  const glm::dvec3 scale(1.0 / c.halfExtentLs.x, 1.0 / c.halfExtentLs.y, 1.0 / dz);
+  const glm::dvec3 offset(t.x * scale.x, t.y * scale.y, (t.z - c.depthNearLs) * scale.z);
+  glm::mat4 m(0.0f);
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 3; ++col) {
+      m[col][row] = static_cast<float>(basis[row][col] * scale[row]);
+    }
+    m[3][row] = static_cast<float>(offset[row]);
+  }
+  m[3][3] = 1.0f;
+  return m;
 }
 
 glm::dvec3 shadowTexelCoord(const Cascade& cascade, const CascadeFrame& frame,

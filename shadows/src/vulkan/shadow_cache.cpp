@@ -86,23 +86,6 @@ TexelRect boxTexels(const AabbWs& box, const glm::dmat3& basisT, double texel) n
   return {toIndex(lo[0]) - 1, toIndex(lo[1]) - 1, toIndex(hi[0]) + 2, toIndex(hi[1]) + 2};
 }
 
-/// Camera-relative world -> shadow clip of a cascade (the sampling side; as computeCascades).
-glm::mat4 viewProjCr(const glm::dmat3& basis, const glm::dvec3& cameraWs, const Cascade& c) {
-  const glm::dvec3 t = glm::transpose(basis) * (cameraWs - c.boxCenterWs);
-  const double dz = c.depthFarLs - c.depthNearLs;
-  const glm::dvec3 scale(1.0 / c.halfExtentLs.x, 1.0 / c.halfExtentLs.y, 1.0 / dz);
-  const glm::dvec3 offset(t.x * scale.x, t.y * scale.y, (t.z - c.depthNearLs) * scale.z);
-  glm::mat4 m(0.0f);
-  for (int row = 0; row < 3; ++row) {
-    for (int col = 0; col < 3; ++col) {
-      m[col][row] = static_cast<float>(basis[row][col] * scale[row]);
-    }
-    m[3][row] = static_cast<float>(offset[row]);
-  }
-  m[3][3] = 1.0f;
-  return m;
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -152,7 +135,7 @@ void ShadowRenderer::applyCacheWindows(CascadeFrame& frame) {
     }
     c.depthNearLs = w.zNear - centerLs.z;
     c.depthFarLs = w.zFar - centerLs.z;
-    c.viewProjCr = viewProjCr(basis, frame.cameraPositionWs, c);
+    c.viewProjCr = cameraRelativeViewProj(basis, frame.cameraPositionWs, c);
   }
 }
 
