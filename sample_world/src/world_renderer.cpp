@@ -15,7 +15,8 @@
 #include "csm/gpu_layout.hpp"
 #include "engine/debug.hpp"
 #include "engine/errors.hpp"
-#include "sample_world/shadow_host.hpp"
+#include "glue/camera.hpp"
+#include "glue/shadow_host.hpp"
 
 namespace world {
 
@@ -133,7 +134,7 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
 
   // ---- Shadow renderer ----------------------------------------------------------------------
   static_assert(kLodCount <= csm::vk::kMaxCasterLods);
-  shadow_ = createShadowView(ctx);
+  shadow_ = glue::createShadowView(ctx);
   std::vector<csm::vk::MeshDraw> draws;
   std::vector<csm::vk::CasterInstance> instances;
   std::vector<csm::AabbWs> bounds;
@@ -330,13 +331,7 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
 
 std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, FrameStats& stats) {
   camera_ = camera;
-  csm::Camera c;
-  c.positionWs = camera.positionWs;
-  c.orientationWs = camera.orientation;
-  c.fovYRad = camera.fovYRad;
-  c.aspect = camera.aspect;
-  c.nearM = camera.nearM;
-  c.farM = camera.farM;
+  const csm::Camera c = glue::toCsmCamera(camera);
   const csm::DirectionalLight light{lightDirection(settings_)};
 
   // The shadows: dynamic casters moved, cascades for this camera, the casters culled into them.
@@ -615,8 +610,8 @@ void WorldRenderer::recordDepthRange(const engine::Frame& f) {
   // prepare(), so the splits follow the depth of a frame kFramesInFlight + 1 frames old.
   if (!depthRange_) {
     csm::vk::Status st;
-    depthRange_ =
-        csm::vk::DepthRangeReducer::create(shadowDeviceInfo(*ctx_), engine::kFramesInFlight, &st);
+    depthRange_ = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(*ctx_),
+                                                     engine::kFramesInFlight, &st);
     if (!depthRange_) throw std::runtime_error("DepthRangeReducer::create: " + st.message());
   }
   VkCommandBuffer cmd = f.cmd;

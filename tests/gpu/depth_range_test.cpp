@@ -11,7 +11,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 
 #include "engine_gpu_test.hpp"
-#include "sample_world/shadow_host.hpp"
+#include "glue/shadow_host.hpp"
 
 namespace {
 
@@ -83,7 +83,7 @@ TEST_F(DepthRangeTest, ReturnsTheAnalyticRangeAndFallsBackAfterACut) {
                       VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
 
   csm::vk::Status status;
-  auto reducer = csm::vk::DepthRangeReducer::create(world::shadowDeviceInfo(ctx()), 2, &status);
+  auto reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), 2, &status);
   ASSERT_TRUE(reducer) << status.message();
   // Nothing recorded yet: no range (the splits use the full range).
   EXPECT_FALSE(reducer->read(0).has_value());
@@ -146,7 +146,7 @@ TEST_F(DepthRangeTest, ReturnsTheAnalyticRangeAndFallsBackAfterACut) {
         reducer->record(cmd, depth.view(), VK_IMAGE_LAYOUT_GENERAL, {kW, kH}, scene.projection, 0);
     EXPECT_EQ(layout.code(), csm::vk::ErrorCode::kInvalidArgument);
   });
-  EXPECT_FALSE(csm::vk::DepthRangeReducer::create(world::shadowDeviceInfo(ctx()), 9, &status));
+  EXPECT_FALSE(csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), 9, &status));
   EXPECT_NE(status.message().find("slots = 9"), std::string::npos) << status.message();
   reducer.reset();
 }

@@ -10,7 +10,7 @@
 #include <engine/debug.hpp>
 #include <engine/memory.hpp>
 #include <engine/mesh_store.hpp>
-#include <sample_world/shadow_host.hpp>
+#include <glue/shadow_host.hpp>
 
 #include <cmath>
 #include <cstring>
@@ -104,7 +104,7 @@ class CacheRig {
   /// Adds a view: cached, or the reference (cached but fully re-rendered every frame).
   ViewRig& addView() {
     ViewRig rig;
-    rig.view = world::createShadowView(*ctx_);
+    rig.view = glue::createShadowView(*ctx_);
     csm::ShadowSettings settings;
     settings.cascadeCount = kCascades;
     settings.resolution = kResolution;

@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <limits>
 
-#include "sample_world/shadow_host.hpp"
+#include "glue/shadow_host.hpp"
 #include "shadow_scene.hpp"
 
 namespace csm_test {
@@ -74,7 +74,7 @@ TEST(ShadowLifetime, LightingSetSampledBeforeTheFirstShadowPassReadsLit) {
 TEST(ShadowLifetime, WithoutAQueuePrepareRecordsTheClear) {
   {
     ShadowScene scene;
-    csm::vk::DeviceInfo info = world::shadowDeviceInfo(scene.context());
+    csm::vk::DeviceInfo info = glue::shadowDeviceInfo(scene.context());
     info.queue = VK_NULL_HANDLE;
     csm::vk::Status status;
     auto renderer = csm::vk::ShadowRenderer::create(info, csm::vk::VertexLayout{}, &status);
@@ -416,7 +416,7 @@ TEST(ShadowView, OutOfRangeValuesAndMismatchedFramesAreRefusedByName) {
         [&](VkCommandBuffer cmd) { status = view.record(cmd, frame.value()); });
     expectRefused(status, "frame.normalOffsetTexels = 2");
 
-    csm::vk::DeviceInfo info = world::shadowDeviceInfo(scene.context());
+    csm::vk::DeviceInfo info = glue::shadowDeviceInfo(scene.context());
     info.framesInFlight = 0;
     EXPECT_EQ(csm::vk::ShadowView::create(info, csm::vk::VertexLayout{}, &status), nullptr);
     expectRefused(status, "framesInFlight = 0");

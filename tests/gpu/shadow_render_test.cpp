@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <string>
 
-#include "sample_world/shadow_host.hpp"
+#include "glue/shadow_host.hpp"
 #include "shadow_scene.hpp"
 
 namespace csm_test {
@@ -222,7 +222,7 @@ TEST(ShadowApiMisuse, ResolutionAboveTheLimitIsRefusedAndTheRendererKeepsItsImag
     engine::Context& ctx = scene.context();
     // lavapipe's own limit (16384) equals the settings' maximum, so the device-limit path is
     // reached through the host's cap, which shares it.
-    csm::vk::DeviceInfo info = world::shadowDeviceInfo(ctx);
+    csm::vk::DeviceInfo info = glue::shadowDeviceInfo(ctx);
     info.maxResolution = 1024;
     csm::vk::Status status;
     auto renderer = csm::vk::ShadowRenderer::create(info, csm::vk::VertexLayout{}, &status);

@@ -4,7 +4,8 @@
 #include <gtest/gtest.h>
 #include <engine/debug.hpp>
 #include <engine/render_target.hpp>
-#include <sample_world/shadow_host.hpp>
+#include <glue/camera.hpp>
+#include <glue/shadow_host.hpp>
 
 #include <cmath>
 #include <filesystem>
@@ -103,7 +104,7 @@ ShadowScene::ShadowScene(uint32_t width, uint32_t height) {
            // A long rail along the view direction: its shadow edge runs through every cascade.
            {{4.2, 1.5, -45.0}, {4.8, 2.0, 3.0}}};
 
-  view_ = world::createShadowView(*ctx_);
+  view_ = glue::createShadowView(*ctx_);
 }
 
 ShadowScene::~ShadowScene() {
@@ -117,14 +118,7 @@ ShadowScene::~ShadowScene() {
 }
 
 csm::Camera ShadowScene::csmCamera() const {
-  csm::Camera c;
-  c.positionWs = camera.positionWs;
-  c.orientationWs = camera.orientation;
-  c.fovYRad = camera.fovYRad;
-  c.aspect = camera.aspect;
-  c.nearM = camera.nearM;
-  c.farM = camera.farM;
-  return c;
+  return glue::toCsmCamera(camera);
 }
 
 void ShadowScene::buildScene() {
@@ -200,7 +194,7 @@ Rendered ShadowScene::render(csm::PcfKernel kernel, csm::DebugMode debug, bool b
 
 void ShadowScene::enableSecondView() {
   if (!built_) buildScene();
-  second_ = world::createShadowView(*ctx_);
+  second_ = glue::createShadowView(*ctx_);
   csm::vk::Status s = second_->setSettings(view_->settings(), view_->options());
   if (s.ok()) s = second_->setCasters(casterMeshes_, casters_, casterBounds_);
   if (s.ok()) s = second_->setSceneBounds(&sceneBounds);
@@ -216,12 +210,12 @@ Rendered ShadowScene::renderFrame(csm::PcfKernel kernel, const FrameHooks& hooks
   const auto key = std::make_pair(static_cast<uint32_t>(kernel), hooks.blend ? 1u : 0u);
   auto& lit = litPasses_[key];
   if (!lit) {
-    engine::LitPassDesc desc;
+    glue::LitPassDesc desc;
     desc.colorFormat = target_->colorFormat();
     desc.depthFormat = target_->depthFormat();
     desc.shadowSetLayout = view_->lightingSetLayout();
     desc.specialization = {{CSM_SPEC_KERNEL, key.first}, {CSM_SPEC_BLEND, key.second}};
-    lit = std::make_unique<engine::LitPass>(*ctx_, desc);
+    lit = std::make_unique<glue::LitPass>(*ctx_, desc);
   }
 
   Rendered out;
@@ -242,7 +236,7 @@ Rendered ShadowScene::renderFrame(csm::PcfKernel kernel, const FrameHooks& hooks
   const bool useSecond = second_ && hooks.litFromSecond;
   const engine::Camera& litCamera = useSecond ? secondCamera : camera;
   if (useSecond) out.frame = secondFrame;
-  engine::LitFrame lf;
+  glue::LitFrame lf;
   lf.viewProjCr = litCamera.viewProjectionCr();
   lf.cameraPositionWs = litCamera.positionWs;
   lf.lightDirectionWs = glm::vec3(light.directionWs);

@@ -10,8 +10,8 @@
 #include <engine/camera.hpp>
 #include <engine/context.hpp>
 #include <engine/headless_target.hpp>
-#include <engine/lit_pass.hpp>
 #include <engine/mesh_store.hpp>
+#include <glue/lit_pass.hpp>
 
 #include <functional>
 #include <map>
@@ -124,9 +124,9 @@ class ShadowScene {
   std::vector<csm::vk::MeshDraw> casterMeshes_;
   std::vector<csm::vk::CasterInstance> casters_;
   std::vector<csm::AabbWs> casterBounds_;
-  std::map<std::pair<uint32_t, uint32_t>, std::unique_ptr<engine::LitPass>> litPasses_;
+  std::map<std::pair<uint32_t, uint32_t>, std::unique_ptr<glue::LitPass>> litPasses_;
   engine::MeshRange planeMesh_, sphereMesh_, cubeMesh_;
-  std::vector<engine::LitDraw> litDraws_;
+  std::vector<glue::LitDraw> litDraws_;
   bool built_ = false;
 
   void buildScene();

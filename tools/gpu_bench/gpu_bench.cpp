@@ -18,9 +18,10 @@
 #include <engine/errors.hpp>
 #include <engine/gpu_timer.hpp>
 #include <engine/headless_target.hpp>
-#include <engine/lit_pass.hpp>
 #include <engine/mesh_store.hpp>
-#include <sample_world/shadow_host.hpp>
+#include <glue/camera.hpp>
+#include <glue/lit_pass.hpp>
+#include <glue/shadow_host.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -81,7 +82,7 @@ class Bench {
     timer_ = std::make_unique<engine::GpuTimer>(*ctx_, 8);
     meshes_ = std::make_unique<engine::MeshStore>(*ctx_, 1 << 18, 1 << 20, "bench meshes");
 
-    view_ = world::createShadowView(*ctx_);
+    view_ = glue::createShadowView(*ctx_);
     buildScene();
     camera_.positionWs = {3.0, 12.0, 20.0};
     camera_.lookAt({0.0, 0.0, -60.0});
@@ -117,20 +118,14 @@ class Bench {
     if (!st.ok()) throw std::runtime_error("update: " + st.message());
     auto& lit = lit_[uint32_t(kernel)];
     if (!lit) {
-      engine::LitPassDesc desc;
+      glue::LitPassDesc desc;
       desc.colorFormat = target_->colorFormat();
       desc.depthFormat = target_->depthFormat();
       desc.shadowSetLayout = view_->lightingSetLayout();
       desc.specialization = {{CSM_SPEC_KERNEL, uint32_t(kernel)}, {CSM_SPEC_BLEND, 1u}};
-      lit = std::make_unique<engine::LitPass>(*ctx_, desc);
+      lit = std::make_unique<glue::LitPass>(*ctx_, desc);
     }
-    csm::Camera cam;
-    cam.positionWs = camera_.positionWs;
-    cam.orientationWs = camera_.orientation;
-    cam.fovYRad = camera_.fovYRad;
-    cam.aspect = camera_.aspect;
-    cam.nearM = camera_.nearM;
-    cam.farM = camera_.farM;
+    const csm::Camera cam = glue::toCsmCamera(camera_);
     view_->resetHistory();
     double shadowMs = 0.0, litMs = 0.0;
     for (int f = 0; f <= opt_.frames; ++f) {
@@ -141,7 +136,7 @@ class Bench {
       const csm::vk::Status s = view_->record(fr->cmd, cam, light_);
       if (!s.ok()) throw std::runtime_error("record: " + s.message());
       timer_->end(fr->cmd, "shadow");
-      engine::LitFrame lf;
+      glue::LitFrame lf;
       lf.viewProjCr = camera_.viewProjectionCr();
       lf.cameraPositionWs = camera_.positionWs;
       lf.lightDirectionWs = glm::vec3(light_.directionWs);
@@ -223,10 +218,10 @@ class Bench {
   std::unique_ptr<engine::GpuTimer> timer_;
   std::unique_ptr<engine::MeshStore> meshes_;
   std::unique_ptr<csm::vk::ShadowView> view_;
-  std::map<uint32_t, std::unique_ptr<engine::LitPass>> lit_;
+  std::map<uint32_t, std::unique_ptr<glue::LitPass>> lit_;
   std::vector<csm::vk::MeshDraw> casterMeshes_;
   std::vector<csm::vk::CasterInstance> casters_;
-  std::vector<engine::LitDraw> litDraws_;
+  std::vector<glue::LitDraw> litDraws_;
   csm::CasterSet casterSet_;
   engine::Camera camera_;
   csm::DirectionalLight light_;

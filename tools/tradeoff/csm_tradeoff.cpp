@@ -27,6 +27,7 @@
 #include <csm_measure/world_scene.hpp>
 #include <engine/camera.hpp>
 #include <engine/errors.hpp>
+#include <glue/camera.hpp>
 #include <sample_world/paths.hpp>
 #include <sample_world/settings.hpp>
 #include <sample_world/world.hpp>
@@ -162,14 +163,11 @@ csm::Camera cameraAt(const world::CameraPose& p, double aspect) {
   engine::Camera e;
   e.positionWs = p.positionWs;
   e.setYawPitchRoll(p.yawRad, p.pitchRad);
-  csm::Camera c;
-  c.positionWs = p.positionWs;
-  c.orientationWs = e.orientation;
-  c.fovYRad = glm::radians(p.fovDeg);
-  c.aspect = aspect;
-  c.nearM = 0.1;
-  c.farM = 5000.0;
-  return c;
+  e.fovYRad = glm::radians(p.fovDeg);
+  e.aspect = aspect;
+  e.nearM = 0.1;
+  e.farM = 5000.0;
+  return glue::toCsmCamera(e);
 }
 
 // Rows of a CSV this tool wrote (for --replot).

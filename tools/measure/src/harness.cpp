@@ -8,12 +8,13 @@
 #include <engine/errors.hpp>
 #include <engine/gpu_timer.hpp>
 #include <engine/headless_target.hpp>
-#include <engine/lit_pass.hpp>
 #include <engine/memory.hpp>
 #include <engine/mesh_store.hpp>
 #include <engine/pipeline.hpp>
 #include <engine/render_target.hpp>
-#include <sample_world/shadow_host.hpp>
+#include <glue/camera.hpp>
+#include <glue/lit_pass.hpp>
+#include <glue/shadow_host.hpp>
 
 #include <algorithm>
 #include <cstdlib>
@@ -90,17 +91,6 @@ void writeBuffer(VkDevice dev, VkDescriptorSet set, uint32_t binding, VkDescript
 
 }  // namespace
 
-engine::Camera toEngineCamera(const csm::Camera& c) {
-  engine::Camera e;
-  e.positionWs = c.positionWs;
-  e.orientation = c.orientationWs;
-  e.fovYRad = c.fovYRad;
-  e.aspect = c.aspect;
-  e.nearM = c.nearM;
-  e.farM = c.farM;
-  return e;
-}
-
 struct Harness::Probe {
   engine::DeviceHandle<VkDescriptorSetLayout> layout;
   engine::DeviceHandle<VkDescriptorPool> pool;
@@ -135,7 +125,7 @@ Harness::Harness(const HarnessDesc& desc) {
   cd.appName = desc.appName;
   cd.validation = desc.validation;
   ctx_ = std::make_unique<engine::Context>(cd);
-  view_ = world::createShadowView(*ctx_);
+  view_ = glue::createShadowView(*ctx_);
 }
 
 Harness::~Harness() {
@@ -470,7 +460,7 @@ std::vector<PixelSample> Harness::renderAccuracy(const csm::Camera& camera,
                                                  engine::CpuImage* shadowImage) {
   ensureAccuracyTargets(extent);
   AccuracyPipeline& pipeline = accuracyPipeline(kernel, blend);
-  const engine::Camera cam = toEngineCamera(camera);
+  const engine::Camera cam = glue::toEngineCamera(camera);
   const glm::mat4 viewProjCr = cam.viewProjectionCr();
   std::memcpy(accuracy_->frameUniforms.mapped(), &viewProjCr, sizeof(viewProjCr));
   AccuracyTargets& t = *accuracy_;
@@ -614,14 +604,14 @@ FrameTimings Harness::timeFrame(const csm::Camera& camera, const csm::Directiona
   ensureTimingTarget(extent);
   auto& lit = litPasses_[{uint32_t(kernel), blend}];
   if (!lit) {
-    engine::LitPassDesc desc;
+    glue::LitPassDesc desc;
     desc.colorFormat = timingTarget_->colorFormat();
     desc.depthFormat = timingTarget_->depthFormat();
     desc.shadowSetLayout = view_->lightingSetLayout();
     desc.specialization = {{CSM_SPEC_KERNEL, uint32_t(kernel)}, {CSM_SPEC_BLEND, blend ? 1u : 0u}};
-    lit = std::make_unique<engine::LitPass>(*ctx_, desc);
+    lit = std::make_unique<glue::LitPass>(*ctx_, desc);
   }
-  std::vector<engine::LitDraw> draws;
+  std::vector<glue::LitDraw> draws;
   draws.reserve(instances_.size());
   for (const Instance& in : instances_) {
     draws.push_back({meshRanges_[in.mesh], in.translationWs, in.linearWs, in.color});
@@ -637,8 +627,8 @@ FrameTimings Harness::timeFrame(const csm::Camera& camera, const csm::Directiona
   timer_->end(f->cmd, "shadow");
   out.cpuMs =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  const engine::Camera cam = toEngineCamera(camera);
-  engine::LitFrame lf;
+  const engine::Camera cam = glue::toEngineCamera(camera);
+  glue::LitFrame lf;
   lf.viewProjCr = cam.viewProjectionCr();
   lf.cameraPositionWs = camera.positionWs;
   lf.lightDirectionWs = glm::vec3(light.directionWs);

@@ -1,6 +1,8 @@
 // The numbers (see metrics.hpp).
 #include "csm_measure/metrics.hpp"
 
+#include <glue/camera.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -24,7 +26,8 @@ struct FrustumTest {
   glm::dmat4 viewProjCr;
   glm::dvec3 cameraWs;
   explicit FrustumTest(const csm::Camera& c)
-      : viewProjCr(glm::dmat4(toEngineCamera(c).viewProjectionCr())), cameraWs(c.positionWs) {}
+      : viewProjCr(glm::dmat4(glue::toEngineCamera(c).viewProjectionCr())),
+        cameraWs(c.positionWs) {}
   bool inside(const glm::dvec3& posWs) const noexcept {
     const glm::dvec4 p = viewProjCr * glm::dvec4(posWs - cameraWs, 1.0);
     return p.w > 0.0 && std::abs(p.x) <= p.w && std::abs(p.y) <= p.w && p.z >= 0.0 && p.z <= p.w;

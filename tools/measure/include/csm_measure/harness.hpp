@@ -3,7 +3,7 @@
 //   probe()          the shadow function at fixed receiver points (compute, stability_probe.comp)
 //   renderAccuracy() a rasterised frame whose every receiver pixel reports its position, normal,
 //                    shadow factor, cascade and footprint (stability_accuracy.vert/frag)
-//   timeFrame()      the shadow pass and the engine's lit pass with timestamp queries
+//   timeFrame()      the shadow pass and the glue's lit pass with timestamp queries
 // Everything is blocking (one submission at a time): measurements, not a frame loop.
 #pragma once
 
@@ -28,8 +28,10 @@
 namespace engine {
 class HeadlessTarget;
 class GpuTimer;
-class LitPass;
 }  // namespace engine
+namespace glue {
+class LitPass;
+}  // namespace glue
 
 namespace csm_measure {
 
@@ -69,9 +71,6 @@ struct FrameTimings {
   double litGpuMs = 0.0;     ///< the engine's lit pass (shading + shadow sampling)
   double cpuMs = 0.0;        ///< computeCascades + cullCasters + recording the shadow pass
 };
-
-/// The engine camera that renders what a csm::Camera describes.
-engine::Camera toEngineCamera(const csm::Camera& camera);
 
 class Harness {
  public:
@@ -178,7 +177,7 @@ class Harness {
 
   std::unique_ptr<engine::HeadlessTarget> timingTarget_;
   std::unique_ptr<engine::GpuTimer> timer_;
-  std::map<std::pair<uint32_t, bool>, std::unique_ptr<engine::LitPass>> litPasses_;
+  std::map<std::pair<uint32_t, bool>, std::unique_ptr<glue::LitPass>> litPasses_;
 };
 
 }  // namespace csm_measure

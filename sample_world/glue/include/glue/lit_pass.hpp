@@ -1,6 +1,7 @@
-// The engine's lit pass: Lambert + Blinn-Phong under one directional light, with shadows from
-// whatever the host binds as the "shadow resources" descriptor set (set 1, read by csm.glsl in
-// lit.frag). The engine knows nothing of cascades: it takes that set's layout and the set itself.
+// The lit pass that samples the shadows: Lambert + Blinn-Phong under one directional light, drawn
+// with the engine's meshes and pipelines, shadowed through csm.glsl (lit.frag) from the module's
+// lighting descriptor set (set 1). It lives in the glue, not the engine, because its fragment
+// shader includes csm.glsl: the engine knows nothing of cascades.
 #pragma once
 
 #include <vulkan/vulkan.h>
@@ -16,8 +17,10 @@
 #include "engine/pipeline.hpp"
 
 namespace engine {
-
 class Context;
+}  // namespace engine
+
+namespace glue {
 
 /// Descriptor set index lit.frag reads the shadow resources from (CSM_SET in lit.frag).
 inline constexpr uint32_t kLitShadowSet = 1;
@@ -49,7 +52,7 @@ struct LitFrame {
 
 /// One mesh placed in the world: model = translate(translationWs) * linearWs.
 struct LitDraw {
-  MeshRange mesh;
+  engine::MeshRange mesh;
   glm::dvec3 translationWs{0.0};
   glm::mat3 linearWs{1.0f};
   glm::vec4 color{1.0f};
@@ -59,7 +62,7 @@ struct LitDraw {
 class LitPass {
  public:
   /// Builds the pipeline (throws engine::VulkanError or std::invalid_argument on failure).
-  LitPass(Context& ctx, const LitPassDesc& desc);
+  LitPass(engine::Context& ctx, const LitPassDesc& desc);
   ~LitPass();
   LitPass(const LitPass&) = delete;
   LitPass& operator=(const LitPass&) = delete;
@@ -69,17 +72,17 @@ class LitPass {
   void prepare(VkCommandBuffer cmd, const LitFrame& frame);
   /// Records the draws inside the host's dynamic rendering: binds the pipeline, set 0 (frame)
   /// and `shadowSet` at kLitShadowSet, the mesh store's buffers, then one draw per entry.
-  void draw(VkCommandBuffer cmd, const MeshStore& meshes, VkDescriptorSet shadowSet,
+  void draw(VkCommandBuffer cmd, const engine::MeshStore& meshes, VkDescriptorSet shadowSet,
             std::span<const LitDraw> draws, VkExtent2D extent) const;
 
  private:
-  Context* ctx_;
-  GraphicsPipeline pipeline_;
-  DeviceHandle<VkDescriptorSetLayout> frameLayout_;
-  DeviceHandle<VkDescriptorPool> pool_;
+  engine::Context* ctx_;
+  engine::GraphicsPipeline pipeline_;
+  engine::DeviceHandle<VkDescriptorSetLayout> frameLayout_;
+  engine::DeviceHandle<VkDescriptorPool> pool_;
   VkDescriptorSet frameSet_ = VK_NULL_HANDLE;
-  Buffer frameBuffer_;
+  engine::Buffer frameBuffer_;
   glm::dvec3 cameraPositionWs_{0.0};
 };
 
-}  // namespace engine
+}  // namespace glue

@@ -1,11 +1,11 @@
-#include "sample_world/shadow_host.hpp"
+#include "glue/shadow_host.hpp"
 
 #include <stdexcept>
 
 #include "engine/mesh_store.hpp"
 #include "engine/render_target.hpp"
 
-namespace world {
+namespace glue {
 
 csm::vk::DeviceInfo shadowDeviceInfo(const engine::Context& ctx) {
   csm::vk::DeviceInfo info;
@@ -44,4 +44,4 @@ std::unique_ptr<csm::vk::ShadowRenderer> createShadowRenderer(const engine::Cont
   return renderer;
 }
 
-}  // namespace world
+}  // namespace glue

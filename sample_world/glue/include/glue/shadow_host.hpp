@@ -1,6 +1,6 @@
 // The one place our host engine hands its device to the shadow module: engine/ knows nothing
 // of cascades and shadows/ nothing of engine/, so whatever composes both (the sample world,
-// the GPU tests, the tools) creates the renderer through this.
+// the GPU tests, the tools) creates the view or the renderer through this.
 #pragma once
 
 #include <memory>
@@ -9,7 +9,7 @@
 #include "csm/vulkan/shadow_view.hpp"
 #include "engine/context.hpp"
 
-namespace world {
+namespace glue {
 
 /// The module's view of an engine context: its device, queue family and the features it
 /// enabled (depth clamp, shaderOutputLayer, debug utils).
@@ -24,4 +24,4 @@ namespace world {
 /// positions. Throws std::runtime_error with the module's message when it cannot be created.
 [[nodiscard]] std::unique_ptr<csm::vk::ShadowView> createShadowView(const engine::Context& ctx);
 
-}  // namespace world
+}  // namespace glue

@@ -1,5 +1,5 @@
-// The engine's lit pass (see lit_pass.hpp).
-#include "engine/lit_pass.hpp"
+// The lit pass that samples the shadows (see glue/lit_pass.hpp).
+#include "glue/lit_pass.hpp"
 
 #include <csm_shaders/lit.frag.spv.h>
 #include <csm_shaders/lit.vert.spv.h>
@@ -10,11 +10,20 @@
 #include "engine/debug.hpp"
 #include "engine/errors.hpp"
 #include "engine/render_target.hpp"
-#include "vk_struct.hpp"
 
-namespace engine {
+namespace glue {
+
+using namespace engine;
 
 namespace {
+
+/// A value-initialised `T` with `sType` set (the engine's own helper is private to it).
+template <class T>
+T vkStruct(VkStructureType type) {
+  T value{};
+  value.sType = type;
+  return value;
+}
 
 // std140 block LitFrame of lit.vert / lit.frag.
 struct LitFrameGpu {
@@ -48,7 +57,7 @@ LitPass::LitPass(Context& ctx, const LitPassDesc& desc) : ctx_(&ctx) {
 
   VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1};
   auto poolInfo =
-      detail::vkStruct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+      vkStruct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
   poolInfo.maxSets = 1;
   poolInfo.poolSizeCount = 1;
   poolInfo.pPoolSizes = &size;
@@ -58,7 +67,7 @@ LitPass::LitPass(Context& ctx, const LitPassDesc& desc) : ctx_(&ctx) {
   setDebugName(dev, pool, "lit.pool");
   VkDescriptorSetLayout layout = frameLayout_.get();
   auto alloc =
-      detail::vkStruct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+      vkStruct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
   alloc.descriptorPool = pool;
   alloc.descriptorSetCount = 1;
   alloc.pSetLayouts = &layout;
@@ -69,7 +78,7 @@ LitPass::LitPass(Context& ctx, const LitPassDesc& desc) : ctx_(&ctx) {
                         VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                         MemoryUsage::DeviceLocal, "lit.frameUniforms");
   VkDescriptorBufferInfo bufferInfo{frameBuffer_.handle(), 0, sizeof(LitFrameGpu)};
-  auto write = detail::vkStruct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+  auto write = vkStruct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
   write.dstSet = frameSet_;
   write.dstBinding = 0;
   write.descriptorCount = 1;
@@ -109,8 +118,7 @@ void LitPass::prepare(VkCommandBuffer cmd, const LitFrame& frame) {
   const VkPipelineStageFlags2 readers =
       VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
   // Earlier frames' reads finish before the overwrite; the write is visible to this frame's.
-  auto barrier =
-      detail::vkStruct<VkBufferMemoryBarrier2>(VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2);
+  auto barrier = vkStruct<VkBufferMemoryBarrier2>(VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2);
   barrier.srcStageMask = readers;
   barrier.srcAccessMask = VK_ACCESS_2_NONE;
   barrier.dstStageMask = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
@@ -119,7 +127,7 @@ void LitPass::prepare(VkCommandBuffer cmd, const LitFrame& frame) {
   barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
   barrier.buffer = frameBuffer_.handle();
   barrier.size = VK_WHOLE_SIZE;
-  auto dep = detail::vkStruct<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
+  auto dep = vkStruct<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
   dep.bufferMemoryBarrierCount = 1;
   dep.pBufferMemoryBarriers = &barrier;
   vkCmdPipelineBarrier2(cmd, &dep);
@@ -154,4 +162,4 @@ void LitPass::draw(VkCommandBuffer cmd, const MeshStore& meshes, VkDescriptorSet
   }
 }
 
-}  // namespace engine
+}  // namespace glue
