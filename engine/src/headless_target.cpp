@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "engine/context.hpp"
+#include "frame_start.hpp"
 
 namespace engine {
 
@@ -33,32 +34,17 @@ std::optional<Frame> HeadlessTarget::beginFrame() {
   cmd_ = ring_.begin();
   // The previous frame's contents are discarded (UNDEFINED); the barrier orders this frame's
   // writes after the previous frame's attachment writes and any readback copy.
-  imageBarrier(cmd_, color_.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
-               VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_COPY_BIT,
-               VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-               VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-               VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-               VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  const VkPipelineStageFlags2 depthStages =
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-  imageBarrier(cmd_, depth_.handle(), depth_.aspect(), depthStages,
-               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, depthStages,
-               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
-                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-               VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+  const detail::FrameImages images{.colorImage = color_.handle(),
+                                   .colorView = color_.view(),
+                                   .colorFormat = color_.format(),
+                                   .depth = &depth_,
+                                   .depthFormat = depth_.format(),
+                                   .extent = color_.extent()};
   inFrame_ = true;
-  Frame f;
-  f.cmd = cmd_;
-  f.slot = ring_.slot();
-  f.number = frames_;
-  f.colorImage = color_.handle();
-  f.colorView = color_.view();
-  f.colorFormat = color_.format();
-  f.depthImage = depth_.handle();
-  f.depthView = depth_.view();
-  f.depthFormat = depth_.format();
-  f.extent = color_.extent();
-  return f;
+  return detail::startFrame(
+      cmd_, ring_.slot(), frames_, images,
+      VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_2_COPY_BIT,
+      VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
 }
 
 void HeadlessTarget::endFrame() {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstddef>
 #include <glm/geometric.hpp>
+#include <glm/gtc/constants.hpp>
 #include <stdexcept>
 #include <string>
 
@@ -81,6 +82,28 @@ void makeCube(std::vector<Vertex>& vertices, std::vector<uint32_t>& indices) {
     const float s[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
     for (const auto& c : s) vertices.push_back({0.5f * (n + c[0] * u + c[1] * v), n});
     for (uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) indices.push_back(base + i);
+  }
+}
+
+void makeSphere(std::vector<Vertex>& vertices, std::vector<uint32_t>& indices, int segments,
+                int rings) {
+  vertices.clear();
+  indices.clear();
+  for (int r = 0; r <= rings; ++r) {
+    const double phi = glm::pi<double>() * r / rings;
+    for (int s = 0; s <= segments; ++s) {
+      const double theta = 2.0 * glm::pi<double>() * s / segments;
+      const glm::vec3 n(std::sin(phi) * std::cos(theta), std::cos(phi),
+                        std::sin(phi) * std::sin(theta));
+      vertices.push_back({n, n});
+    }
+  }
+  const uint32_t row = static_cast<uint32_t>(segments + 1);
+  for (uint32_t r = 0; r < static_cast<uint32_t>(rings); ++r) {
+    for (uint32_t s = 0; s < static_cast<uint32_t>(segments); ++s) {
+      const uint32_t a = r * row + s, b = a + row;
+      indices.insert(indices.end(), {a, b, a + 1, a + 1, b, b + 1});
+    }
   }
 }
 

@@ -11,6 +11,7 @@
 #include "engine/context.hpp"
 #include "engine/debug.hpp"
 #include "engine/errors.hpp"
+#include "frame_start.hpp"
 #include "vk_struct.hpp"
 
 namespace engine {
@@ -229,31 +230,17 @@ std::optional<Frame> WindowTarget::beginFrame() {
   else
     ENGINE_VK_CHECK(r);
 
-  imageBarrier(cmd_, images_[imageIndex_], VK_IMAGE_ASPECT_COLOR_BIT,
-               VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_NONE,
-               VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-               VK_ACCESS_2_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
-               VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  const VkPipelineStageFlags2 depthStages =
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-  imageBarrier(cmd_, depth_.handle(), depth_.aspect(), depthStages,
-               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, depthStages,
-               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
-                   VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-               VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+  // The acquired image's contents are discarded; the acquire semaphore orders the presentation
+  // engine's reads before the colour writes.
+  const detail::FrameImages images{.colorImage = images_[imageIndex_],
+                                   .colorView = views_[imageIndex_],
+                                   .colorFormat = surfaceFormat_.format,
+                                   .depth = &depth_,
+                                   .depthFormat = depthFormat_,
+                                   .extent = extent_};
   inFrame_ = true;
-  Frame f;
-  f.cmd = cmd_;
-  f.slot = ring_.slot();
-  f.number = frames_;
-  f.colorImage = images_[imageIndex_];
-  f.colorView = views_[imageIndex_];
-  f.colorFormat = surfaceFormat_.format;
-  f.depthImage = depth_.handle();
-  f.depthView = depth_.view();
-  f.depthFormat = depthFormat_;
-  f.extent = extent_;
-  return f;
+  return detail::startFrame(cmd_, ring_.slot(), frames_, images,
+                            VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_NONE);
 }
 
 void WindowTarget::endFrame() {

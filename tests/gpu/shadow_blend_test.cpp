@@ -1,14 +1,13 @@
 // Across a blend band the shadow factor changes smoothly: csm.glsl evaluated in a compute shader
-// (tests/gpu/shadow_probe.comp) at exact points on the plane along a line that runs through the
-// band, beside the shadow edge of a rail that lies along the view direction.
+// (glue::ShadowProbe, shadow_probe.comp) at exact points on the plane along a line that runs
+// through the band, beside the shadow edge of a rail that lies along the view direction.
 #include <gtest/gtest.h>
 
-#include <csm_shaders/selection_probe.comp.spv.h>
-#include <csm_shaders/shadow_probe.comp.spv.h>
 #include <engine/debug.hpp>
 #include <engine/errors.hpp>
 #include <engine/memory.hpp>
 #include <engine/pipeline.hpp>
+#include <glue/shadow_probe.hpp>
 
 #include <cmath>
 #include <cstdio>
@@ -20,133 +19,43 @@
 namespace csm_test {
 namespace {
 
-template <class T>
-T vkStruct(VkStructureType type) {
-  T v{};
-  v.sType = type;
-  return v;
-}
-
-/// A compute pipeline over csm.glsl: set 0 = points and results, set 1 = the renderer's set.
+/// glue::ShadowProbe over the scene: records the scene's shadow pass, then evaluates csm.glsl at
+/// the given world points (normal +Y) with one kernel and blend mode.
 class Probe {
  public:
-  /// `shader`: shadow_probe.comp (one float per point) by default, or another probe over the same
-  /// interface writing `resultFloats` floats per point.
-  Probe(engine::Context& ctx, VkDescriptorSetLayout shadowLayout, csm::PcfKernel kernel, bool blend,
-        uint32_t maxPoints, std::span<const uint32_t> shader = shadow_probe_comp_spv,
-        uint32_t resultFloats = 1)
-      : ctx_(ctx),
-        resultFloats_(resultFloats),
-        points_(ctx, maxPoints * sizeof(glm::vec4), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                engine::MemoryUsage::Upload, "probe.points"),
-        results_(ctx, maxPoints * sizeof(float) * resultFloats, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                 engine::MemoryUsage::Readback, "probe.results") {
-    VkDevice dev = ctx.device();
-    const VkDescriptorSetLayoutBinding b[2] = {
-        {0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-        {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
-    layout_ = engine::createDescriptorSetLayout(dev, b, "probe.layout");
-    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2};
-    auto pi = vkStruct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    pi.maxSets = 1;
-    pi.poolSizeCount = 1;
-    pi.pPoolSizes = &size;
-    VkDescriptorPool pool = VK_NULL_HANDLE;
-    ENGINE_VK_CHECK(vkCreateDescriptorPool(dev, &pi, nullptr, &pool));
-    pool_ = engine::DeviceHandle<VkDescriptorPool>(dev, pool, vkDestroyDescriptorPool);
-    engine::setDebugName(dev, pool, "probe.pool");
-    VkDescriptorSetLayout l = layout_.get();
-    auto ai = vkStruct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
-    ai.descriptorPool = pool;
-    ai.descriptorSetCount = 1;
-    ai.pSetLayouts = &l;
-    ENGINE_VK_CHECK(vkAllocateDescriptorSets(dev, &ai, &set_));
-    VkDescriptorBufferInfo infos[2] = {{points_.handle(), 0, VK_WHOLE_SIZE},
-                                       {results_.handle(), 0, VK_WHOLE_SIZE}};
-    VkWriteDescriptorSet w[2]{};
-    for (uint32_t i = 0; i < 2; ++i) {
-      w[i] = vkStruct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
-      w[i].dstSet = set_;
-      w[i].dstBinding = i;
-      w[i].descriptorCount = 1;
-      w[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-      w[i].pBufferInfo = &infos[i];
-    }
-    vkUpdateDescriptorSets(dev, 2, w, 0, nullptr);
+  Probe(engine::Context& ctx, VkDescriptorSetLayout shadowLayout, csm::PcfKernel kernel, bool blend)
+      : ctx_(ctx), probe_(ctx, shadowLayout), kernel_(kernel), blend_(blend) {}
 
-    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, 32};
-    const VkDescriptorSetLayout sets[2] = {layout_.get(), shadowLayout};
-    auto li = vkStruct<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
-    li.setLayoutCount = 2;
-    li.pSetLayouts = sets;
-    li.pushConstantRangeCount = 1;
-    li.pPushConstantRanges = &range;
-    VkPipelineLayout pl = VK_NULL_HANDLE;
-    ENGINE_VK_CHECK(vkCreatePipelineLayout(dev, &li, nullptr, &pl));
-    pipelineLayout_ = engine::DeviceHandle<VkPipelineLayout>(dev, pl, vkDestroyPipelineLayout);
-    engine::setDebugName(dev, pl, "probe.pipelineLayout");
-
-    const auto module = engine::createShaderModule(dev, shader, "probe.comp");
-    const uint32_t values[2] = {uint32_t(kernel), blend ? 1u : 0u};
-    const VkSpecializationMapEntry entries[2] = {{CSM_SPEC_KERNEL, 0, 4}, {CSM_SPEC_BLEND, 4, 4}};
-    VkSpecializationInfo spec{2, entries, sizeof(values), values};
-    auto ci = vkStruct<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
-    ci.stage = vkStruct<VkPipelineShaderStageCreateInfo>(
-        VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
-    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    ci.stage.module = module;
-    ci.stage.pName = "main";
-    ci.stage.pSpecializationInfo = &spec;
-    ci.layout = pl;
-    VkPipeline p = VK_NULL_HANDLE;
-    ENGINE_VK_CHECK(vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &ci, nullptr, &p));
-    pipeline_ = engine::DeviceHandle<VkPipeline>(dev, p, vkDestroyPipeline);
-    engine::setDebugName(dev, p, "probe.pipeline");
-  }
-
-  /// Renders the shadow pass of `frame` and evaluates csmShadow at `pointsWs` (normal +Y).
-  std::vector<float> run(ShadowScene& scene, const csm::CascadeFrame& frame,
-                         const std::vector<glm::dvec3>& pointsWs) {
-    std::vector<glm::vec4> cr;
+  /// Renders the shadow pass of `frame` and evaluates csm.glsl at `pointsWs`.
+  std::vector<glue::ProbeResult> run(ShadowScene& scene, const csm::CascadeFrame& frame,
+                                     const std::vector<glm::dvec3>& pointsWs) {
+    std::vector<glue::ProbePoint> points;
     for (const glm::dvec3& p : pointsWs) {
-      cr.emplace_back(glm::vec3(p - frame.cameraPositionWs), 1.0f);
+      points.push_back({glm::vec3(p - frame.cameraPositionWs), glm::vec3(0.0f, 1.0f, 0.0f)});
     }
-    std::memcpy(points_.mapped(), cr.data(), cr.size() * sizeof(glm::vec4));
-    struct {
-      glm::vec4 normal;
-      uint32_t count;
-      uint32_t pad[3];
-    } push{{0.0f, 1.0f, 0.0f, 0.0f}, uint32_t(cr.size()), {}};
+    probe_.setPoints(points);
     ctx_.submitAndWait([&](VkCommandBuffer cmd) {
       const csm::CascadeFrame recorded = scene.recordShadow(cmd, csm::DebugMode::kNone);
       // The view recomputes the frame for the same camera: the probe's frame is the recorded one.
       EXPECT_EQ(recorded.splitsM, frame.splitsM);
       EXPECT_EQ(recorded.cascades[0].boxCenterWs, frame.cascades[0].boxCenterWs);
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_);
-      const VkDescriptorSet sets[2] = {set_, scene.renderer().lightingSet()};
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout_, 0, 2, sets, 0,
-                              nullptr);
-      vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
-      vkCmdDispatch(cmd, (push.count + 63) / 64, 1, 1);
-      engine::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
-                            VK_ACCESS_2_SHADER_WRITE_BIT, VK_PIPELINE_STAGE_2_HOST_BIT,
-                            VK_ACCESS_2_HOST_READ_BIT);
+      probe_.record(cmd, scene.renderer().lightingSet(), kernel_, blend_);
     });
-    std::vector<float> out(cr.size() * resultFloats_);
-    std::memcpy(out.data(), results_.mapped(), out.size() * sizeof(float));
+    return probe_.results();
+  }
+  /// The shadow factors of run().
+  std::vector<float> shadows(ShadowScene& scene, const csm::CascadeFrame& frame,
+                             const std::vector<glm::dvec3>& pointsWs) {
+    std::vector<float> out;
+    for (const glue::ProbeResult& r : run(scene, frame, pointsWs)) out.push_back(r.shadow);
     return out;
   }
 
  private:
   engine::Context& ctx_;
-  uint32_t resultFloats_ = 1;
-  engine::Buffer points_;
-  engine::Buffer results_;
-  engine::DeviceHandle<VkDescriptorSetLayout> layout_;
-  engine::DeviceHandle<VkDescriptorPool> pool_;
-  VkDescriptorSet set_ = VK_NULL_HANDLE;
-  engine::DeviceHandle<VkPipelineLayout> pipelineLayout_;
-  engine::DeviceHandle<VkPipeline> pipeline_;
+  glue::ShadowProbe probe_;
+  csm::PcfKernel kernel_;
+  bool blend_;
 };
 
 double maxJump(const std::vector<float>& s, size_t begin, size_t end) {
@@ -204,14 +113,12 @@ TEST(ShadowBlendBand, NoJumpAcrossTheBandLargerThanTheKernelStep) {
       }
       std::vector<float> s, hard;
       {
-        Probe probe(scene.context(), scene.renderer().lightingSetLayout(), kernel, true,
-                    uint32_t(points.size()));
-        s = probe.run(scene, frame, points);
+        Probe probe(scene.context(), scene.renderer().lightingSetLayout(), kernel, true);
+        s = probe.shadows(scene, frame, points);
       }
       {
-        Probe probe(scene.context(), scene.renderer().lightingSetLayout(), kernel, false,
-                    uint32_t(points.size()));
-        hard = probe.run(scene, frame, points);
+        Probe probe(scene.context(), scene.renderer().lightingSetLayout(), kernel, false);
+        hard = probe.shadows(scene, frame, points);
       }
       const double kernelStep = std::max(maxJump(s, n, 2 * n), maxJump(s, 2 * n, 3 * n));
       // The band: samples with view depth in [bandStart, split].
@@ -257,10 +164,10 @@ TEST(ShadowSelection, GpuIndexAndBlendWeightMatchTheCpuMirror) {
       const double x = 0.4 * depth * std::sin(0.37 * i), y = 0.2 * depth * std::cos(0.91 * i);
       points.push_back(cam + depth * fwd + x * right + y * up);
     }
-    std::vector<float> gpu;
+    std::vector<glue::ProbeResult> gpu;
     {
       Probe probe(scene.context(), scene.renderer().lightingSetLayout(), csm::PcfKernel::k1Tap,
-                  true, uint32_t(points.size()), selection_probe_comp_spv, 4);
+                  true);
       gpu = probe.run(scene, frame, points);
     }
     std::vector<double> edges;  // splits and band starts (view depth, m)
@@ -281,9 +188,9 @@ TEST(ShadowSelection, GpuIndexAndBlendWeightMatchTheCpuMirror) {
         continue;
       }
       const csm::CascadeSelection cpu = csm::selectCascade(frame, depth, settings.blendBand);
-      const int gIndex = int(std::lround(gpu[4 * i + 0]));
-      const int gBlend = int(std::lround(gpu[4 * i + 1]));
-      const double gWeight = gpu[4 * i + 2];
+      const int gIndex = gpu[size_t(i)].cascade;
+      const int gBlend = gpu[size_t(i)].blendCascade;
+      const double gWeight = gpu[size_t(i)].blendWeight;
       ++compared;
       indexDiffer += gIndex != cpu.index ? 1 : 0;
       blendDiffer += gBlend != cpu.blendIndex ? 1 : 0;

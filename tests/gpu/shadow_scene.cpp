@@ -59,28 +59,6 @@ uint64_t validationMessages() {
   return engine::validationMessageCount();
 }
 
-void makeSphere(std::vector<engine::Vertex>& vertices, std::vector<uint32_t>& indices, int segments,
-                int rings) {
-  vertices.clear();
-  indices.clear();
-  for (int r = 0; r <= rings; ++r) {
-    const double phi = glm::pi<double>() * r / rings;
-    for (int s = 0; s <= segments; ++s) {
-      const double theta = 2.0 * glm::pi<double>() * s / segments;
-      const glm::vec3 n(std::sin(phi) * std::cos(theta), std::cos(phi),
-                        std::sin(phi) * std::sin(theta));
-      vertices.push_back({n, n});
-    }
-  }
-  const uint32_t row = static_cast<uint32_t>(segments + 1);
-  for (uint32_t r = 0; r < static_cast<uint32_t>(rings); ++r) {
-    for (uint32_t s = 0; s < static_cast<uint32_t>(segments); ++s) {
-      const uint32_t a = r * row + s, b = a + row;
-      indices.insert(indices.end(), {a, b, a + 1, a + 1, b, b + 1});
-    }
-  }
-}
-
 ShadowScene::ShadowScene(uint32_t width, uint32_t height) {
   engine::resetValidationCounts();
   engine::ContextDesc desc;
@@ -131,7 +109,7 @@ void ShadowScene::buildScene() {
        {{-1, 0, 1}, {0, 1, 0}}};
   idx = {0, 2, 1, 0, 3, 2};
   planeMesh_ = meshes_->upload(v, idx);
-  makeSphere(v, idx, 96, 48);
+  engine::makeSphere(v, idx, 96, 48);
   sphereMesh_ = meshes_->upload(v, idx);
   engine::makeCube(v, idx);
   cubeMesh_ = meshes_->upload(v, idx);

@@ -150,8 +150,4 @@ csm::ShadowSettings testSettings(uint32_t cascades, uint32_t resolution);
 /// Counts validation messages (warnings + errors) seen so far in this process.
 uint64_t validationMessages();
 
-/// A UV sphere of unit radius (vertices on the sphere, outward normals).
-void makeSphere(std::vector<engine::Vertex>& vertices, std::vector<uint32_t>& indices, int segments,
-                int rings);
-
 }  // namespace csm_test

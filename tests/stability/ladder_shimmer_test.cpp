@@ -1,5 +1,5 @@
 // Shimmer under camera changes that set a cascade's size (zoom, aspect, near plane, split lambda)
-// and under a moving sun, measured through the real csm.glsl (stability_probe.comp) at fixed
+// and under a moving sun, measured through the real csm.glsl (glue::ShadowProbe) at fixed
 // receivers, at 0, 1e6 and 1e7 m from the world origin. Three modes per motion:
 //   ladder    stabilised, sizes on the rung ladder, light direction stepped (the defaults)
 //   noladder  stabilised (sphere + snap) but sizes follow their inputs continuously

@@ -1,4 +1,4 @@
-// Frame-to-frame texel shimmer, measured with the real csm.glsl (stability_probe.comp) at fixed
+// Frame-to-frame texel shimmer, measured with the real csm.glsl (glue::ShadowProbe) at fixed
 // receiver points on the terrain and on building walls, for camera motions at 0, 1e6 and 1e7 m
 // from the world origin, stabilised and unstabilised. Writes stability.json and a PNG plot.
 #include <cstdio>

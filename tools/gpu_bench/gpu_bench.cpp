@@ -44,26 +44,6 @@ struct Options {
   uint32_t height = 720;
 };
 
-void makeSphere(std::vector<engine::Vertex>& v, std::vector<uint32_t>& idx, int seg, int rings) {
-  v.clear();
-  idx.clear();
-  for (int r = 0; r <= rings; ++r) {
-    const double phi = glm::pi<double>() * r / rings;
-    for (int s = 0; s <= seg; ++s) {
-      const double th = 2.0 * glm::pi<double>() * s / seg;
-      const glm::vec3 n(std::sin(phi) * std::cos(th), std::cos(phi), std::sin(phi) * std::sin(th));
-      v.push_back({n, n});
-    }
-  }
-  const uint32_t row = uint32_t(seg + 1);
-  for (uint32_t r = 0; r < uint32_t(rings); ++r) {
-    for (uint32_t s = 0; s < uint32_t(seg); ++s) {
-      const uint32_t a = r * row + s, b = a + row;
-      idx.insert(idx.end(), {a, b, a + 1, a + 1, b, b + 1});
-    }
-  }
-}
-
 glm::mat3 scaleMat(const glm::dvec3& s) {
   return glm::mat3(glm::vec3(float(s.x), 0, 0), glm::vec3(0, float(s.y), 0),
                    glm::vec3(0, 0, float(s.z)));
@@ -118,12 +98,8 @@ class Bench {
     if (!st.ok()) throw std::runtime_error("update: " + st.message());
     auto& lit = lit_[uint32_t(kernel)];
     if (!lit) {
-      glue::LitPassDesc desc;
-      desc.colorFormat = target_->colorFormat();
-      desc.depthFormat = target_->depthFormat();
-      desc.shadowSetLayout = view_->lightingSetLayout();
-      desc.specialization = {{CSM_SPEC_KERNEL, uint32_t(kernel)}, {CSM_SPEC_BLEND, 1u}};
-      lit = std::make_unique<glue::LitPass>(*ctx_, desc);
+      lit = glue::makeLitPass(*ctx_, target_->colorFormat(), target_->depthFormat(),
+                              view_->lightingSetLayout(), kernel, true);
     }
     const csm::Camera cam = glue::toCsmCamera(camera_);
     view_->resetHistory();
@@ -140,12 +116,7 @@ class Bench {
       lf.viewProjCr = camera_.viewProjectionCr();
       lf.cameraPositionWs = camera_.positionWs;
       lf.lightDirectionWs = glm::vec3(light_.directionWs);
-      lit->prepare(fr->cmd, lf);
-      timer_->begin(fr->cmd, "lit");
-      engine::beginRendering(*fr, VkClearColorValue{{0.1f, 0.1f, 0.15f, 1.0f}});
-      lit->draw(fr->cmd, *meshes_, view_->lightingSet(), litDraws_, fr->extent);
-      vkCmdEndRendering(fr->cmd);
-      timer_->end(fr->cmd, "lit");
+      glue::recordTimedLitPass(*lit, *timer_, *fr, lf, *meshes_, view_->lightingSet(), litDraws_);
       const uint32_t slot = fr->slot;
       target_->endFrame();
       target_->waitIdle();
@@ -167,7 +138,7 @@ class Bench {
          {{-1, 0, 1}, {0, 1, 0}}};
     idx = {0, 2, 1, 0, 3, 2};
     const engine::MeshRange plane = meshes_->upload(v, idx);
-    makeSphere(v, idx, 32, 16);
+    engine::makeSphere(v, idx, 32, 16);
     const engine::MeshRange sphere = meshes_->upload(v, idx);
     engine::makeCube(v, idx);
     const engine::MeshRange cube = meshes_->upload(v, idx);

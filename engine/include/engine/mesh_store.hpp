@@ -67,4 +67,9 @@ class MeshStore {
 /// A unit cube centred at the origin (side 1), 24 vertices with face normals, 36 indices.
 void makeCube(std::vector<Vertex>& vertices, std::vector<uint32_t>& indices);
 
+/// A UV sphere of unit radius centred at the origin: (rings + 1) x (segments + 1) vertices on the
+/// sphere with outward normals (poles and the seam repeated), 6 x rings x segments indices.
+void makeSphere(std::vector<Vertex>& vertices, std::vector<uint32_t>& indices, int segments,
+                int rings);
+
 }  // namespace engine

@@ -4,12 +4,15 @@
 #include <csm_shaders/lit.frag.spv.h>
 #include <csm_shaders/lit.vert.spv.h>
 
+#include <csm/gpu_layout.hpp>
 #include <stdexcept>
 
 #include "engine/context.hpp"
 #include "engine/debug.hpp"
 #include "engine/errors.hpp"
+#include "engine/gpu_timer.hpp"
 #include "engine/render_target.hpp"
+#include "vk_util.hpp"
 
 namespace glue {
 
@@ -17,13 +20,7 @@ using namespace engine;
 
 namespace {
 
-/// A value-initialised `T` with `sType` set (the engine's own helper is private to it).
-template <class T>
-T vkStruct(VkStructureType type) {
-  T value{};
-  value.sType = type;
-  return value;
-}
+using detail::vkStruct;
 
 // std140 block LitFrame of lit.vert / lit.frag.
 struct LitFrameGpu {
@@ -160,6 +157,28 @@ void LitPass::draw(VkCommandBuffer cmd, const MeshStore& meshes, VkDescriptorSet
                        &push);
     vkCmdDrawIndexed(cmd, d.mesh.indexCount, 1, d.mesh.firstIndex, d.mesh.vertexOffset, 0);
   }
+}
+
+std::unique_ptr<LitPass> makeLitPass(engine::Context& ctx, VkFormat colorFormat,
+                                     VkFormat depthFormat, VkDescriptorSetLayout lightingSetLayout,
+                                     csm::PcfKernel kernel, bool blend) {
+  LitPassDesc desc;
+  desc.colorFormat = colorFormat;
+  desc.depthFormat = depthFormat;
+  desc.shadowSetLayout = lightingSetLayout;
+  desc.specialization = {{CSM_SPEC_KERNEL, uint32_t(kernel)}, {CSM_SPEC_BLEND, blend ? 1u : 0u}};
+  return std::make_unique<LitPass>(ctx, desc);
+}
+
+void recordTimedLitPass(LitPass& lit, engine::GpuTimer& timer, const engine::Frame& frame,
+                        const LitFrame& litFrame, const engine::MeshStore& meshes,
+                        VkDescriptorSet lightingSet, std::span<const LitDraw> draws) {
+  lit.prepare(frame.cmd, litFrame);
+  timer.begin(frame.cmd, "lit");
+  engine::beginRendering(frame, VkClearColorValue{{0.1f, 0.1f, 0.15f, 1.0f}});
+  lit.draw(frame.cmd, meshes, lightingSet, draws, frame.extent);
+  vkCmdEndRendering(frame.cmd);
+  timer.end(frame.cmd, "lit");
 }
 
 }  // namespace glue

@@ -3,7 +3,6 @@
 
 #include <csm_shaders/stability_accuracy.frag.spv.h>
 #include <csm_shaders/stability_accuracy.vert.spv.h>
-#include <csm_shaders/stability_probe.comp.spv.h>
 #include <engine/debug.hpp>
 #include <engine/errors.hpp>
 #include <engine/gpu_timer.hpp>
@@ -15,6 +14,7 @@
 #include <glue/camera.hpp>
 #include <glue/lit_pass.hpp>
 #include <glue/shadow_host.hpp>
+#include <glue/shadow_probe.hpp>
 
 #include <algorithm>
 #include <cstdlib>
@@ -40,12 +40,6 @@ struct AccuracyPush {
   glm::vec4 normalToWs[3];
 };
 static_assert(sizeof(AccuracyPush) == 112);
-
-// std430 element of stability_probe.comp's Points buffer.
-struct ProbePointGpu {
-  glm::vec4 posCr;
-  glm::vec4 normalWs;
-};
 
 constexpr VkFormat kPositionFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kNormalFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
@@ -91,20 +85,6 @@ void writeBuffer(VkDevice dev, VkDescriptorSet set, uint32_t binding, VkDescript
 
 }  // namespace
 
-struct Harness::Probe {
-  engine::DeviceHandle<VkDescriptorSetLayout> layout;
-  engine::DeviceHandle<VkDescriptorPool> pool;
-  VkDescriptorSet set = VK_NULL_HANDLE;
-  engine::DeviceHandle<VkPipelineLayout> pipelineLayout;
-  engine::Buffer points;
-  engine::Buffer results;
-  uint32_t capacity = 0;
-};
-
-struct Harness::ProbePipeline {
-  engine::DeviceHandle<VkPipeline> pipeline;
-};
-
 struct Harness::AccuracyPipeline {
   engine::GraphicsPipeline pipeline;
 };
@@ -135,7 +115,6 @@ Harness::~Harness() {
   timingTarget_.reset();
   accuracyPipelines_.clear();
   accuracy_.reset();
-  probePipelines_.clear();
   probe_.reset();
   view_.reset();
   meshes_.reset();
@@ -281,107 +260,22 @@ void Harness::recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame) 
 
 // ---- probe ----------------------------------------------------------------------------------
 
-void Harness::ensureProbeBuffers(uint32_t count) {
-  VkDevice dev = ctx_->device();
-  if (!probe_) {
-    probe_ = std::make_unique<Probe>();
-    const VkDescriptorSetLayoutBinding b[2] = {
-        {0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr},
-        {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
-    probe_->layout = engine::createDescriptorSetLayout(dev, b, "measure.probe.layout");
-    probe_->pool = makePool(dev, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2, "measure.probe.pool");
-    probe_->set = allocateSet(dev, probe_->pool, probe_->layout, "measure.probe.set");
-    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, 16};
-    const VkDescriptorSetLayout sets[2] = {probe_->layout.get(), view_->lightingSetLayout()};
-    auto li = vkStruct<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
-    li.setLayoutCount = 2;
-    li.pSetLayouts = sets;
-    li.pushConstantRangeCount = 1;
-    li.pPushConstantRanges = &range;
-    VkPipelineLayout pl = VK_NULL_HANDLE;
-    ENGINE_VK_CHECK(vkCreatePipelineLayout(dev, &li, nullptr, &pl));
-    engine::setDebugName(dev, pl, "measure.probe.pipelineLayout");
-    probe_->pipelineLayout =
-        engine::DeviceHandle<VkPipelineLayout>(dev, pl, vkDestroyPipelineLayout);
-  }
-  if (count <= probe_->capacity) return;
-  ctx_->waitIdle();
-  const uint32_t capacity = std::max(count, 1024u);
-  probe_->points = engine::Buffer(*ctx_, VkDeviceSize(capacity) * sizeof(ProbePointGpu),
-                                  VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, engine::MemoryUsage::Upload,
-                                  "measure.probe.points");
-  probe_->results = engine::Buffer(*ctx_, VkDeviceSize(capacity) * 2 * sizeof(glm::vec4),
-                                   VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                   engine::MemoryUsage::Readback, "measure.probe.results");
-  writeBuffer(dev, probe_->set, 0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, probe_->points.handle());
-  writeBuffer(dev, probe_->set, 1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, probe_->results.handle());
-  probe_->capacity = capacity;
-}
-
-Harness::ProbePipeline& Harness::probePipeline(csm::PcfKernel kernel, bool blend) {
-  auto& p = probePipelines_[{uint32_t(kernel), blend}];
-  if (p) return *p;
-  VkDevice dev = ctx_->device();
-  p = std::make_unique<ProbePipeline>();
-  const auto module =
-      engine::createShaderModule(dev, stability_probe_comp_spv, "stability_probe.comp");
-  const uint32_t values[2] = {uint32_t(kernel), blend ? 1u : 0u};
-  const VkSpecializationMapEntry entries[2] = {{CSM_SPEC_KERNEL, 0, 4}, {CSM_SPEC_BLEND, 4, 4}};
-  VkSpecializationInfo spec{2, entries, sizeof(values), values};
-  auto ci = vkStruct<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
-  ci.stage = vkStruct<VkPipelineShaderStageCreateInfo>(
-      VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
-  ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-  ci.stage.module = module;
-  ci.stage.pName = "main";
-  ci.stage.pSpecializationInfo = &spec;
-  ci.layout = probe_->pipelineLayout;
-  VkPipeline pipeline = VK_NULL_HANDLE;
-  ENGINE_VK_CHECK(vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline));
-  engine::setDebugName(
-      dev, pipeline,
-      std::string("measure.probe.") + csm::kernelName(kernel) + (blend ? ".blend" : ".switch"));
-  p->pipeline = engine::DeviceHandle<VkPipeline>(dev, pipeline, vkDestroyPipeline);
-  return *p;
-}
-
 std::vector<ProbeResult> Harness::probe(const csm::CascadeFrame& frame,
                                         std::span<const Receiver> receivers, csm::PcfKernel kernel,
                                         bool blend) {
-  const uint32_t count = uint32_t(receivers.size());
-  ensureProbeBuffers(count);
-  ProbePipeline& pipeline = probePipeline(kernel, blend);
-  auto* points = static_cast<ProbePointGpu*>(probe_->points.mapped());
-  for (uint32_t i = 0; i < count; ++i) {
+  if (!probe_) probe_ = std::make_unique<glue::ShadowProbe>(*ctx_, view_->lightingSetLayout());
+  std::vector<glue::ProbePoint> points(receivers.size());
+  for (size_t i = 0; i < receivers.size(); ++i) {
     // Camera-relative in double, rounded to float once.
-    points[i].posCr = glm::vec4(glm::vec3(receivers[i].posWs - frame.cameraPositionWs), 1.0f);
-    points[i].normalWs = glm::vec4(receivers[i].normalWs, 0.0f);
+    points[i].posCr = glm::vec3(receivers[i].posWs - frame.cameraPositionWs);
+    points[i].normalWs = receivers[i].normalWs;
   }
+  probe_->setPoints(points);
   ctx_->submitAndWait([&](VkCommandBuffer cmd) {
     recordShadow(cmd, frame);
-    engine::ScopedLabel label(cmd, "measure probe");
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.pipeline);
-    const VkDescriptorSet sets[2] = {probe_->set, view_->lightingSet()};
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, probe_->pipelineLayout, 0, 2, sets,
-                            0, nullptr);
-    const uint32_t push[4] = {count, 0, 0, 0};
-    vkCmdPushConstants(cmd, probe_->pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push),
-                       push);
-    vkCmdDispatch(cmd, (count + 63) / 64, 1, 1);
-    engine::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT, VK_ACCESS_2_SHADER_WRITE_BIT,
-                          VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+    probe_->record(cmd, view_->lightingSet(), kernel, blend);
   });
-  std::vector<ProbeResult> out(count);
-  const auto* r = static_cast<const glm::vec4*>(probe_->results.mapped());
-  for (uint32_t i = 0; i < count; ++i) {
-    const glm::vec4& a = r[2 * i];
-    out[i].shadow = a.x;
-    out[i].cascade = int(std::lround(a.y));
-    out[i].blendCascade = int(std::lround(a.z));
-    out[i].blendWeight = a.w;
-    out[i].depthGapM = r[2 * i + 1].x;
-  }
-  return out;
+  return probe_->results();
 }
 
 // ---- accuracy frame -------------------------------------------------------------------------
@@ -604,12 +498,8 @@ FrameTimings Harness::timeFrame(const csm::Camera& camera, const csm::Directiona
   ensureTimingTarget(extent);
   auto& lit = litPasses_[{uint32_t(kernel), blend}];
   if (!lit) {
-    glue::LitPassDesc desc;
-    desc.colorFormat = timingTarget_->colorFormat();
-    desc.depthFormat = timingTarget_->depthFormat();
-    desc.shadowSetLayout = view_->lightingSetLayout();
-    desc.specialization = {{CSM_SPEC_KERNEL, uint32_t(kernel)}, {CSM_SPEC_BLEND, blend ? 1u : 0u}};
-    lit = std::make_unique<glue::LitPass>(*ctx_, desc);
+    lit = glue::makeLitPass(*ctx_, timingTarget_->colorFormat(), timingTarget_->depthFormat(),
+                            view_->lightingSetLayout(), kernel, blend);
   }
   std::vector<glue::LitDraw> draws;
   draws.reserve(instances_.size());
@@ -632,12 +522,7 @@ FrameTimings Harness::timeFrame(const csm::Camera& camera, const csm::Directiona
   lf.viewProjCr = cam.viewProjectionCr();
   lf.cameraPositionWs = camera.positionWs;
   lf.lightDirectionWs = glm::vec3(light.directionWs);
-  lit->prepare(f->cmd, lf);
-  timer_->begin(f->cmd, "lit");
-  engine::beginRendering(*f, VkClearColorValue{{0.1f, 0.1f, 0.15f, 1.0f}});
-  lit->draw(f->cmd, *meshes_, view_->lightingSet(), draws, f->extent);
-  vkCmdEndRendering(f->cmd);
-  timer_->end(f->cmd, "lit");
+  glue::recordTimedLitPass(*lit, *timer_, *f, lf, *meshes_, view_->lightingSet(), draws);
   const uint32_t slot = f->slot;
   timingTarget_->endFrame();
   timingTarget_->waitIdle();

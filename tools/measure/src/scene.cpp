@@ -45,22 +45,7 @@ MeshData makeCubeMesh() {
 MeshData makeSphereMesh(int segments, int rings) {
   MeshData m;
   m.name = "sphere";
-  for (int r = 0; r <= rings; ++r) {
-    const double phi = glm::pi<double>() * r / rings;
-    for (int s = 0; s <= segments; ++s) {
-      const double theta = 2.0 * glm::pi<double>() * s / segments;
-      const glm::vec3 n(float(std::sin(phi) * std::cos(theta)), float(std::cos(phi)),
-                        float(std::sin(phi) * std::sin(theta)));
-      m.vertices.push_back({n, n});
-    }
-  }
-  const uint32_t row = uint32_t(segments + 1);
-  for (uint32_t r = 0; r < uint32_t(rings); ++r) {
-    for (uint32_t s = 0; s < uint32_t(segments); ++s) {
-      const uint32_t a = r * row + s, b = a + row;
-      m.indices.insert(m.indices.end(), {a, b, a + 1, a + 1, b, b + 1});
-    }
-  }
+  engine::makeSphere(m.vertices, m.indices, segments, rings);
   return m;
 }
 

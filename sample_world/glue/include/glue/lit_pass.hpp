@@ -6,8 +6,10 @@
 
 #include <vulkan/vulkan.h>
 
+#include <csm/gpu_layout.hpp>
 #include <cstdint>
 #include <glm/glm.hpp>
+#include <memory>
 #include <span>
 #include <utility>
 #include <vector>
@@ -18,6 +20,8 @@
 
 namespace engine {
 class Context;
+class GpuTimer;
+struct Frame;
 }  // namespace engine
 
 namespace glue {
@@ -84,5 +88,18 @@ class LitPass {
   engine::Buffer frameBuffer_;
   glm::dvec3 cameraPositionWs_{0.0};
 };
+
+/// The lit pass of one csm.glsl variant (PCF kernel; blend band on or off) for these formats,
+/// sampling the module's lighting set (`lightingSetLayout`).
+[[nodiscard]] std::unique_ptr<LitPass> makeLitPass(engine::Context& ctx, VkFormat colorFormat,
+                                                   VkFormat depthFormat,
+                                                   VkDescriptorSetLayout lightingSetLayout,
+                                                   csm::PcfKernel kernel, bool blend);
+
+/// Records a timed lit pass into `frame` (the benchmarks' and the measurements' timing loop):
+/// the uniforms, then inside timer scope "lit" a rendering cleared to the sky colour and the draws.
+void recordTimedLitPass(LitPass& lit, engine::GpuTimer& timer, const engine::Frame& frame,
+                        const LitFrame& litFrame, const engine::MeshStore& meshes,
+                        VkDescriptorSet lightingSet, std::span<const LitDraw> draws);
 
 }  // namespace glue

@@ -1,6 +1,6 @@
 // The GPU side of the measurements: one engine::Context (validation on in tests), the shadow
 // renderer over a measurement Scene, and three ways to look at csm.glsl's answer:
-//   probe()          the shadow function at fixed receiver points (compute, stability_probe.comp)
+//   probe()          the shadow function at fixed receiver points (compute, glue::ShadowProbe)
 //   renderAccuracy() a rasterised frame whose every receiver pixel reports its position, normal,
 //                    shadow factor, cascade and footprint (stability_accuracy.vert/frag)
 //   timeFrame()      the shadow pass and the glue's lit pass with timestamp queries
@@ -14,6 +14,7 @@
 #include <engine/context.hpp>
 #include <engine/image_io.hpp>
 #include <engine/mesh_store.hpp>
+#include <glue/shadow_probe.hpp>
 #include "csm/vulkan/shadow_view.hpp"
 
 #include <array>
@@ -42,16 +43,8 @@ struct HarnessDesc {
   const char* appName = "csm_measure";
 };
 
-/// csm.glsl's answer at one receiver point.
-struct ProbeResult {
-  float shadow = 1.0f;    ///< 1 lit, 0 shadowed
-  int cascade = -1;       ///< selected cascade, -1 outside every cascade
-  int blendCascade = -1;  ///< cascade blended in across the band, -1 none
-  float blendWeight = 0.0f;
-  /// Smallest |receiver depth - stored depth| (m) over the 5x5 texels around the receiver in its
-  /// cascade (1e30 outside every cascade): below rounding noise the point sits on a depth tie.
-  float depthGapM = 1e30f;
-};
+/// csm.glsl's answer at one receiver point (the shared GPU probe's result).
+using ProbeResult = glue::ProbeResult;
 
 /// One receiver pixel of an accuracy frame.
 struct PixelSample {
@@ -145,13 +138,10 @@ class Harness {
   uint64_t shadowMapBytes() const;
 
  private:
-  struct ProbePipeline;
   struct AccuracyPipeline;
   struct AccuracyTargets;
   void recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame);
-  ProbePipeline& probePipeline(csm::PcfKernel kernel, bool blend);
   AccuracyPipeline& accuracyPipeline(csm::PcfKernel kernel, bool blend);
-  void ensureProbeBuffers(uint32_t count);
   void ensureAccuracyTargets(VkExtent2D extent);
   void ensureTimingTarget(VkExtent2D extent);
 
@@ -169,9 +159,7 @@ class Harness {
   std::array<uint32_t, csm::kMaxCascades> cascadeLod_{};
   uint64_t shadowTriangles_ = 0;
 
-  struct Probe;
-  std::unique_ptr<Probe> probe_;
-  std::map<std::pair<uint32_t, bool>, std::unique_ptr<ProbePipeline>> probePipelines_;
+  std::unique_ptr<glue::ShadowProbe> probe_;
   std::unique_ptr<AccuracyTargets> accuracy_;
   std::map<std::pair<uint32_t, bool>, std::unique_ptr<AccuracyPipeline>> accuracyPipelines_;
 

@@ -1,8 +1,9 @@
 #version 450
-// Measurement probe: evaluates csm.glsl's shadow function and cascade selection at fixed receiver
-// points (camera-relative positions computed in double on the CPU), one invocation per point.
-// Used by the shimmer tests (tests/stability) and csm_tradeoff; the same code path as a lighting
-// shader, with the point's index as the Poisson rotation seed so a point's kernel never rotates.
+// The one GPU probe of csm.glsl (glue::ShadowProbe): evaluates the shadow function and the cascade
+// selection at fixed receiver points (camera-relative positions computed in double on the CPU),
+// one invocation per point. Used by the GPU tests (tests/gpu), the shimmer tests (tests/stability)
+// and csm_tradeoff; the same code path as a lighting shader, with the point's index as the
+// Poisson rotation seed so a point's kernel never rotates.
 #extension GL_GOOGLE_include_directive : require
 
 #define CSM_SET 1
@@ -22,7 +23,7 @@ layout(std430, set = 0, binding = 0) readonly buffer Points {
 // cascade (-1 none), w blend weight. [2i+1]: x the smallest |receiver depth - stored depth| (m)
 // over the 5x5 texels around the receiver in its cascade (1e30 outside every cascade): a
 // receiver within rounding noise of a stored depth sits on a depth tie (a diagnostic: reports
-// give the smallest gap of the points that changed).
+// give the smallest gap of the points that changed); y the view depth the selection used (m).
 layout(std430, set = 0, binding = 1) writeonly buffer Results {
   vec4 results[];
 };
@@ -36,7 +37,8 @@ void main() {
   const vec3 posCr = points[i].posCr.xyz;
   const vec3 normalWs = points[i].normalWs.xyz;
   const float s = csmShadow(posCr, normalWs, vec2(float(i % 4096u), float(i / 4096u)));
-  const CsmSelection sel = csmSelectCascade(csmViewDepth(posCr));
+  const float viewDepth = csmViewDepth(posCr);
+  const CsmSelection sel = csmSelectCascade(viewDepth);
   float gapM = 1e30;
   if (sel.index >= 0) {
     const vec3 c = csmShadowCoord(sel.index, posCr, normalWs);
@@ -51,5 +53,5 @@ void main() {
     }
   }
   results[2u * i] = vec4(s, float(sel.index), float(sel.blendIndex), sel.blendWeight);
-  results[2u * i + 1u] = vec4(gapM, 0.0, 0.0, 0.0);
+  results[2u * i + 1u] = vec4(gapM, viewDepth, 0.0, 0.0);
 }
