@@ -1,0 +1,82 @@
+// csm_flythrough's parts, one file each: the command line (flythrough_cli.cpp), the report
+// (flythrough_report.cpp), the ImGui panels (flythrough_ui.cpp), camera control and input
+// (flythrough_camera.cpp), the headless loop (flythrough_headless.cpp) and the windowed loop
+// (flythrough_windowed.cpp); flythrough.cpp holds main, the dispatch and the world set-up.
+#pragma once
+
+#include <chrono>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "engine/engine.hpp"
+#include "sample_world/key_state.hpp"
+#include "sample_world/paths.hpp"
+#include "sample_world/settings.hpp"
+#include "sample_world/world.hpp"
+#include "sample_world/world_renderer.hpp"
+
+struct GLFWwindow;
+
+namespace flythrough {
+
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+constexpr int kExitUsage = 2;
+
+/// A refused command line, config or mesh: printed, exit 2.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+struct Options {
+  bool headless = false;
+  bool window = false;  // --window: insist on a window (error when there is no display)
+  int frames = -1;      // headless: default 120; windowed: run until closed
+  std::string out = "out";
+  std::string path = "forest";
+  int shotEvery = 0;  // 0: first and last frame only
+  bool smokeTest = false;
+  bool validation = false;
+  world::AppSettings settings;
+  std::string meshPath;
+};
+
+// ---- The command line (flythrough_cli.cpp)
+std::string usage();
+Options parse(int argc, char** argv);
+
+// ---- The report (flythrough_report.cpp)
+json finiteOrNull(double v);
+/// Fraction of geometry pixels (grey in the shadow-factor debug view; the sky is blue) whose
+/// shadow factor is below one half, and the fraction of the image that is geometry.
+std::pair<double, double> shadowedFraction(const engine::CpuImage& img);
+json cascadesJson(const world::FrameStats& st);
+
+// ---- The ImGui panels (flythrough_ui.cpp)
+void keepOnScreen();
+void cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& timer,
+                        const std::map<std::string, double>& gpu, double cpuFrameMs,
+                        std::uint64_t validationMessages, bool pinned);
+bool settingsPanel(world::AppSettings& s, const std::string& error);
+
+// ---- Camera control and input (flythrough_camera.cpp)
+void poseCamera(engine::Camera& cam, const world::CameraPose& pose, double aspect,
+                const world::AppSettings& s);
+struct Input {
+  double scroll = 0.0;
+  world::KeyState keys;
+};
+extern Input* gInput;
+void onScroll(GLFWwindow*, double, double dy);
+void onKey(GLFWwindow*, int key, int, int action, int);
+void onFocus(GLFWwindow*, int focused);
+
+// ---- The world (flythrough.cpp) and the two loops
+world::World makeWorld(const Options& o, const std::string& pathName);
+int runHeadless(const Options& o, const std::string& why);  // flythrough_headless.cpp
+int runWindowed(Options o);                                  // flythrough_windowed.cpp
+
+}  // namespace flythrough

@@ -1,0 +1,176 @@
+// csm_flythrough: the ImGui panels (per-cascade statistics, live settings).
+#include "flythrough_app.hpp"
+
+#include <imgui.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <string>
+
+namespace flythrough {
+
+/// Keeps the current ImGui window inside the display (after any resize, down to 1x1): moved so
+/// that its top-left corner is on screen and as much of it as fits is visible.
+void keepOnScreen() {
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  const ImVec2 pos = ImGui::GetWindowPos(), size = ImGui::GetWindowSize();
+  const ImVec2 clamped(std::clamp(pos.x, 0.0f, std::max(0.0f, display.x - size.x)),
+                       std::clamp(pos.y, 0.0f, std::max(0.0f, display.y - size.y)));
+  if (clamped.x != pos.x || clamped.y != pos.y) ImGui::SetWindowPos(clamped);
+}
+
+/// The per-cascade statistics window of the overlay (also in the windowed panel).
+void cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& timer,
+                        const std::map<std::string, double>& gpu, double cpuFrameMs,
+                        std::uint64_t validationMessages, bool pinned) {
+  if (pinned) {
+    ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_Always);
+    ImGui::SetNextWindowBgAlpha(0.6f);
+  }
+  ImGui::Begin("Cascades", nullptr,
+               pinned ? ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize
+                      : ImGuiWindowFlags_AlwaysAutoResize);
+  auto gpuMs = [&](const std::string& k) {
+    auto it = gpu.find(k);
+    return it == gpu.end() ? 0.0 : it->second;
+  };
+  ImGui::Text("frame: cpu %.2f ms (setup %.2f, cull %.2f, record %.2f)", cpuFrameMs, st.cpuSetupMs,
+              st.cpuCullMs, st.cpuRecordMs);
+  ImGui::Text("gpu: shadow %.2f ms, lit %.2f ms, overlay %.2f ms%s", gpuMs("shadow"), gpuMs("lit"),
+              gpuMs("overlay"), timer.supported() ? "" : " (no timestamps)");
+  if (!pinned) keepOnScreen();
+  ImGui::Text("validation messages: %llu   lit: %u instances, %.2f Mtri",
+              static_cast<unsigned long long>(validationMessages), st.litInstances,
+              st.litTriangles * 1e-6);
+  if (ImGui::BeginTable("c", 8, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit)) {
+    for (const char* h :
+         {"#", "split (m)", "radius m", "texel m", "casters", "tris", "lod", "gpu ms"}) {
+      ImGui::TableSetupColumn(h);
+    }
+    ImGui::TableHeadersRow();
+    for (std::uint32_t c = 0; c < st.cascadeCount; ++c) {
+      const csm::Cascade& cs = st.cascades.cascades[c];
+      const glm::vec3 t = csm::cascadeTint(static_cast<int>(c));
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::TextColored(ImVec4(t.r, t.g, t.b, 1.0f), "%u%s", c, cs.empty ? " (empty)" : "");
+      ImGui::TableNextColumn();
+      ImGui::Text("%.1f-%.1f", cs.splitNearM, cs.splitFarM);
+      ImGui::TableNextColumn();
+      ImGui::Text("%.1f", cs.sphereRadiusM);
+      ImGui::TableNextColumn();
+      ImGui::Text("%.3f", cs.texelSizeM());
+      ImGui::TableNextColumn();
+      ImGui::Text("%u", st.casters[c]);
+      ImGui::TableNextColumn();
+      ImGui::Text("%llu", static_cast<unsigned long long>(st.triangles[c]));
+      ImGui::TableNextColumn();
+      ImGui::Text("%u", st.lod[c]);
+      ImGui::TableNextColumn();
+      ImGui::Text("%.2f", gpuMs("shadow c" + std::to_string(c)));
+    }
+    ImGui::EndTable();
+  }
+  ImGui::End();
+}
+
+bool settingsPanel(world::AppSettings& s, const std::string& error) {
+  bool changed = false;
+  ImGui::SetNextWindowPos(ImVec2(8, 200), ImGuiCond_FirstUseEver);
+  ImGui::Begin("Settings", nullptr, ImGuiWindowFlags_AlwaysAutoResize);
+  float az = static_cast<float>(s.lightAzimuthDeg), el = static_cast<float>(s.lightElevationDeg);
+  changed |= ImGui::SliderFloat("light azimuth", &az, 0.0f, 360.0f);
+  changed |= ImGui::SliderFloat("light elevation", &el, 1.0f, 90.0f);
+  s.lightAzimuthDeg = az;
+  s.lightElevationDeg = el;
+  int cascades = static_cast<int>(s.shadow.cascadeCount);
+  changed |= ImGui::SliderInt("cascades", &cascades, 1, static_cast<int>(csm::kMaxCascades));
+  s.shadow.cascadeCount = static_cast<std::uint32_t>(cascades);
+  static const int kRes[] = {256, 512, 1024, 2048, 4096, 8192};
+  int resIndex = 0;
+  for (int k = 0; k < 6; ++k) {
+    if (kRes[k] == static_cast<int>(s.shadow.resolution)) resIndex = k;
+  }
+  changed |= ImGui::Combo("resolution", &resIndex,
+                          "256\0"
+                          "512\0"
+                          "1024\0"
+                          "2048\0"
+                          "4096\0"
+                          "8192\0");
+  s.shadow.resolution = static_cast<std::uint32_t>(kRes[resIndex]);
+  int scheme = static_cast<int>(s.scheme);
+  changed |= ImGui::Combo("split scheme", &scheme, "practical\0uniform\0logarithmic\0");
+  s.scheme = static_cast<world::SplitScheme>(scheme);
+  float lambda = static_cast<float>(s.shadow.splitLambda);
+  changed |= ImGui::SliderFloat("split lambda", &lambda, 0.0f, 1.0f);
+  s.shadow.splitLambda = lambda;
+  float dist = static_cast<float>(s.shadow.shadowDistanceM);
+  changed |= ImGui::SliderFloat("shadow distance", &dist, 20.0f, 6000.0f, "%.0f m");
+  s.shadow.shadowDistanceM = dist;
+  float blend = static_cast<float>(s.shadow.blendBand);
+  changed |= ImGui::SliderFloat("blend band", &blend, 0.0f, 0.5f);
+  s.shadow.blendBand = blend;
+  int kernel = static_cast<int>(s.kernel);
+  changed |= ImGui::Combo("PCF kernel", &kernel,
+                          "1 tap\0tent 3x3\0tent 5x5\0tent 7x7\0poisson 16\0PCSS\0");
+  s.kernel = static_cast<csm::PcfKernel>(kernel);
+  float lightAngle = static_cast<float>(s.shadow.lightAngularDiameterDeg);
+  changed |= ImGui::SliderFloat("light angle (PCSS)", &lightAngle, 0.0f, 20.0f, "%.2f deg");
+  s.shadow.lightAngularDiameterDeg = lightAngle;
+  float maxPenumbra = static_cast<float>(s.shadow.maxPenumbraM);
+  changed |= ImGui::SliderFloat("max penumbra (PCSS)", &maxPenumbra, 0.0f, 10.0f, "%.2f m");
+  s.shadow.maxPenumbraM = maxPenumbra;
+  changed |= ImGui::SliderFloat("bias constant", &s.shadow.depthBiasConstant, 0.0f, 20.0f);
+  changed |= ImGui::SliderFloat("bias slope", &s.shadow.depthBiasSlope, 0.0f, 10.0f);
+  changed |=
+      ImGui::SliderFloat("normal offset", &s.shadow.normalOffsetTexels, 0.0f, 4.0f, "%.2f texels");
+  changed |= ImGui::SliderFloat("ambient", &s.ambient, 0.0f, 1.0f);
+  changed |= ImGui::Checkbox("stabilise", &s.shadow.stabilize);
+  changed |= ImGui::Checkbox("size ladder", &s.shadow.sizeLadder);
+  bool tight = s.shadow.boxFit == csm::BoxFit::kTight;
+  if (ImGui::Checkbox("tight box", &tight)) {
+    s.shadow.boxFit = tight ? csm::BoxFit::kTight : csm::BoxFit::kSphere;
+    changed = true;
+  }
+  changed |= ImGui::Checkbox("receiver splits", &s.receiverSplits);
+  changed |= ImGui::Checkbox("caster LODs", &s.casterLods);
+  // One row: the label, then one narrow slider per cascade, each after the previous with the
+  // default spacing (SameLine(-1) placed them at x = -1, over the checkbox).
+  ImGui::BeginDisabled(!s.casterLods);
+  ImGui::TextUnformatted("LOD per cascade");
+  for (std::uint32_t c = 0; c < s.shadow.cascadeCount; ++c) {
+    int lod = static_cast<int>(s.cascadeLod[c]);
+    ImGui::SameLine();
+    ImGui::PushID(static_cast<int>(c));
+    ImGui::SetNextItemWidth(ImGui::GetFontSize() * 2.5f);
+    changed |= ImGui::SliderInt("##lod", &lod, 0, 2);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("cascade %u draws LOD %d", c, lod);
+    ImGui::PopID();
+    s.cascadeLod[c] = static_cast<std::uint32_t>(lod);
+  }
+  ImGui::EndDisabled();
+  changed |= ImGui::SliderFloat("LOD max error", &s.lodMaxErrorTexels, 0.0f, 4.0f, "%.2f texels");
+  int debug = static_cast<int>(s.debug);
+  changed |= ImGui::Combo(
+      "debug output", &debug,
+      "none\0normal\0shadow factor\0light coords\0sampled depth\0depth diff\0cascade\0");
+  s.debug = static_cast<csm::DebugMode>(debug);
+  changed |= ImGui::Checkbox("overlay (F1)", &s.overlay);
+  ImGui::SameLine();
+  changed |= ImGui::Checkbox("tint", &s.overlayTint);
+  ImGui::SameLine();
+  changed |= ImGui::Checkbox("texels", &s.overlayChecker);
+  ImGui::SameLine();
+  changed |= ImGui::Checkbox("maps", &s.overlayThumbnails);
+  ImGui::SameLine();
+  changed |= ImGui::Checkbox("top-down", &s.overlayMap);
+  if (!error.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error.c_str());
+  ImGui::TextDisabled(
+      "LMB rotate, RMB pan, wheel zoom, WASD/QE fly, Shift fast, R reset, ESC quit");
+  keepOnScreen();
+  ImGui::End();
+  return changed;
+}
+
+}  // namespace flythrough
