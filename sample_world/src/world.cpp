@@ -278,154 +278,43 @@ std::string shortNumber(double v) {
   std::snprintf(buf, sizeof buf, "%.9g", v);
   return buf;
 }
-}  // namespace
 
-std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
-  auto fail = [&](const std::string& m) -> std::optional<World> {
-    if (error) error->message = m;
-    return std::nullopt;
-  };
-  if (!(desc.sizeM >= 4096.0 && desc.sizeM <= 65536.0)) {
-    return fail("world.size = " + shortNumber(desc.sizeM) + ": allowed [4096, 65536] m");
-  }
-  const double chunksD = desc.sizeM / desc.chunkM;
-  if (!(desc.chunkM >= 64.0) || std::abs(chunksD - std::round(chunksD)) > 1e-9) {
-    return fail("world.chunk = " + shortNumber(desc.chunkM) +
-                ": must be >= 64 m and divide world.size");
-  }
-  if (desc.chunkCells < 4 || desc.chunkCells > 256) {
-    return fail("world.chunkCells = " + std::to_string(desc.chunkCells) + ": allowed [4, 256]");
-  }
-  if (desc.treeCount > 500000 || desc.rockCount > 100000 || desc.buildingCount > 5000) {
-    return fail("world.trees/rocks/buildings: allowed at most 500000 / 100000 / 5000");
-  }
-  for (int a = 0; a < 3; ++a) {
-    if (!std::isfinite(desc.originWs[a]) || std::abs(desc.originWs[a]) > 1e8) {
-      return fail("world.origin: every coordinate must be finite and within 1e8 m");
-    }
-  }
+/// generateWorld's state, shared by its sections (one member function each, called in order:
+/// the order fixes every mesh index and so the world's hash).
+class WorldBuilder {
+ public:
+  WorldBuilder(const WorldDesc& d, World& world)
+      : desc(d),
+        w(world),
+        n(world.chunksPerSide),
+        seed(d.seed),
+        o(d.originWs),
+        centre(d.originWs + glm::dvec3(0.5 * d.sizeM, 0.0, 0.5 * d.sizeM)) {}
 
-  // The user's mesh first: a bad file is refused before seconds of generation.
-  std::optional<MeshData> userMesh;
-  if (!desc.userMeshPath.empty()) {
-    userMesh = loadMeshFile(desc.userMeshPath, desc.userMeshSizeM, error);
-    if (!userMesh) return std::nullopt;
-  }
+  void terrain();
+  void prototypes();
+  void town();
+  void thinCasters();
+  void forests();
+  void placeUserMesh(std::optional<MeshData>& userMesh);
+  void statisticsAndClusters();
 
-  World w;
-  w.desc = desc;
-  const auto n = static_cast<std::uint32_t>(std::lround(chunksD));
-  w.chunksPerSide = n;
-  const std::uint64_t seed = desc.seed;
-  const glm::dvec3 o = desc.originWs;
-  auto ground = [&](double u, double v) { return terrainHeight(seed, u, v); };
-
-  // ---- Terrain chunks: one mesh asset each (LODs keep their boundary: no cracks) ------------
-  w.meshes.resize(static_cast<std::size_t>(n) * n);
-  {
-    auto buildChunk = [&](std::uint32_t c) {
-      const std::uint32_t cx = c % n, cz = c / n;
-      const std::uint32_t cells = desc.chunkCells;
-      const double step = desc.chunkM / cells;
-      Shape s;
-      for (std::uint32_t j = 0; j <= cells; ++j) {
-        for (std::uint32_t i = 0; i <= cells; ++i) {
-          const double u = cx * desc.chunkM + i * step, v = cz * desc.chunkM + j * step;
-          s.vertex({static_cast<float>(i * step), static_cast<float>(ground(u, v)),
-                    static_cast<float>(j * step)});
-        }
-      }
-      for (std::uint32_t j = 0; j < cells; ++j) {
-        for (std::uint32_t i = 0; i < cells; ++i) {
-          const std::uint32_t a = j * (cells + 1) + i, b = a + 1, d = a + cells + 1, e = d + 1;
-          s.tri(a, d, e);
-          s.tri(a, e, b);
-        }
-      }
-      // Terrain keeps full detail at every LOD. It is its own receiver, and a simplified
-      // heightfield lies above the real one over every concave stretch, where it shadows the
-      // ground it stands for: with Decimater LODs in cascades 1+, csm_tradeoff measured 30%
-      // of receiver pixels misclassified against the ray-traced truth (0.46% without). It is
-      // a small share of the shadow pass's triangles (512 per chunk).
-      w.meshes[c] =
-          makeAsset("terrain chunk " + std::to_string(cx) + "," + std::to_string(cz), s, 1.0, 1.0);
-    };
-    // Chunks are independent: build them on every core (results do not depend on the order).
-    const unsigned threads = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
-    std::vector<std::thread> pool;
-    for (unsigned t = 0; t < threads; ++t) {
-      pool.emplace_back([&, t] {
-        for (std::uint32_t c = t; c < n * n; c += threads) buildChunk(c);
-      });
-    }
-    for (auto& th : pool) th.join();
-  }
-  double minH = std::numeric_limits<double>::max(), maxH = -minH;
-  for (std::uint32_t c = 0; c < n * n; ++c) {
-    Object t;
-    t.mesh = c;
-    t.kind = Kind::kTerrain;
-    t.translationWs = o + glm::dvec3((c % n) * desc.chunkM, 0.0, (c / n) * desc.chunkM);
-    t.color = {0.42f, 0.55f, 0.28f};
-    t.boundsWs = placedBounds(w.meshes[c].lods[0], t.translationWs, t.linear);
-    t.chunk = c;
-    minH = std::min(minH, t.boundsWs.minWs.y);
-    maxH = std::max(maxH, t.boundsWs.maxWs.y);
-    w.objects.push_back(t);
-  }
-
-  // ---- Prototypes ----------------------------------------------------------------------------
-  auto addAsset = [&](MeshAsset a) {
+ private:
+  double ground(double u, double v) const { return terrainHeight(seed, u, v); }
+  double heightWs(double x, double z) const { return w.heightAt(x, z); }
+  std::uint32_t addAsset(MeshAsset a) {
     w.meshes.push_back(std::move(a));
     return static_cast<std::uint32_t>(w.meshes.size() - 1);
-  };
-  std::vector<std::uint32_t> trees, rocks;
-  {
-    Shape conifer;  // trunk + three stacked cones, ~14 m
-    conifer.cone(-0.5f, 3.0f, 0.35f, 0.25f, 8);
-    conifer.cone(2.5f, 8.0f, 3.2f, 0.0f, 12);
-    conifer.cone(6.0f, 11.5f, 2.4f, 0.0f, 12, 0.2f);
-    conifer.cone(9.5f, 14.0f, 1.5f, 0.0f, 10, 0.4f);
-    trees.push_back(addAsset(makeAsset("conifer", conifer, 0.35, 0.06)));
-    Shape broad;  // trunk + lumpy crown, ~11 m
-    broad.cone(-0.5f, 4.5f, 0.45f, 0.3f, 8);
-    Rng r(mix64(seed ^ 0xb10b));
-    broad.blob({0.0f, 7.5f, 0.0f}, {4.0f, 3.6f, 4.0f}, [&](const glm::vec3& v) {
-      return static_cast<float>(0.85 + 0.3 * valueNoise(seed, v.x * 2.0 + 5, v.z * 2.0 + v.y, 77));
-    });
-    trees.push_back(addAsset(makeAsset("broadleaf", broad, 0.3, 0.06)));
-    Shape pine;  // tall thin pine, ~22 m
-    pine.cone(-0.5f, 12.0f, 0.4f, 0.2f, 8);
-    pine.cone(8.0f, 22.0f, 2.2f, 0.0f, 10);
-    trees.push_back(addAsset(makeAsset("pine", pine, 0.35, 0.08)));
-    for (int k = 0; k < 4; ++k) {
-      Shape rock;
-      rock.blob({0.0f, 0.3f, 0.0f}, {1.0f, 0.7f, 1.1f}, [&](const glm::vec3& v) {
-        return static_cast<float>(
-            0.7 + 0.6 * valueNoise(seed, v.x * 2.5 + 10 * k, v.z * 2.5 + v.y * 1.7, 91));
-      });
-      rocks.push_back(addAsset(makeAsset("rock " + std::to_string(k), rock, 0.3, 0.08)));
-    }
   }
-  const std::uint32_t unitBox = [&] {
-    Shape b;
-    b.box({-0.5f, 0.0f, -0.5f}, {0.5f, 1.0f, 0.5f});
-    return addAsset(makeAsset("box", b, 1.0, 1.0));
-  }();
-  (void)unitBox;
-
-  const double half = 0.5 * desc.sizeM;
-  const glm::dvec3 centre = o + glm::dvec3(half, 0.0, half);
-  auto chunkOf = [&](const glm::dvec3& p) {
+  std::uint32_t chunkOf(const glm::dvec3& p) const {
     const auto cx = static_cast<std::uint32_t>(
         std::clamp(std::floor((p.x - o.x) / desc.chunkM), 0.0, double(n - 1)));
     const auto cz = static_cast<std::uint32_t>(
         std::clamp(std::floor((p.z - o.z) / desc.chunkM), 0.0, double(n - 1)));
     return cz * n + cx;
-  };
-  auto heightWs = [&](double x, double z) { return w.heightAt(x, z); };
-  auto place = [&](std::uint32_t mesh, Kind kind, const glm::dvec3& t, const glm::mat3& linear,
-                   const glm::vec3& color, bool casts = true, bool receives = true) {
+  }
+  void place(std::uint32_t mesh, Kind kind, const glm::dvec3& t, const glm::mat3& linear,
+             const glm::vec3& color, bool casts = true, bool receives = true) {
     Object ob;
     ob.mesh = mesh;
     ob.kind = kind;
@@ -437,13 +326,134 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
     ob.boundsWs = placedBounds(w.meshes[mesh].lods[0], t, linear);
     ob.chunk = chunkOf(t);
     w.objects.push_back(ob);
-  };
-  auto inTown = [&](double x, double z, double r) {
+  }
+  bool inTown(double x, double z, double r) const {
     const double dx = x - centre.x, dz = z - centre.z;
     return dx * dx + dz * dz < r * r;
-  };
+  }
 
-  // ---- The town: buildings on a grid around a tall tower --------------------------------------
+  const WorldDesc& desc;
+  World& w;
+  const std::uint32_t n;                    // chunks per side
+  const std::uint64_t seed;                 // desc.seed
+  const glm::dvec3 o;                       // the world's origin (its south-west corner)
+  const glm::dvec3 centre;                  // the town's centre, the middle of the world
+  std::vector<std::uint32_t> trees, rocks;  // prototype meshes
+};
+
+/// Why `desc` cannot be generated (the field, the value and the allowed range), or nothing.
+std::optional<std::string> checkDesc(const WorldDesc& desc) {
+  if (!(desc.sizeM >= 4096.0 && desc.sizeM <= 65536.0)) {
+    return std::string("world.size = " + shortNumber(desc.sizeM) + ": allowed [4096, 65536] m");
+  }
+  const double chunksD = desc.sizeM / desc.chunkM;
+  if (!(desc.chunkM >= 64.0) || std::abs(chunksD - std::round(chunksD)) > 1e-9) {
+    return std::string("world.chunk = " + shortNumber(desc.chunkM) +
+                       ": must be >= 64 m and divide world.size");
+  }
+  if (desc.chunkCells < 4 || desc.chunkCells > 256) {
+    return std::string("world.chunkCells = " + std::to_string(desc.chunkCells) +
+                       ": allowed [4, 256]");
+  }
+  if (desc.treeCount > 500000 || desc.rockCount > 100000 || desc.buildingCount > 5000) {
+    return std::string("world.trees/rocks/buildings: allowed at most 500000 / 100000 / 5000");
+  }
+  for (int a = 0; a < 3; ++a) {
+    if (!std::isfinite(desc.originWs[a]) || std::abs(desc.originWs[a]) > 1e8) {
+      return std::string("world.origin: every coordinate must be finite and within 1e8 m");
+    }
+  }
+  return std::nullopt;
+}
+
+// ---- Terrain chunks: one mesh asset each (LODs keep their boundary: no cracks) --------------
+void WorldBuilder::terrain() {
+  w.meshes.resize(static_cast<std::size_t>(n) * n);
+  auto buildChunk = [&](std::uint32_t c) {
+    const std::uint32_t cx = c % n, cz = c / n;
+    const std::uint32_t cells = desc.chunkCells;
+    const double step = desc.chunkM / cells;
+    Shape s;
+    for (std::uint32_t j = 0; j <= cells; ++j) {
+      for (std::uint32_t i = 0; i <= cells; ++i) {
+        const double u = cx * desc.chunkM + i * step, v = cz * desc.chunkM + j * step;
+        s.vertex({static_cast<float>(i * step), static_cast<float>(ground(u, v)),
+                  static_cast<float>(j * step)});
+      }
+    }
+    for (std::uint32_t j = 0; j < cells; ++j) {
+      for (std::uint32_t i = 0; i < cells; ++i) {
+        const std::uint32_t a = j * (cells + 1) + i, b = a + 1, d = a + cells + 1, e = d + 1;
+        s.tri(a, d, e);
+        s.tri(a, e, b);
+      }
+    }
+    // Terrain keeps full detail at every LOD. It is its own receiver, and a simplified
+    // heightfield lies above the real one over every concave stretch, where it shadows the
+    // ground it stands for: with Decimater LODs in cascades 1+, csm_tradeoff measured 30%
+    // of receiver pixels misclassified against the ray-traced truth (0.46% without). It is
+    // a small share of the shadow pass's triangles (512 per chunk).
+    w.meshes[c] =
+        makeAsset("terrain chunk " + std::to_string(cx) + "," + std::to_string(cz), s, 1.0, 1.0);
+  };
+  // Chunks are independent: build them on every core (results do not depend on the order).
+  const unsigned threads = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
+  std::vector<std::thread> pool;
+  for (unsigned t = 0; t < threads; ++t) {
+    pool.emplace_back([&, t] {
+      for (std::uint32_t c = t; c < n * n; c += threads) buildChunk(c);
+    });
+  }
+  for (auto& th : pool) th.join();
+  for (std::uint32_t c = 0; c < n * n; ++c) {
+    Object t;
+    t.mesh = c;
+    t.kind = Kind::kTerrain;
+    t.translationWs = o + glm::dvec3((c % n) * desc.chunkM, 0.0, (c / n) * desc.chunkM);
+    t.color = {0.42f, 0.55f, 0.28f};
+    t.boundsWs = placedBounds(w.meshes[c].lods[0], t.translationWs, t.linear);
+    t.chunk = c;
+    w.objects.push_back(t);
+  }
+}
+
+// ---- Prototypes ------------------------------------------------------------------------------
+void WorldBuilder::prototypes() {
+  Shape conifer;  // trunk + three stacked cones, ~14 m
+  conifer.cone(-0.5f, 3.0f, 0.35f, 0.25f, 8);
+  conifer.cone(2.5f, 8.0f, 3.2f, 0.0f, 12);
+  conifer.cone(6.0f, 11.5f, 2.4f, 0.0f, 12, 0.2f);
+  conifer.cone(9.5f, 14.0f, 1.5f, 0.0f, 10, 0.4f);
+  trees.push_back(addAsset(makeAsset("conifer", conifer, 0.35, 0.06)));
+  Shape broad;  // trunk + lumpy crown, ~11 m
+  broad.cone(-0.5f, 4.5f, 0.45f, 0.3f, 8);
+  Rng r(mix64(seed ^ 0xb10b));
+  broad.blob({0.0f, 7.5f, 0.0f}, {4.0f, 3.6f, 4.0f}, [&](const glm::vec3& v) {
+    return static_cast<float>(0.85 + 0.3 * valueNoise(seed, v.x * 2.0 + 5, v.z * 2.0 + v.y, 77));
+  });
+  trees.push_back(addAsset(makeAsset("broadleaf", broad, 0.3, 0.06)));
+  Shape pine;  // tall thin pine, ~22 m
+  pine.cone(-0.5f, 12.0f, 0.4f, 0.2f, 8);
+  pine.cone(8.0f, 22.0f, 2.2f, 0.0f, 10);
+  trees.push_back(addAsset(makeAsset("pine", pine, 0.35, 0.08)));
+  for (int k = 0; k < 4; ++k) {
+    Shape rock;
+    rock.blob({0.0f, 0.3f, 0.0f}, {1.0f, 0.7f, 1.1f}, [&](const glm::vec3& v) {
+      return static_cast<float>(
+          0.7 + 0.6 * valueNoise(seed, v.x * 2.5 + 10 * k, v.z * 2.5 + v.y * 1.7, 91));
+    });
+    rocks.push_back(addAsset(makeAsset("rock " + std::to_string(k), rock, 0.3, 0.08)));
+  }
+  const std::uint32_t unitBox = [&] {
+    Shape b;
+    b.box({-0.5f, 0.0f, -0.5f}, {0.5f, 1.0f, 0.5f});
+    return addAsset(makeAsset("box", b, 1.0, 1.0));
+  }();
+  (void)unitBox;
+}
+
+// ---- The town: buildings on a grid around a tall tower ----------------------------------------
+void WorldBuilder::town() {
   {
     Shape tower;  // 160 m tapering lattice-like tower: stacked boxes with balconies
     float y = 0.0f, side = 12.0f;
@@ -505,126 +515,129 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
       }
     }
   }
+}
 
-  // ---- Thin casters: a power line east of the town, fences around fields ---------------------
-  {
-    Shape pole;
-    pole.cone(-1.0f, 12.0f, 0.18f, 0.14f, 8);
-    pole.box({-1.6f, 11.0f, -0.1f}, {1.6f, 11.3f, 0.1f});  // cross arm
-    const std::uint32_t poleMesh = addAsset(makeAsset("pole", pole, 0.5, 0.3));
-    Shape cable;  // a unit-length cable along +x, 3 cm thick
-    cable.box({0.0f, -0.015f, -0.015f}, {1.0f, 0.015f, 0.015f});
-    const std::uint32_t cableMesh = addAsset(makeAsset("cable", cable, 1.0, 1.0));
-    const double spacing = 45.0;
-    glm::dvec3 prev{};
-    for (int k = 0; k < 36; ++k) {
-      const double x = centre.x + 330.0 + k * spacing;
-      const double z = centre.z + 60.0 + 40.0 * std::sin(k * 0.15);
-      const glm::dvec3 base{x, heightWs(x, z), z};
-      place(poleMesh, Kind::kPole, base, yawScale(0.0, 1.0), {0.35f, 0.27f, 0.2f});
-      if (k > 0) {
-        for (int c = -1; c <= 1; ++c) {
-          const glm::dvec3 a = prev + glm::dvec3(0.0, 11.35, 1.4 * c);
-          const glm::dvec3 b = base + glm::dvec3(0.0, 11.35, 1.4 * c);
-          const glm::dvec3 d = b - a;
-          const double len = glm::length(d);
-          // Rotation taking +x to d, scaled along x only is non-uniform: build the cable at its
-          // length instead (x axis -> d, y and z kept unit).
-          const glm::vec3 ax = glm::vec3(d / len);
-          const glm::vec3 az = glm::normalize(glm::cross(ax, glm::vec3(0, 1, 0)));
-          const glm::vec3 ay = glm::cross(az, ax);
-          const glm::mat3 lin(ax * static_cast<float>(len), ay, az);
-          // Cables: cast, but are never darkened themselves (receives = false).
-          Object ob;
-          ob.mesh = cableMesh;
-          ob.kind = Kind::kCable;
-          ob.translationWs = a;
-          ob.linear = lin;
-          ob.color = {0.1f, 0.1f, 0.1f};
-          ob.receives = false;
-          ob.boundsWs = placedBounds(w.meshes[cableMesh].lods[0], a, lin);
-          ob.chunk = chunkOf(a);
-          w.objects.push_back(ob);
-        }
+// ---- Thin casters: a power line east of the town, fences around fields -----------------------
+void WorldBuilder::thinCasters() {
+  Shape pole;
+  pole.cone(-1.0f, 12.0f, 0.18f, 0.14f, 8);
+  pole.box({-1.6f, 11.0f, -0.1f}, {1.6f, 11.3f, 0.1f});  // cross arm
+  const std::uint32_t poleMesh = addAsset(makeAsset("pole", pole, 0.5, 0.3));
+  Shape cable;  // a unit-length cable along +x, 3 cm thick
+  cable.box({0.0f, -0.015f, -0.015f}, {1.0f, 0.015f, 0.015f});
+  const std::uint32_t cableMesh = addAsset(makeAsset("cable", cable, 1.0, 1.0));
+  const double spacing = 45.0;
+  glm::dvec3 prev{};
+  for (int k = 0; k < 36; ++k) {
+    const double x = centre.x + 330.0 + k * spacing;
+    const double z = centre.z + 60.0 + 40.0 * std::sin(k * 0.15);
+    const glm::dvec3 base{x, heightWs(x, z), z};
+    place(poleMesh, Kind::kPole, base, yawScale(0.0, 1.0), {0.35f, 0.27f, 0.2f});
+    if (k > 0) {
+      for (int c = -1; c <= 1; ++c) {
+        const glm::dvec3 a = prev + glm::dvec3(0.0, 11.35, 1.4 * c);
+        const glm::dvec3 b = base + glm::dvec3(0.0, 11.35, 1.4 * c);
+        const glm::dvec3 d = b - a;
+        const double len = glm::length(d);
+        // Rotation taking +x to d, scaled along x only is non-uniform: build the cable at its
+        // length instead (x axis -> d, y and z kept unit).
+        const glm::vec3 ax = glm::vec3(d / len);
+        const glm::vec3 az = glm::normalize(glm::cross(ax, glm::vec3(0, 1, 0)));
+        const glm::vec3 ay = glm::cross(az, ax);
+        const glm::mat3 lin(ax * static_cast<float>(len), ay, az);
+        // Cables: cast, but are never darkened themselves (receives = false).
+        Object ob;
+        ob.mesh = cableMesh;
+        ob.kind = Kind::kCable;
+        ob.translationWs = a;
+        ob.linear = lin;
+        ob.color = {0.1f, 0.1f, 0.1f};
+        ob.receives = false;
+        ob.boundsWs = placedBounds(w.meshes[cableMesh].lods[0], a, lin);
+        ob.chunk = chunkOf(a);
+        w.objects.push_back(ob);
       }
-      prev = base;
     }
-    Shape post;
-    post.box({-0.06f, -0.5f, -0.06f}, {0.06f, 1.4f, 0.06f});
-    post.box({-0.03f, 0.5f, 0.0f}, {0.03f, 0.6f, 3.0f});  // rails toward the next post
-    post.box({-0.03f, 1.1f, 0.0f}, {0.03f, 1.2f, 3.0f});
-    const std::uint32_t postMesh = addAsset(makeAsset("fence segment", post, 1.0, 1.0));
-    for (int field = 0; field < 6; ++field) {
-      const double fx = centre.x - 520.0 + 110.0 * (field % 3);
-      const double fz = centre.z + 200.0 + 120.0 * (field / 3);
-      for (int side = 0; side < 4; ++side) {
-        for (int k = 0; k < 27; ++k) {
-          const double t = k * 3.0;
-          glm::dvec3 p;
-          double yaw = 0.0;
-          if (side == 0) p = {fx, 0, fz + t}, yaw = 0.0;
-          if (side == 1) p = {fx + t, 0, fz + 81.0}, yaw = kPi / 2;
-          if (side == 2) p = {fx + 81.0, 0, fz + 81.0 - t}, yaw = kPi;
-          if (side == 3) p = {fx + 81.0 - t, 0, fz}, yaw = -kPi / 2;
-          p.y = heightWs(p.x, p.z);
-          place(postMesh, Kind::kFence, p, yawScale(yaw, 1.0), {0.55f, 0.45f, 0.3f});
-        }
+    prev = base;
+  }
+  Shape post;
+  post.box({-0.06f, -0.5f, -0.06f}, {0.06f, 1.4f, 0.06f});
+  post.box({-0.03f, 0.5f, 0.0f}, {0.03f, 0.6f, 3.0f});  // rails toward the next post
+  post.box({-0.03f, 1.1f, 0.0f}, {0.03f, 1.2f, 3.0f});
+  const std::uint32_t postMesh = addAsset(makeAsset("fence segment", post, 1.0, 1.0));
+  for (int field = 0; field < 6; ++field) {
+    const double fx = centre.x - 520.0 + 110.0 * (field % 3);
+    const double fz = centre.z + 200.0 + 120.0 * (field / 3);
+    for (int side = 0; side < 4; ++side) {
+      for (int k = 0; k < 27; ++k) {
+        const double t = k * 3.0;
+        glm::dvec3 p;
+        double yaw = 0.0;
+        if (side == 0) p = {fx, 0, fz + t}, yaw = 0.0;
+        if (side == 1) p = {fx + t, 0, fz + 81.0}, yaw = kPi / 2;
+        if (side == 2) p = {fx + 81.0, 0, fz + 81.0 - t}, yaw = kPi;
+        if (side == 3) p = {fx + 81.0 - t, 0, fz}, yaw = -kPi / 2;
+        p.y = heightWs(p.x, p.z);
+        place(postMesh, Kind::kFence, p, yawScale(yaw, 1.0), {0.55f, 0.45f, 0.3f});
       }
     }
   }
+}
 
-  // ---- Forests: jittered grid, kept where a low-frequency density field is high ---------------
-  {
-    const double cell = std::max(
-        6.0, std::sqrt(desc.sizeM * desc.sizeM * 0.35 / std::max(1.0, double(desc.treeCount))));
-    const auto cellsPerSide = static_cast<std::int64_t>(desc.sizeM / cell);
-    // Candidates sorted by a hash so that the first treeCount kept are spread over the world.
-    std::uint32_t placed = 0;
-    for (std::int64_t j = 0; j < cellsPerSide && placed < desc.treeCount; ++j) {
-      for (std::int64_t i = 0; i < cellsPerSide && placed < desc.treeCount; ++i) {
-        const std::uint64_t h = hash3(seed, i, j, 0x7ee);
-        const double u = (i + 0.1 + 0.8 * unit(mix64(h))) * cell;
-        const double v = (j + 0.1 + 0.8 * unit(mix64(h + 1))) * cell;
-        const double density = fbm(seed, u / 500.0, v / 500.0, 3, 51);
-        if (density < 0.47 || unit(mix64(h + 2)) > (density - 0.4) * 4.0) continue;
-        const double x = o.x + u, z = o.z + v;
-        if (inTown(x, z, 420.0)) continue;
-        const std::uint32_t kind = static_cast<std::uint32_t>(mix64(h + 3) >> 61) % 3;
-        const double scale = 0.7 + 0.6 * unit(mix64(h + 4));
-        const float g = static_cast<float>(0.8 + 0.4 * unit(mix64(h + 5)));
-        const glm::vec3 color =
-            kind == 1 ? glm::vec3(0.30f, 0.50f, 0.18f) * g : glm::vec3(0.16f, 0.36f, 0.17f) * g;
-        place(trees[kind], Kind::kTree, {x, heightWs(x, z) - 0.3, z},
-              yawScale(unit(mix64(h + 6)) * 2.0 * kPi, scale), color);
-        ++placed;
-      }
-    }
-    Rng r(mix64(seed ^ 0x50c));
-    for (std::uint32_t k = 0; k < desc.rockCount; ++k) {
-      const double x = o.x + r.range(20.0, desc.sizeM - 20.0);
-      const double z = o.z + r.range(20.0, desc.sizeM - 20.0);
-      const double scale = 0.5 + 3.5 * std::pow(r.next(), 3.0);
-      const std::uint32_t mesh = rocks[r.below(4)];
-      const float g = static_cast<float>(r.range(0.4, 0.6));
-      place(mesh, Kind::kRock, {x, heightWs(x, z) - 0.2 * scale, z},
-            yawScale(r.range(0.0, 2.0 * kPi), scale), {g, g * 0.97f, g * 0.92f});
+// ---- Forests: jittered grid, kept where a low-frequency density field is high -----------------
+void WorldBuilder::forests() {
+  const double cell = std::max(
+      6.0, std::sqrt(desc.sizeM * desc.sizeM * 0.35 / std::max(1.0, double(desc.treeCount))));
+  const auto cellsPerSide = static_cast<std::int64_t>(desc.sizeM / cell);
+  // Candidates sorted by a hash so that the first treeCount kept are spread over the world.
+  std::uint32_t placed = 0;
+  for (std::int64_t j = 0; j < cellsPerSide && placed < desc.treeCount; ++j) {
+    for (std::int64_t i = 0; i < cellsPerSide && placed < desc.treeCount; ++i) {
+      const std::uint64_t h = hash3(seed, i, j, 0x7ee);
+      const double u = (i + 0.1 + 0.8 * unit(mix64(h))) * cell;
+      const double v = (j + 0.1 + 0.8 * unit(mix64(h + 1))) * cell;
+      const double density = fbm(seed, u / 500.0, v / 500.0, 3, 51);
+      if (density < 0.47 || unit(mix64(h + 2)) > (density - 0.4) * 4.0) continue;
+      const double x = o.x + u, z = o.z + v;
+      if (inTown(x, z, 420.0)) continue;
+      const std::uint32_t kind = static_cast<std::uint32_t>(mix64(h + 3) >> 61) % 3;
+      const double scale = 0.7 + 0.6 * unit(mix64(h + 4));
+      const float g = static_cast<float>(0.8 + 0.4 * unit(mix64(h + 5)));
+      const glm::vec3 color =
+          kind == 1 ? glm::vec3(0.30f, 0.50f, 0.18f) * g : glm::vec3(0.16f, 0.36f, 0.17f) * g;
+      place(trees[kind], Kind::kTree, {x, heightWs(x, z) - 0.3, z},
+            yawScale(unit(mix64(h + 6)) * 2.0 * kPi, scale), color);
+      ++placed;
     }
   }
-
-  // ---- The user's mesh ------------------------------------------------------------------------
-  if (userMesh) {
-    MeshAsset a;
-    a.name = "user mesh";
-    a.lods[0] = std::move(*userMesh);
-    a.lods[1] = decimate(a.lods[0], 0.3);
-    a.lods[2] = decimate(a.lods[1], 0.3);
-    measureLodErrors(a);
-    const std::uint32_t m = addAsset(std::move(a));
-    const double x = centre.x - 60.0, z = centre.z - 80.0;
-    place(m, Kind::kUser, {x, heightWs(x, z), z}, yawScale(0.0, 1.0), {0.85f, 0.55f, 0.3f});
+  Rng r(mix64(seed ^ 0x50c));
+  for (std::uint32_t k = 0; k < desc.rockCount; ++k) {
+    const double x = o.x + r.range(20.0, desc.sizeM - 20.0);
+    const double z = o.z + r.range(20.0, desc.sizeM - 20.0);
+    const double scale = 0.5 + 3.5 * std::pow(r.next(), 3.0);
+    const std::uint32_t mesh = rocks[r.below(4)];
+    const float g = static_cast<float>(r.range(0.4, 0.6));
+    place(mesh, Kind::kRock, {x, heightWs(x, z) - 0.2 * scale, z},
+          yawScale(r.range(0.0, 2.0 * kPi), scale), {g, g * 0.97f, g * 0.92f});
   }
+}
 
-  // ---- Statistics, bounds and caster clusters -------------------------------------------------
+// ---- The user's mesh --------------------------------------------------------------------------
+void WorldBuilder::placeUserMesh(std::optional<MeshData>& userMesh) {
+  if (!userMesh) return;
+  MeshAsset a;
+  a.name = "user mesh";
+  a.lods[0] = std::move(*userMesh);
+  a.lods[1] = decimate(a.lods[0], 0.3);
+  a.lods[2] = decimate(a.lods[1], 0.3);
+  measureLodErrors(a);
+  const std::uint32_t m = addAsset(std::move(a));
+  const double x = centre.x - 60.0, z = centre.z - 80.0;
+  place(m, Kind::kUser, {x, heightWs(x, z), z}, yawScale(0.0, 1.0), {0.85f, 0.55f, 0.3f});
+}
+
+// ---- Statistics, bounds and caster clusters ---------------------------------------------------
+void WorldBuilder::statisticsAndClusters() {
   w.boundsWs.minWs = glm::dvec3(std::numeric_limits<double>::max());
   w.boundsWs.maxWs = -w.boundsWs.minWs;
   for (const Object& ob : w.objects) {
@@ -632,8 +645,6 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
     w.boundsWs.minWs = glm::min(w.boundsWs.minWs, ob.boundsWs.minWs);
     w.boundsWs.maxWs = glm::max(w.boundsWs.maxWs, ob.boundsWs.maxWs);
   }
-  (void)minH;
-  (void)maxH;
 
   // Per chunk: the terrain chunk itself, then one cluster per group of casting objects.
   const int kGroups = 3;  // 0 vegetation + rocks, 1 buildings + tower + user mesh, 2 thin casters
@@ -694,6 +705,35 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
     }
     w.clusters.push_back(std::move(c));
   }
+}
+
+}  // namespace
+
+std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
+  auto fail = [&](const std::string& m) -> std::optional<World> {
+    if (error) error->message = m;
+    return std::nullopt;
+  };
+  if (auto e = checkDesc(desc)) return fail(*e);
+
+  // The user's mesh first: a bad file is refused before seconds of generation.
+  std::optional<MeshData> userMesh;
+  if (!desc.userMeshPath.empty()) {
+    userMesh = loadMeshFile(desc.userMeshPath, desc.userMeshSizeM, error);
+    if (!userMesh) return std::nullopt;
+  }
+
+  World w;
+  w.desc = desc;
+  w.chunksPerSide = static_cast<std::uint32_t>(std::lround(desc.sizeM / desc.chunkM));
+  WorldBuilder b(desc, w);
+  b.terrain();
+  b.prototypes();
+  b.town();
+  b.thinCasters();
+  b.forests();
+  b.placeUserMesh(userMesh);
+  b.statisticsAndClusters();
   return w;
 }
 
