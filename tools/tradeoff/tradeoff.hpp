@@ -1,0 +1,145 @@
+// csm_tradeoff's parts: the command line (tradeoff_cli.cpp), the sweep (tradeoff_sweep.cpp),
+// the CSV, Pareto front, table, plot and advice (tradeoff_report.cpp) and the fit study
+// (tradeoff_fit_study.cpp); csm_tradeoff.cpp runs the stages in order.
+#pragma once
+
+#include <csm/core.hpp>
+#include <csm/gpu_layout.hpp>
+#include <csm/vulkan/shadow_renderer.hpp>
+#include <cstdint>
+#include <cstdio>
+#include <sample_world/paths.hpp>
+#include <string>
+#include <vector>
+
+namespace tradeoff {
+
+struct Options {
+  bool quick = false;
+  std::string path = "forest";
+  std::string out = "tradeoff";
+  /// Re-draw the table, plot and recommendations from OUT/tradeoff.csv without measuring.
+  bool replot = false;
+  /// --fit-study: box fit and receiver-driven splits on the zoom and forest paths.
+  bool fitStudy = false;
+  std::vector<double> budgetsMs;  ///< --budget-ms (may be repeated)
+  uint32_t width = 640, height = 360;
+  /// --lod-study: only the default configuration, with several per-cascade LOD schedules.
+  bool lodStudy = false;
+};
+
+struct Config {
+  uint32_t cascades = 4;
+  uint32_t resolution = 2048;
+  double lambda = 0.75;
+  csm::PcfKernel kernel = csm::PcfKernel::kTent3;
+  double blendBand = 0.1;
+  VkFormat format = VK_FORMAT_D32_SFLOAT;
+  /// Caster LODs: cascade c draws each cluster's coarsest simplified mesh whose geometric error
+  /// is at most maxErrorTexels of its texels (the module's default, RendererOptions::
+  /// lodMaxErrorTexels), and at least the schedule's LOD.
+  bool lods = true;
+  /// Box fit, size ladder (rungs per octave, 0 = off) and receiver-driven splits (the range of
+  /// the pose's full-range frame, as the depth reduction would report it).
+  csm::BoxFit fit = csm::BoxFit::kSphere;
+  double ladderSteps = 8.0;
+  bool receivers = false;
+  /// The LOD each cascade draws at least when `lods` (--lod-study varies it; empty: all 0).
+  std::vector<uint32_t> schedule;
+  /// RendererOptions::lodMaxErrorTexels when `lods` (0: the schedule alone).
+  float maxErrorTexels = csm::vk::RendererOptions{}.lodMaxErrorTexels;
+  /// The LODs column: on (the default), off, a schedule "0122" and/or an error budget "e0.25".
+  [[nodiscard]] std::string lodLabel() const {
+    if (!lods) return "off";
+    std::string s;
+    for (uint32_t l : schedule) s += std::to_string(l);
+    if (maxErrorTexels != csm::vk::RendererOptions{}.lodMaxErrorTexels) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%se%.2g", s.empty() ? "" : " ", double(maxErrorTexels));
+      if (maxErrorTexels != 0.0f) s += buf;
+    }
+    return s.empty() ? "on" : s;
+  }
+  [[nodiscard]] bool isDefault() const {
+    const csm::ShadowSettings d;
+    return cascades == d.cascadeCount && resolution == d.resolution && lambda == d.splitLambda &&
+           kernel == csm::PcfKernel::kTent3 && blendBand == d.blendBand &&
+           format == VK_FORMAT_D32_SFLOAT && lods && schedule.empty() &&
+           maxErrorTexels == csm::vk::RendererOptions{}.lodMaxErrorTexels && fit == d.boxFit &&
+           ladderSteps == d.ladderStepsPerOctave && !receivers;
+  }
+  [[nodiscard]] std::string fitLabel() const {
+    std::string s;
+    if (fit == csm::BoxFit::kTight) s += " tight";
+    if (ladderSteps == 0.0) {
+      s += " noLadder";
+    } else if (ladderSteps != 8.0) {
+      s += " ladder" + std::to_string(int(ladderSteps));
+    }
+    if (receivers) s += " rcv";
+    return s;
+  }
+  /// The label without the fields at their default (for the plot).
+  [[nodiscard]] std::string shortLabel() const {
+    const csm::ShadowSettings d;
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "c%u r%u", cascades, resolution);
+    std::string s = buf;
+    if (lambda != d.splitLambda) {
+      std::snprintf(buf, sizeof buf, " l%.2f", lambda);
+      s += buf;
+    }
+    if (kernel != csm::PcfKernel::kTent3) s += std::string(" ") + csm::kernelName(kernel);
+    if (blendBand != d.blendBand) {
+      std::snprintf(buf, sizeof buf, " b%.2f", blendBand);
+      s += buf;
+    }
+    if (format == VK_FORMAT_D16_UNORM) s += " D16";
+    if (!lods) s += " noLOD";
+    if (lods && lodLabel() != "on") {
+      s += " LOD ";
+      s += lodLabel();
+    }
+    return s + fitLabel();
+  }
+  [[nodiscard]] std::string label() const {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "c%u r%u l%.2f %s b%.2f %s %s", cascades, resolution, lambda,
+                  csm::kernelName(kernel), blendBand, format == VK_FORMAT_D16_UNORM ? "D16" : "D32",
+                  lods ? "LOD" : "noLOD");
+    std::string label = buf;
+    if (lods && lodLabel() != "on") {
+      label += ' ';
+      label += lodLabel();
+    }
+    return label + fitLabel();
+  }
+};
+
+struct Row {
+  Config config;
+  double shadowMs = 0, litMs = 0, cpuMs = 0;
+  double memoryMiB = 0;
+  double misclassification = 0, meanError = 0;
+  double shimmerMean = 0, shimmerMax = 0;
+  double triangles = 0;  ///< triangles the shadow pass draws per frame (mean over poses)
+  uint64_t pixels = 0;
+  bool pareto = false;
+  [[nodiscard]] double gpuMs() const { return shadowMs + litMs; }
+};
+
+// ---- The command line (tradeoff_cli.cpp)
+void usage(std::FILE* out);
+
+// ---- The sweep (tradeoff_sweep.cpp)
+csm::Camera cameraAt(const world::CameraPose& p, double aspect);
+void progress(size_t done, size_t total, const std::string& what, double elapsedS);
+
+// ---- The CSV, the front, the table, the plot and the advice (tradeoff_report.cpp)
+/// Rows of a CSV this tool wrote (for --replot).
+std::vector<Row> readCsv(const std::string& path);
+
+// ---- --fit-study (tradeoff_fit_study.cpp)
+int runFitStudy(const Options& o);
+
+}  // namespace tradeoff

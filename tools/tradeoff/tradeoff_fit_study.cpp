@@ -1,0 +1,155 @@
+// csm_tradeoff --fit-study: box fit and receiver-driven splits on the zoom and forest paths.
+#include "tradeoff.hpp"
+
+#include <csm_measure/harness.hpp>
+#include <csm_measure/metrics.hpp>
+#include <csm_measure/raytracer.hpp>
+#include <csm_measure/scene.hpp>
+#include <csm_measure/world_scene.hpp>
+#include <sample_world/settings.hpp>
+#include <sample_world/world.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace tradeoff {
+
+// --fit-study: what the tight box and receiver-driven splits buy where the sphere loses (the
+// zoom path at 8 degrees) and what they cost where it does not (the forest path at 60 degrees),
+// at the fly-through's shadow settings. Per pose and configuration: shadow-pass GPU ms (warm-up,
+// fastest of 2), misclassified receiver pixels against Embree, and the texel size of the cascade
+// that holds the median receiver depth (the town, on the zoom path). The receiver range is the
+// min/max view depth of the receiver pixels of the pose's full-range frame: what the depth
+// reduction (csm::vk::DepthRangeReducer) returns for the frame before.
+struct FitConfig {
+  const char* name;
+  csm::BoxFit fit;
+  bool receivers;
+};
+
+int runFitStudy(const Options& o) {
+  std::filesystem::create_directories(o.out);
+  world::WorldDesc wd;
+  wd.treeCount = o.quick ? 3000 : 8000;
+  wd.rockCount = 400;
+  wd.buildingCount = 40;
+  nlohmann::json report;
+  const FitConfig configs[] = {{"sphere, full range (before)", csm::BoxFit::kSphere, false},
+                               {"tight box", csm::BoxFit::kTight, false},
+                               {"receiver splits", csm::BoxFit::kSphere, true},
+                               {"tight box + receiver splits", csm::BoxFit::kTight, true}};
+  struct Study {
+    const char* path;
+    std::vector<double> poses;
+  };
+  const Study studies[] = {{"zoom", {1.0}}, {"forest", {0.2, 0.5, 0.8}}};
+  const VkExtent2D accuracyView = o.quick ? VkExtent2D{240, 135} : VkExtent2D{320, 180};
+  const csm::DirectionalLight light{glm::normalize(glm::dvec3(0.45, -0.8, -0.35))};
+  const double aspect = double(o.width) / double(o.height);
+  std::printf(
+      "| path | pose | configuration | texel of the median receiver's cascade (m) | "
+      "misclassified pixels | of receiver pixels | shadow pass GPU ms |\n"
+      "|---|---|---|---|---|---|---|\n");
+  for (const Study& st : studies) {
+    wd.originWs = world::pathWorldOrigin(st.path, wd.sizeM);
+    world::WorldError err;
+    std::optional<world::World> w = world::generateWorld(wd, &err);
+    if (!w) throw std::runtime_error("generateWorld: " + err.message);
+    std::optional<world::FlightPath> path = world::FlightPath::make(st.path, *w, 60.0);
+    if (!path) throw std::runtime_error(std::string("unknown path ") + st.path);
+    const csm_measure::WorldScene worldScene = csm_measure::sceneFromWorld(*w);
+    const csm_measure::RayTracer tracer(worldScene.scene);
+    csm_measure::HarnessDesc hd;
+    hd.validation = false;
+    hd.appName = "csm_tradeoff";
+    csm_measure::Harness harness(hd);
+    harness.setScene(worldScene.scene);
+    const world::AppSettings app;
+    harness.setCasterLods(worldScene.lodMeshes, app.cascadeLod);
+    for (double t : st.poses) {
+      csm::Camera cam = cameraAt(path->at(t), aspect);
+      cam.nearM = 0.5;  // as the fly-through
+      csm::Camera accCam = cam;
+      accCam.aspect = double(accuracyView.width) / accuracyView.height;
+      std::optional<csm::ReceiverDepthRange> range;
+      double medianDepthM = 0.0;
+      for (const FitConfig& fc : configs) {
+        csm::ShadowSettings s = app.shadow;
+        s.boxFit = fc.fit;
+        if (!harness.configure(s).ok()) throw std::runtime_error("configure failed");
+        harness.setReceiverRange(fc.receivers ? range : std::nullopt);
+        csm::CascadeHistory h;
+        harness.timeFrame(cam, light, h, {o.width, o.height}, app.kernel);
+        double shadowMs = 1e30;
+        for (int k = 0; k < 2; ++k) {
+          shadowMs = std::min(
+              shadowMs,
+              harness.timeFrame(cam, light, h, {o.width, o.height}, app.kernel).shadowGpuMs);
+        }
+        csm::CascadeHistory ha;
+        const csm::CascadeFrame frame = harness.computeFrame(accCam, light, ha);
+        const std::vector<csm_measure::PixelSample> px =
+            harness.renderAccuracy(accCam, frame, accuracyView, app.kernel);
+        const csm_measure::AccuracyStats acc =
+            csm_measure::measureAccuracy(px, frame, tracer, light);
+        if (!range) {
+          // The receivers of this (first, full-range) frame: their view depths.
+          std::vector<double> depths;
+          for (const csm_measure::PixelSample& p : px) {
+            depths.push_back(glm::dot(p.posWs - accCam.positionWs, accCam.forwardWs()));
+          }
+          std::sort(depths.begin(), depths.end());
+          if (!depths.empty()) {
+            range = csm::ReceiverDepthRange{std::max(0.0, depths.front()), depths.back()};
+            medianDepthM = depths[depths.size() / 2];
+          }
+        }
+        double texel = 0.0;
+        for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+          if (medianDepthM >= frame.splitsM[c] && medianDepthM < frame.splitsM[c + 1]) {
+            texel = frame.cascades[c].texelSizeM();
+          }
+        }
+        std::printf("| %s | t=%.1f, fov %.0f deg | %s | %.4f | %llu | %llu | %.2f |\n", st.path, t,
+                    glm::degrees(cam.fovYRad), fc.name, texel,
+                    (unsigned long long)acc.overall.misclassified,
+                    (unsigned long long)acc.overall.pixels, shadowMs);
+        std::fflush(stdout);
+        nlohmann::json j;
+        j["path"] = st.path;
+        j["t"] = t;
+        j["fov_deg"] = glm::degrees(cam.fovYRad);
+        j["configuration"] = fc.name;
+        j["receiver_range_m"] = range ? nlohmann::json({range->minM, range->maxM}) : nullptr;
+        j["median_receiver_depth_m"] = medianDepthM;
+        j["texel_of_median_cascade_m"] = texel;
+        j["splits_m"] = std::vector<double>(frame.splitsM.begin(),
+                                            frame.splitsM.begin() + frame.cascadeCount + 1);
+        std::vector<double> texels;
+        for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+          texels.push_back(frame.cascades[c].texelSizeM());
+        }
+        j["texel_m"] = texels;
+        j["misclassified"] = acc.overall.misclassified;
+        j["receiver_pixels"] = acc.overall.pixels;
+        j["shadow_gpu_ms"] = shadowMs;
+        j["device"] = harness.context().properties().deviceName;
+        report["rows"].push_back(j);
+      }
+    }
+  }
+  report["what"] =
+      "csm_tradeoff --fit-study: fly-through shadow settings (4 x 2048^2, 1500 m, lambda 0.8, "
+      "near 0.5 m), accuracy view " +
+      std::to_string(accuracyView.width) + "x" + std::to_string(accuracyView.height) +
+      ", timing view " + std::to_string(o.width) + "x" + std::to_string(o.height);
+  csm_measure::writeJson(o.out + "/fit_study.json", report);
+  std::fprintf(stderr, "wrote %s/fit_study.json\n", o.out.c_str());
+  return 0;
+}
+
+}  // namespace tradeoff
