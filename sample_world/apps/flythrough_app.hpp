@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "engine/engine.hpp"
 #include "sample_world/key_state.hpp"
@@ -54,6 +55,20 @@ json finiteOrNull(double v);
 /// shadow factor is below one half, and the fraction of the image that is geometry.
 std::pair<double, double> shadowedFraction(const engine::CpuImage& img);
 json cascadesJson(const world::FrameStats& st);
+/// A measured frame's entry of per_frame (without wall_ms and gpu_ms, added later).
+json frameJson(int i, double t, const engine::Camera& cam, const world::FrameStats& st,
+               double cpuMs);
+/// Adds gpu_ms (every scope the timer measured, "shadow" and "lit" always) to every frame.
+void addGpuMs(std::vector<json>& framesJson,
+              const std::vector<std::map<std::string, double>>& gpuByFrame);
+/// Means and medians over the measured frames (those not followed by screenshot renders).
+json summaryJson(const std::vector<json>& framesJson, const world::AppSettings& settings,
+                 const world::FrameStats& lastStats);
+/// The world's seed, size, origin, hash, object counts and caster triangles per LOD.
+json worldJson(const world::World& w, const world::WorldRenderer& renderer,
+               const std::string& meshPath);
+/// Writes OUT/report.json (atomically) and prints the summary.
+void writeReport(const json& report, const std::string& out);
 
 // ---- The ImGui panels (flythrough_ui.cpp)
 void keepOnScreen();
@@ -74,9 +89,27 @@ void onScroll(GLFWwindow*, double, double dy);
 void onKey(GLFWwindow*, int key, int, int action, int);
 void onFocus(GLFWwindow*, int focused);
 
+/// The windowed flight's camera: LMB drag rotates, RMB drag pans, the wheel zooms, WASD/QE fly
+/// (Shift faster), R returns to the path's start, F1 toggles the overlay.
+class FlyCamera {
+ public:
+  FlyCamera(const world::CameraPose& start, GLFWwindow* win);
+  /// One frame of input (mouse ignored while ImGui wants it, keys while it wants the keyboard).
+  void update(GLFWwindow* win, Input& input, const world::World& w, double dt,
+              world::AppSettings& live);
+  /// The camera to render this frame with.
+  [[nodiscard]] engine::Camera camera(const world::AppSettings& live, VkExtent2D extent) const;
+
+ private:
+  world::CameraPose start_;
+  glm::dvec3 pos_;
+  double yaw_, pitch_;
+  double lastX_ = 0, lastY_ = 0;
+};
+
 // ---- The world (flythrough.cpp) and the two loops
 world::World makeWorld(const Options& o, const std::string& pathName);
 int runHeadless(const Options& o, const std::string& why);  // flythrough_headless.cpp
-int runWindowed(Options o);                                  // flythrough_windowed.cpp
+int runWindowed(Options o);                                 // flythrough_windowed.cpp
 
 }  // namespace flythrough

@@ -3,11 +3,9 @@
 
 #include <imgui.h>
 
-#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
-#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -16,6 +14,134 @@
 #include "sample_world/output_dir.hpp"
 
 namespace flythrough {
+
+namespace {
+
+void savePng(const std::string& file, const engine::CpuImage& img) {
+  if (auto e = world::writePngAtomically(file, img)) throw std::runtime_error(*e);
+}
+
+/// The headless flight's GPU objects, and what it remembers between frames: which frame each
+/// in-flight slot's timestamps belong to, the GPU times per frame, and the last frame's numbers
+/// (the overlay of a screenshot shows them).
+class HeadlessFlight {
+ public:
+  HeadlessFlight(engine::Context& ctx, const Options& o, const world::World& w, int frames)
+      : o_(o),
+        target_(ctx, {{o.settings.width, o.settings.height}, VK_FORMAT_D32_SFLOAT}),
+        renderer_(ctx, w, target_.colorFormat(), target_.depthFormat()),
+        gpuByFrame_(static_cast<std::size_t>(frames)) {
+    if (auto e = renderer_.apply(o.settings)) throw UsageError(*e);
+    timer_.emplace(ctx, 32);
+    imgui_.emplace(ctx, target_.colorFormat(), nullptr);
+    owner_.fill(-1);
+  }
+
+  const world::WorldRenderer& renderer() const { return renderer_; }
+  const world::FrameStats& lastStats() const { return lastStats_; }
+
+  /// Renders frame i of the flight (the measured frame) and returns its report entry.
+  json renderFrame(int i, double t, const world::FlightPath& path, world::FrameStats& st) {
+    const double aspect = double(o_.settings.width) / double(o_.settings.height);
+    engine::Camera cam;
+    poseCamera(cam, path.at(t), aspect, o_.settings);
+    const auto cpu0 = Clock::now();
+    if (auto e = renderer_.prepare(cam, st))
+      throw std::runtime_error("frame " + std::to_string(i) + ": " + *e);
+    std::optional<engine::Frame> f = target_.beginFrame();
+    if (!f) throw std::runtime_error("headless target gave no frame");
+    timer_->beginFrame(f->cmd, f->slot);
+    takeGpu(f->slot);
+    owner_[f->slot] = i;
+    renderer_.record(*f, *timer_, false, st);
+    const double cpuMs = std::chrono::duration<double, std::milli>(Clock::now() - cpu0).count();
+    target_.endFrame();
+    lastStats_ = st;
+    lastCpuFrameMs_ = cpuMs;
+    if (!timer_->results().empty()) lastGpu_ = timer_->results();
+    return frameJson(i, t, cam, st, cpuMs);
+  }
+
+  /// Writes frame i's screenshots (plain, shadow factor, overlay) and returns their entry.
+  json screenshots(int i, const world::FrameStats& st) {
+    char name[64];
+    std::snprintf(name, sizeof(name), "frame_%04d", i);
+    const std::string base = (std::filesystem::path(o_.out) / name).string();
+    engine::CpuImage plain = target_.readback();
+    savePng(base + ".png", plain);
+    const engine::CpuImage shadowView = renderVariant(false, csm::DebugMode::kShadowFactor, st);
+    const auto [fraction, coverage] = shadowedFraction(shadowView);
+    savePng(base + "_shadow.png", shadowView);
+    const engine::CpuImage overlayImg = renderVariant(true, o_.settings.debug, st);
+    savePng(base + "_overlay.png", overlayImg);
+    return {{"frame", i},
+            {"file", std::string(name) + ".png"},
+            {"overlay_file", std::string(name) + "_overlay.png"},
+            {"shadow_file", std::string(name) + "_shadow.png"},
+            {"shadowed_fraction", fraction},
+            {"geometry_coverage", coverage}};
+  }
+
+  /// Waits for the GPU and returns the GPU times of every frame.
+  const std::vector<std::map<std::string, double>>& finish() {
+    target_.waitIdle();
+    for (std::uint32_t s = 0; s < engine::kFramesInFlight; ++s) {
+      if (owner_[s] >= 0) {
+        timer_->collect(s);
+        takeGpu(s);
+      }
+    }
+    return gpuByFrame_;
+  }
+
+ private:
+  void takeGpu(std::uint32_t slot) {
+    if (owner_[slot] >= 0) {
+      gpuByFrame_[static_cast<std::size_t>(owner_[slot])] = timer_->results();
+    }
+    owner_[slot] = -1;
+  }
+
+  // Renders the prepared frame once more (a screenshot variant), not counted in the report.
+  engine::CpuImage renderVariant(bool overlay, csm::DebugMode debug, world::FrameStats stats) {
+    world::AppSettings s = o_.settings;
+    s.debug = debug;
+    if (auto e = renderer_.apply(s)) throw std::runtime_error(*e);
+    std::optional<engine::Frame> f = target_.beginFrame();
+    if (!f) throw std::runtime_error("headless target gave no frame");
+    timer_->beginFrame(f->cmd, f->slot);
+    takeGpu(f->slot);
+    renderer_.record(*f, *timer_, overlay, stats);
+    if (overlay) {
+      // An auto-sized ImGui window is measured in its first frame and drawn from the second.
+      for (int warm = 0; warm < 2; ++warm) {
+        if (warm == 1) imgui_->endFrame();
+        imgui_->newFrame(f->extent, 1.0 / 30.0);
+        cascadeStatsWindow(lastStats_, *timer_, lastGpu_, lastCpuFrameMs_,
+                           engine::validationMessageCount(), true);
+      }
+      imgui_->endFrame();
+      imgui_->record(*f);
+    }
+    target_.endFrame();
+    engine::CpuImage img = target_.readback();
+    if (auto e = renderer_.apply(o_.settings)) throw std::runtime_error(*e);
+    return img;
+  }
+
+  const Options& o_;
+  engine::HeadlessTarget target_;
+  world::WorldRenderer renderer_;
+  std::optional<engine::GpuTimer> timer_;  // created after the settings are applied
+  std::optional<ImGuiLayer> imgui_;
+  std::array<int, engine::kFramesInFlight> owner_{};
+  std::vector<std::map<std::string, double>> gpuByFrame_;
+  std::map<std::string, double> lastGpu_;
+  world::FrameStats lastStats_;
+  double lastCpuFrameMs_ = 0.0;
+};
+
+}  // namespace
 
 int runHeadless(const Options& o, const std::string& why) {
   if (!why.empty()) std::printf("%s\n", why.c_str());
@@ -32,225 +158,33 @@ int runHeadless(const Options& o, const std::string& why) {
   const world::World w = makeWorld(o, o.path);
   const std::optional<world::FlightPath> path =
       world::FlightPath::make(o.path, w, o.settings.fovDeg);
-  auto writePng = [](const std::string& file, const engine::CpuImage& img) {
-    if (auto e = world::writePngAtomically(file, img)) throw std::runtime_error(*e);
-  };
   std::printf("device: %s, validation %s, %ux%u, %d frames along '%s'\n",
               ctx.properties().deviceName, ctx.validationEnabled() ? "on" : "off", o.settings.width,
               o.settings.height, frames, o.path.c_str());
   json report;
   std::vector<json> framesJson, shots;
   {
-    engine::HeadlessTarget target(ctx,
-                                  {{o.settings.width, o.settings.height}, VK_FORMAT_D32_SFLOAT});
-    world::WorldRenderer renderer(ctx, w, target.colorFormat(), target.depthFormat());
-    if (auto e = renderer.apply(o.settings)) throw UsageError(*e);
-    engine::GpuTimer timer(ctx, 32);
-    ImGuiLayer imgui(ctx, target.colorFormat(), nullptr);
-    const double aspect = double(o.settings.width) / double(o.settings.height);
-
-    std::array<int, engine::kFramesInFlight> owner{};
-    owner.fill(-1);
-    std::vector<std::map<std::string, double>> gpuByFrame(static_cast<std::size_t>(frames));
-    auto takeGpu = [&](std::uint32_t slot) {
-      if (owner[slot] >= 0) gpuByFrame[static_cast<std::size_t>(owner[slot])] = timer.results();
-      owner[slot] = -1;
-    };
-    std::map<std::string, double> lastGpu;
-    world::FrameStats lastStats;
-    double lastCpuFrameMs = 0.0;
-
-    // Renders the prepared frame once more (a screenshot variant), not counted in the report.
-    auto renderVariant = [&](bool overlay, csm::DebugMode debug, world::FrameStats stats) {
-      world::AppSettings s = o.settings;
-      s.debug = debug;
-      if (auto e = renderer.apply(s)) throw std::runtime_error(*e);
-      std::optional<engine::Frame> f = target.beginFrame();
-      if (!f) throw std::runtime_error("headless target gave no frame");
-      timer.beginFrame(f->cmd, f->slot);
-      takeGpu(f->slot);
-      renderer.record(*f, timer, overlay, stats);
-      if (overlay) {
-        // An auto-sized ImGui window is measured in its first frame and drawn from the second.
-        for (int warm = 0; warm < 2; ++warm) {
-          if (warm == 1) imgui.endFrame();
-          imgui.newFrame(f->extent, 1.0 / 30.0);
-          cascadeStatsWindow(lastStats, timer, lastGpu, lastCpuFrameMs,
-                             engine::validationMessageCount(), true);
-        }
-        imgui.endFrame();
-        imgui.record(*f);
-      }
-      target.endFrame();
-      engine::CpuImage img = target.readback();
-      if (auto e = renderer.apply(o.settings)) throw std::runtime_error(*e);
-      return img;
-    };
-
+    HeadlessFlight flight(ctx, o, w, frames);
     auto prev = Clock::now();
     for (int i = 0; i < frames; ++i) {
       const double t = frames > 1 ? double(i) / double(frames - 1) : 0.0;
-      engine::Camera cam;
-      poseCamera(cam, path->at(t), aspect, o.settings);
       world::FrameStats st;
-      const auto cpu0 = Clock::now();
-      if (auto e = renderer.prepare(cam, st))
-        throw std::runtime_error("frame " + std::to_string(i) + ": " + *e);
-      std::optional<engine::Frame> f = target.beginFrame();
-      if (!f) throw std::runtime_error("headless target gave no frame");
-      timer.beginFrame(f->cmd, f->slot);
-      takeGpu(f->slot);
-      owner[f->slot] = i;
-      renderer.record(*f, timer, false, st);
-      const double cpuMs = std::chrono::duration<double, std::milli>(Clock::now() - cpu0).count();
-      target.endFrame();
+      // The wall time of a frame runs from the end of the previous one to the end of this one.
+      json fj = flight.renderFrame(i, t, *path, st);
       const auto now = Clock::now();
-      const double wallMs = std::chrono::duration<double, std::milli>(now - prev).count();
+      fj["wall_ms"] = std::chrono::duration<double, std::milli>(now - prev).count();
       prev = now;
-      lastStats = st;
-      lastCpuFrameMs = cpuMs;
-      if (!timer.results().empty()) lastGpu = timer.results();
-
-      json fj = {{"index", i},
-                 {"t", t},
-                 {"camera_ws", {cam.positionWs.x, cam.positionWs.y, cam.positionWs.z}},
-                 {"fov_deg", glm::degrees(cam.fovYRad)},
-                 {"cpu_ms",
-                  {{"setup", st.cpuSetupMs},
-                   {"culling", st.cpuCullMs},
-                   {"record", st.cpuRecordMs},
-                   {"frame", cpuMs}}},
-                 {"wall_ms", wallMs},
-                 {"shadow_far_m", st.cascades.shadowFarM},
-                 {"lit_instances", st.litInstances},
-                 {"lit_triangles", st.litTriangles},
-                 {"cascades", cascadesJson(st)},
-                 {"validation_messages", engine::validationMessageCount()}};
       framesJson.push_back(std::move(fj));
-
       const bool shot = (o.shotEvery > 0 ? i % o.shotEvery == 0 : i == 0) || i == frames - 1;
       if (shot) {
-        char name[64];
-        std::snprintf(name, sizeof(name), "frame_%04d", i);
-        const std::string base = (std::filesystem::path(o.out) / name).string();
-        engine::CpuImage plain = target.readback();
-        writePng(base + ".png", plain);
-        const engine::CpuImage shadowView = renderVariant(false, csm::DebugMode::kShadowFactor, st);
-        const auto [fraction, coverage] = shadowedFraction(shadowView);
-        writePng(base + "_shadow.png", shadowView);
-        const engine::CpuImage overlayImg = renderVariant(true, o.settings.debug, st);
-        writePng(base + "_overlay.png", overlayImg);
-        shots.push_back({{"frame", i},
-                         {"file", std::string(name) + ".png"},
-                         {"overlay_file", std::string(name) + "_overlay.png"},
-                         {"shadow_file", std::string(name) + "_shadow.png"},
-                         {"shadowed_fraction", fraction},
-                         {"geometry_coverage", coverage}});
+        shots.push_back(flight.screenshots(i, st));
         prev = Clock::now();
         framesJson.back()["screenshot"] = true;
       }
     }
-    target.waitIdle();
-    for (std::uint32_t s = 0; s < engine::kFramesInFlight; ++s) {
-      if (owner[s] >= 0) {
-        timer.collect(s);
-        takeGpu(s);
-      }
-    }
-    for (int i = 0; i < frames; ++i) {
-      json g = json::object();
-      for (const auto& [k, v] : gpuByFrame[static_cast<std::size_t>(i)]) g[k] = finiteOrNull(v);
-      // Every pass has a number (0 for a pass that did not run, e.g. an empty cascade).
-      for (const char* k : {"shadow", "lit"}) {
-        if (!g.contains(k)) g[k] = 0.0;
-      }
-      framesJson[static_cast<std::size_t>(i)]["gpu_ms"] = g;
-    }
-
-    // Summary: means over the frames that were not followed by screenshot renders.
-    // With no such frame (--frames 1 or 2, --shot-every 1) every mean is null, not 0.
-    int measured = 0;
-    for (const json& f : framesJson) measured += f.contains("screenshot") ? 0 : 1;
-    auto mean = [&](auto get) -> json {
-      double sum = 0.0;
-      int n = 0;
-      for (const json& f : framesJson) {
-        if (f.contains("screenshot")) continue;
-        sum += get(f);
-        ++n;
-      }
-      return n ? json(sum / n) : json(nullptr);
-    };
-    json summary = {
-        {"cpu_setup_ms", mean([](const json& f) { return f["cpu_ms"]["setup"].get<double>(); })},
-        {"cpu_culling_ms",
-         mean([](const json& f) { return f["cpu_ms"]["culling"].get<double>(); })},
-        {"cpu_record_ms", mean([](const json& f) { return f["cpu_ms"]["record"].get<double>(); })},
-        {"gpu_shadow_ms", mean([](const json& f) { return f["gpu_ms"]["shadow"].get<double>(); })},
-        {"gpu_lit_ms", mean([](const json& f) { return f["gpu_ms"]["lit"].get<double>(); })},
-        {"wall_frame_ms", mean([](const json& f) { return f["wall_ms"].get<double>(); })},
-    };
-    // Medians over the frames after the first (the cache's first frame renders everything).
-    auto median = [&](auto get) {
-      std::vector<double> v;
-      for (std::size_t i = 1; i < framesJson.size(); ++i) {
-        if (!framesJson[i].contains("screenshot")) v.push_back(get(framesJson[i]));
-      }
-      if (v.empty()) return 0.0;
-      std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
-      return v[v.size() / 2];
-    };
-    summary["shadow_cache"] = o.settings.shadowCache;
-    summary["shadow_cache_bytes"] = lastStats.cacheBytes;
-    summary["gpu_shadow_ms_median"] =
-        median([](const json& f) { return f["gpu_ms"]["shadow"].get<double>(); });
-    for (std::uint32_t c = 0; c < o.settings.shadow.cascadeCount; ++c) {
-      const std::string k = "shadow c" + std::to_string(c);
-      summary["gpu_" + k + "_ms_median"] = median([&](const json& f) {
-        return f["gpu_ms"].contains(k) ? f["gpu_ms"][k].get<double>() : 0.0;
-      });
-      summary["texels_rendered_c" + std::to_string(c) + "_median"] = median([&](const json& f) {
-        return f["cascades"].size() > c ? f["cascades"][c]["texels_rendered"].get<double>() : 0.0;
-      });
-      summary["triangles_c" + std::to_string(c) + "_median"] = median([&](const json& f) {
-        return f["cascades"].size() > c ? f["cascades"][c]["triangles"].get<double>() : 0.0;
-      });
-      summary["texels_rendered_c" + std::to_string(c)] = mean([&](const json& f) {
-        return f["cascades"].size() > c ? f["cascades"][c]["texels_rendered"].get<double>() : 0.0;
-      });
-      summary["gpu_" + k + "_ms"] = mean([&](const json& f) {
-        return f["gpu_ms"].contains(k) ? f["gpu_ms"][k].get<double>() : 0.0;
-      });
-      summary["triangles_c" + std::to_string(c)] = mean([&](const json& f) {
-        return f["cascades"].size() > c ? f["cascades"][c]["triangles"].get<double>() : 0.0;
-      });
-    }
-    summary["measured_frames"] = measured;
-    report["summary"] = summary;
-    json lodTris = json::array();
-    for (std::uint32_t l = 0; l < world::kLodCount; ++l)
-      lodTris.push_back(renderer.clusterTriangles(l));
-    json kinds = json::object();
-    for (std::uint32_t k = 0; k < world::kKindCount; ++k) {
-      kinds[world::kindName(static_cast<world::Kind>(k))] = w.kindCounts[k];
-    }
-    std::uint32_t noCast = 0, noReceive = 0;
-    for (const world::Object& ob : w.objects)
-      noCast += ob.casts ? 0 : 1, noReceive += ob.receives ? 0 : 1;
-    char hash[32];
-    std::snprintf(hash, sizeof(hash), "%016llx",
-                  static_cast<unsigned long long>(world::worldHash(w)));
-    report["world"] = {{"seed", w.desc.seed},
-                       {"size_m", w.desc.sizeM},
-                       {"origin_ws", {w.desc.originWs.x, w.desc.originWs.y, w.desc.originWs.z}},
-                       {"hash", hash},
-                       {"objects", w.objects.size()},
-                       {"objects_by_kind", kinds},
-                       {"objects_not_casting", noCast},
-                       {"objects_not_receiving", noReceive},
-                       {"caster_clusters", w.clusters.size()},
-                       {"caster_triangles_by_lod", lodTris},
-                       {"user_mesh", o.meshPath}};
+    addGpuMs(framesJson, flight.finish());
+    report["summary"] = summaryJson(framesJson, o.settings, flight.lastStats());
+    report["world"] = worldJson(w, flight.renderer(), o.meshPath);
   }
   ctx.shutdown();
   const engine::ValidationCounts counts = engine::validationCounts();
@@ -266,28 +200,7 @@ int runHeadless(const Options& o, const std::string& why) {
                           {"errors", counts.errors}};
   report["screenshots"] = shots;
   report["per_frame"] = framesJson;
-  const std::string reportPath = (std::filesystem::path(o.out) / "report.json").string();
-  if (auto e = world::writeFileAtomically(reportPath, report.dump(1) + "\n")) {
-    throw std::runtime_error(*e);
-  }
-  const json& sm = report["summary"];
-  if (sm["measured_frames"].get<int>() == 0) {
-    std::printf(
-        "mean per frame: no measured frames (every frame was followed by screenshot renders; use "
-        "--frames 3 or more and --shot-every 2 or more)\n");
-  } else {
-    std::printf(
-        "mean per frame (%d measured frames): cpu setup %.3f ms, culling %.3f ms, record %.3f ms; "
-        "gpu shadow %.2f ms, lit %.2f ms; wall %.1f ms\n",
-        sm["measured_frames"].get<int>(), sm["cpu_setup_ms"].get<double>(),
-        sm["cpu_culling_ms"].get<double>(), sm["cpu_record_ms"].get<double>(),
-        sm["gpu_shadow_ms"].get<double>(), sm["gpu_lit_ms"].get<double>(),
-        sm["wall_frame_ms"].get<double>());
-  }
-  std::printf("screenshots and report: %s (report.json, frame_*.png, frame_*_overlay.png)\n",
-              std::filesystem::absolute(o.out).string().c_str());
-  std::printf("validation messages: %llu\n",
-              static_cast<unsigned long long>(counts.warnings + counts.errors));
+  writeReport(report, o.out);
   return counts.warnings + counts.errors == 0 ? 0 : 1;
 }
 

@@ -13,6 +13,23 @@
 
 namespace flythrough {
 
+namespace {
+
+/// --smoke-test: resizes, minimises, restores, shrinks to 1x1 and restores the window at fixed
+/// points of the run.
+void smokeTestWindow(GLFWwindow* win, const Options& o, int rendered, int attempts) {
+  if (rendered == o.frames / 3)
+    glfwSetWindowSize(win, int(o.settings.width) + 160, int(o.settings.height) + 90);
+  if (rendered == o.frames / 2 && attempts % 4 == 0) glfwIconifyWindow(win);
+  if (rendered == o.frames / 2 && attempts % 4 == 2) glfwRestoreWindow(win);
+  // Down to 1x1 and back: the panels must stay on screen (keepOnScreen).
+  if (rendered == (2 * o.frames) / 3) glfwSetWindowSize(win, 1, 1);
+  if (rendered == (5 * o.frames) / 6)
+    glfwSetWindowSize(win, int(o.settings.width), int(o.settings.height));
+}
+
+}  // namespace
+
 int runWindowed(Options o) {
   engine::ContextDesc desc;
   desc.appName = "csm_flythrough";
@@ -40,11 +57,7 @@ int runWindowed(Options o) {
     world::AppSettings live = o.settings;
     std::string error;
 
-    const world::CameraPose start = path->at(0.0);
-    glm::dvec3 pos = start.positionWs;
-    double yaw = start.yawRad, pitch = start.pitchRad;
-    double lastX = 0, lastY = 0;
-    glfwGetCursorPos(target.window(), &lastX, &lastY);
+    FlyCamera fly(path->at(0.0), target.window());
     std::uint32_t generation = target.swapchainGeneration();
     world::FrameStats st;
     std::map<std::string, double> gpu;
@@ -56,58 +69,13 @@ int runWindowed(Options o) {
       target.pollEvents();
       GLFWwindow* win = target.window();
       if (input.keys.active(GLFW_KEY_ESCAPE)) break;
-      if (o.smokeTest && o.frames > 0) {
-        if (rendered == o.frames / 3)
-          glfwSetWindowSize(win, int(o.settings.width) + 160, int(o.settings.height) + 90);
-        if (rendered == o.frames / 2 && attempts % 4 == 0) glfwIconifyWindow(win);
-        if (rendered == o.frames / 2 && attempts % 4 == 2) glfwRestoreWindow(win);
-        // Down to 1x1 and back: the panels must stay on screen (keepOnScreen).
-        if (rendered == (2 * o.frames) / 3) glfwSetWindowSize(win, 1, 1);
-        if (rendered == (5 * o.frames) / 6)
-          glfwSetWindowSize(win, int(o.settings.width), int(o.settings.height));
-      }
+      if (o.smokeTest && o.frames > 0) smokeTestWindow(win, o, rendered, attempts);
       const auto now = Clock::now();
       const double dt = std::min(0.25, std::chrono::duration<double>(now - prev).count());
       prev = now;
 
       // ---- Input (ignored while ImGui wants it) ------------------------------------------------
-      const ImGuiIO& io = ImGui::GetIO();
-      double x = 0, y = 0;
-      glfwGetCursorPos(win, &x, &y);
-      const double dx = x - lastX, dy = y - lastY;
-      lastX = x;
-      lastY = y;
-      const double ground = w.heightAt(pos.x, pos.z);
-      const double speed = std::max(20.0, 0.8 * (pos.y - ground)) *
-                           (input.keys.active(GLFW_KEY_LEFT_SHIFT) ? 5.0 : 1.0);
-      engine::Camera cam;
-      cam.setYawPitchRoll(yaw, pitch);
-      if (!io.WantCaptureMouse) {
-        if (glfwGetMouseButton(win, GLFW_MOUSE_BUTTON_LEFT) == GLFW_PRESS) {
-          yaw -= dx * 0.004;
-          pitch = std::clamp(pitch - dy * 0.004, -1.55, 1.55);
-        }
-        if (glfwGetMouseButton(win, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS) {
-          pos += (-dx * cam.rightWs() + dy * cam.upWs()) * (speed * 0.004);
-        }
-        pos += cam.forwardWs() * (input.scroll * speed * 0.25);
-      }
-      input.scroll = 0.0;
-      if (!io.WantCaptureKeyboard) {
-        // From key events: a tap shorter than a frame still moves the camera for one frame.
-        auto key = [&](int k) { return input.keys.active(k) ? 1.0 : 0.0; };
-        const glm::dvec3 move = cam.forwardWs() * (key(GLFW_KEY_W) - key(GLFW_KEY_S)) +
-                                cam.rightWs() * (key(GLFW_KEY_D) - key(GLFW_KEY_A)) +
-                                glm::dvec3(0, 1, 0) * (key(GLFW_KEY_E) - key(GLFW_KEY_Q));
-        pos += move * speed * dt;
-        if (input.keys.pressed(GLFW_KEY_R)) {
-          pos = start.positionWs;
-          yaw = start.yawRad;
-          pitch = start.pitchRad;
-        }
-        if (input.keys.pressed(GLFW_KEY_F1)) live.overlay = !live.overlay;
-      }
-      input.keys.endFrame();
+      fly.update(win, input, w, dt, live);
 
       // ---- UI ----------------------------------------------------------------------------------
       imgui.newFrame(target.extent(), dt);
@@ -134,12 +102,7 @@ int runWindowed(Options o) {
         glfwWaitEventsTimeout(0.01);
         continue;
       }
-      cam.positionWs = pos;
-      cam.setYawPitchRoll(yaw, pitch);
-      cam.fovYRad = glm::radians(live.fovDeg);
-      cam.aspect = double(f->extent.width) / double(f->extent.height);
-      cam.nearM = 0.5;
-      cam.farM = live.farM;
+      const engine::Camera cam = fly.camera(live, f->extent);
       const auto cpu0 = Clock::now();
       timer.beginFrame(f->cmd, f->slot);
       if (!timer.results().empty()) gpu = timer.results();
