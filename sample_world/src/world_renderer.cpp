@@ -74,6 +74,14 @@ double boxDistance(const csm::AabbWs& b, const glm::dvec3& p) {
 WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat colorFormat,
                              VkFormat depthFormat)
     : ctx_(&ctx), world_(&world), colorFormat_(colorFormat), depthFormat_(depthFormat) {
+  uploadMeshes(world);
+  buildViewGroups(world);
+  setUpShadowView(world);
+  createFrameResources();
+  createPipelines();
+}
+
+void WorldRenderer::uploadMeshes(const World& world) {
   // ---- Meshes: every asset LOD and every caster-cluster LOD in one store -------------------
   std::uint64_t vertices = 0, indices = 0;
   for (const MeshAsset& a : world.meshes) {
@@ -86,7 +94,7 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
     throw std::runtime_error("world too large for 32-bit mesh indices");
   }
   meshes_ =
-      std::make_unique<engine::MeshStore>(ctx, static_cast<std::uint32_t>(vertices + 64),
+      std::make_unique<engine::MeshStore>(*ctx_, static_cast<std::uint32_t>(vertices + 64),
                                           static_cast<std::uint32_t>(indices + 64), "world.meshes");
   for (const MeshAsset& a : world.meshes) {
     std::array<engine::MeshRange, kLodCount> r{};
@@ -102,7 +110,9 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
     }
     clusterRanges_.push_back(r);
   }
+}
 
+void WorldRenderer::buildViewGroups(const World& world) {
   // ---- View culling groups ------------------------------------------------------------------
   const std::uint32_t chunks = world.chunksPerSide * world.chunksPerSide;
   chunkBounds_.assign(chunks, {glm::dvec3(1e300), glm::dvec3(-1e300)});
@@ -131,10 +141,12 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
   }
   maxInstances_ = static_cast<std::uint32_t>(world.objects.size() + movers_.size());
   bucketObjects_.resize(world.meshes.size() * kLodCount);
+}
 
+void WorldRenderer::setUpShadowView(const World& world) {
   // ---- Shadow renderer ----------------------------------------------------------------------
   static_assert(kLodCount <= csm::vk::kMaxCasterLods);
-  shadow_ = glue::createShadowView(ctx);
+  shadow_ = glue::createShadowView(*ctx_);
   std::vector<csm::vk::MeshDraw> draws;
   std::vector<csm::vk::CasterInstance> instances;
   std::vector<csm::AabbWs> bounds;
@@ -182,9 +194,11 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
   csm::vk::Status casterStatus = shadow_->setCasters(draws, instances, bounds);
   if (casterStatus.ok()) casterStatus = shadow_->setSceneBounds(&world.boundsWs);
   if (!casterStatus.ok()) throw std::runtime_error("ShadowView: " + casterStatus.message());
+}
 
+void WorldRenderer::createFrameResources() {
   // ---- Per-frame resources --------------------------------------------------------------------
-  VkDevice dev = ctx.device();
+  VkDevice dev = ctx_->device();
   const VkDescriptorSetLayoutBinding binding{
       0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1,
       VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
@@ -204,12 +218,12 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
     Slot& slot = slots_[s];
     const std::string n = "world.slot" + std::to_string(s);
     slot.frameUniforms =
-        engine::Buffer(ctx, sizeof(WorldFrameGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
+        engine::Buffer(*ctx_, sizeof(WorldFrameGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                        engine::MemoryUsage::Upload, n + ".uniforms");
-    slot.instances = engine::Buffer(ctx, sizeof(Instance) * std::max(1u, maxInstances_),
+    slot.instances = engine::Buffer(*ctx_, sizeof(Instance) * std::max(1u, maxInstances_),
                                     VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, engine::MemoryUsage::Upload,
                                     n + ".instances");
-    slot.overlay = engine::Buffer(ctx, sizeof(OverlayVertex) * kMaxOverlayVertices,
+    slot.overlay = engine::Buffer(*ctx_, sizeof(OverlayVertex) * kMaxOverlayVertices,
                                   VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, engine::MemoryUsage::Upload,
                                   n + ".overlay");
     VkDescriptorSetLayout l = frameLayout_.get();
@@ -229,6 +243,11 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
     w.pBufferInfo = &bi;
     vkUpdateDescriptorSets(dev, 1, &w, 0, nullptr);
   }
+}
+
+void WorldRenderer::createPipelines() {
+  // ---- Shader modules and the overlay pipelines (the lit pipeline is built by apply()) --------
+  VkDevice dev = ctx_->device();
   worldVert_ = engine::createShaderModule(dev, world_vert_spv, "world.vert");
   worldFrag_ = engine::createShaderModule(dev, world_frag_spv, "world.frag");
   overlayVert_ = engine::createShaderModule(dev, overlay_2d_vert_spv, "overlay_2d.vert");
@@ -254,7 +273,7 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
         .pushConstants(VK_SHADER_STAGE_VERTEX_BIT, sizeof(glm::vec2))
         .descriptorSetLayout(shadow_->lightingSetLayout());
     (k == 0 ? overlayTris_ : overlayLines_) =
-        b.build(ctx, k == 0 ? "overlay.tris" : "overlay.lines");
+        b.build(*ctx_, k == 0 ? "overlay.tris" : "overlay.lines");
   }
 }
 
@@ -475,6 +494,16 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
   // prepare() uses it. Nothing (first frames, after a cut, only sky): the full split range.
   if (settings_.receiverSplits && depthRange_) receiverRange_ = depthRange_->read(f.slot);
 
+  recordShadowPass(cmd, timer, stats);
+  recordLitPass(f, slot, timer, overlay);
+  if (overlay && (settings_.overlayThumbnails || settings_.overlayMap)) recordOverlay(f, slot, timer);
+  vkCmdEndRendering(cmd);
+  if (settings_.receiverSplits) recordDepthRange(f);
+  stats.cpuRecordMs = msSince(t0);
+}
+
+void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& timer,
+                                     FrameStats& stats) {
   // ---- Shadow pass: each cascade draws its culled clusters at its LOD (the module's LODs) -----
   shadow_->setUniformOptions({settings_.debug, settings_.worldSpaceKernel});
   const csm::CascadeFrame& cascades = shadow_->frame();
@@ -506,8 +535,6 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
       stats.triangles[c] += r.indexCount / 3;
     }
   }
-  const VkBuffer vb = meshes_->vertexBuffer();
-  const VkDeviceSize zero = 0;
   timer.begin(cmd, "shadow");
   // Each cascade's scope runs from its hook to the next cascade's (or the pass's end), so it
   // includes the end of its render pass: where a binning rasteriser (lavapipe) does the work.
@@ -537,7 +564,12 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
       stats.texelsRendered[c] = std::uint64_t(cascades.resolution) * cascades.resolution;
     }
   }
+}
 
+void WorldRenderer::recordLitPass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer,
+                                  bool overlay) {
+  VkCommandBuffer cmd = f.cmd;
+  const VkBuffer vb = meshes_->vertexBuffer();
   // ---- Lit pass ---------------------------------------------------------------------------------
   WorldFrameGpu gpu{};
   gpu.viewProjCr = camera_.viewProjectionCr();
@@ -569,39 +601,38 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
     }
   }
   timer.end(cmd, "lit");
+}
 
-  if (overlay && (settings_.overlayThumbnails || settings_.overlayMap)) {
-    timer.begin(cmd, "overlay");
-    engine::ScopedLabel label(cmd, "overlay 2d", {0.3f, 0.9f, 0.9f, 1.0f});
-    std::vector<OverlayVertex> tris, lines;
-    buildOverlay(f.extent, tris, lines);
-    const std::size_t total =
-        std::min<std::size_t>(tris.size() + lines.size(), kMaxOverlayVertices);
-    tris.resize(std::min(tris.size(), total));
-    lines.resize(std::min(lines.size(), total - tris.size()) & ~std::size_t(1));
-    auto* dst = static_cast<OverlayVertex*>(slot.overlay.mapped());
-    std::memcpy(dst, tris.data(), tris.size() * sizeof(OverlayVertex));
-    std::memcpy(dst + tris.size(), lines.data(), lines.size() * sizeof(OverlayVertex));
-    const glm::vec2 inv(1.0f / f.extent.width, 1.0f / f.extent.height);
-    const VkBuffer ovb = slot.overlay.handle();
-    const VkDescriptorSet set = shadow_->lightingSet();
-    vkCmdBindVertexBuffers(cmd, 0, 1, &ovb, &zero);
-    for (int k = 0; k < 2; ++k) {
-      const engine::GraphicsPipeline& p = k == 0 ? overlayTris_ : overlayLines_;
-      const std::size_t count = k == 0 ? tris.size() : lines.size();
-      if (count == 0) continue;
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.pipeline);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 1, &set, 0,
-                              nullptr);
-      vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(inv), &inv);
-      vkCmdDraw(cmd, static_cast<std::uint32_t>(count), 1,
-                k == 0 ? 0u : static_cast<std::uint32_t>(tris.size()), 0);
-    }
-    timer.end(cmd, "overlay");
+void WorldRenderer::recordOverlay(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer) {
+  VkCommandBuffer cmd = f.cmd;
+  const VkDeviceSize zero = 0;
+  timer.begin(cmd, "overlay");
+  engine::ScopedLabel label(cmd, "overlay 2d", {0.3f, 0.9f, 0.9f, 1.0f});
+  std::vector<OverlayVertex> tris, lines;
+  buildOverlay(f.extent, tris, lines);
+  const std::size_t total =
+      std::min<std::size_t>(tris.size() + lines.size(), kMaxOverlayVertices);
+  tris.resize(std::min(tris.size(), total));
+  lines.resize(std::min(lines.size(), total - tris.size()) & ~std::size_t(1));
+  auto* dst = static_cast<OverlayVertex*>(slot.overlay.mapped());
+  std::memcpy(dst, tris.data(), tris.size() * sizeof(OverlayVertex));
+  std::memcpy(dst + tris.size(), lines.data(), lines.size() * sizeof(OverlayVertex));
+  const glm::vec2 inv(1.0f / f.extent.width, 1.0f / f.extent.height);
+  const VkBuffer ovb = slot.overlay.handle();
+  const VkDescriptorSet set = shadow_->lightingSet();
+  vkCmdBindVertexBuffers(cmd, 0, 1, &ovb, &zero);
+  for (int k = 0; k < 2; ++k) {
+    const engine::GraphicsPipeline& p = k == 0 ? overlayTris_ : overlayLines_;
+    const std::size_t count = k == 0 ? tris.size() : lines.size();
+    if (count == 0) continue;
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 1, &set, 0,
+                            nullptr);
+    vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(inv), &inv);
+    vkCmdDraw(cmd, static_cast<std::uint32_t>(count), 1,
+              k == 0 ? 0u : static_cast<std::uint32_t>(tris.size()), 0);
   }
-  vkCmdEndRendering(cmd);
-  if (settings_.receiverSplits) recordDepthRange(f);
-  stats.cpuRecordMs = msSince(t0);
+  timer.end(cmd, "overlay");
 }
 
 void WorldRenderer::recordDepthRange(const engine::Frame& f) {

@@ -100,8 +100,19 @@ class WorldRenderer {
     engine::Buffer overlay;
     VkDescriptorSet frameSet = VK_NULL_HANDLE;
   };
+  // The constructor's stages, in order.
+  void uploadMeshes(const World& world);     // every asset and caster-cluster LOD, one store
+  void buildViewGroups(const World& world);  // per-chunk culling groups, the dynamic casters
+  void setUpShadowView(const World& world);  // the shadow view and its casters
+  void createFrameResources();               // per-frame uniforms, instances, overlay vertices
+  void createPipelines();                    // shader modules and the overlay pipelines
   void buildLitPipeline();
   void recordDepthRange(const engine::Frame& f);
+  // record()'s passes: the shadow pass (with its statistics), then inside one rendering the lit
+  // pass and the overlay.
+  void recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& timer, FrameStats& stats);
+  void recordLitPass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer, bool overlay);
+  void recordOverlay(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer);
   void buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& tris,
                     std::vector<OverlayVertex>& lines) const;
 
