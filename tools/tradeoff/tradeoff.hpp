@@ -8,6 +8,8 @@
 #include <csm/vulkan/shadow_renderer.hpp>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
+#include <optional>
 #include <sample_world/paths.hpp>
 #include <string>
 #include <vector>
@@ -130,14 +132,35 @@ struct Row {
 
 // ---- The command line (tradeoff_cli.cpp)
 void usage(std::FILE* out);
+/// Reads the command line into `o`; returns the exit code when the program should stop (--help:
+/// 0, an unknown argument: 2, with the usage printed).
+std::optional<int> parseArgs(int argc, char** argv, Options& o);
 
 // ---- The sweep (tradeoff_sweep.cpp)
 csm::Camera cameraAt(const world::CameraPose& p, double aspect);
 void progress(size_t done, size_t total, const std::string& what, double elapsedS);
+/// The configurations to measure: cascade count x resolution x caster LODs, then one axis at a
+/// time around the defaults (or the LOD study's schedules).
+std::vector<Config> sweepConfigs(const Options& o);
+/// Generates the world, measures every configuration on poses along the path and returns the
+/// rows; `info` says what was measured where, `device` names the GPU.
+std::vector<Row> runSweep(const Options& o, std::string& info, std::string& device,
+                          const std::function<double()>& elapsed);
 
 // ---- The CSV, the front, the table, the plot and the advice (tradeoff_report.cpp)
 /// Rows of a CSV this tool wrote (for --replot).
 std::vector<Row> readCsv(const std::string& path);
+/// Marks the Pareto front of (GPU ms, misclassification).
+void markParetoFront(std::vector<Row>& rows);
+void writeCsv(const std::vector<Row>& rows, const std::string& csv);
+/// The Markdown table on stdout, the front marked.
+void printTable(const std::vector<Row>& rows, const std::string& info);
+/// OUT/tradeoff_front.dat, OUT/tradeoff.gp and the gnuplot PNG OUT/tradeoff.png.
+void writePlot(const std::vector<Row>& rows, const std::string& out, const std::string& csv,
+               const std::string& info);
+/// Per --budget-ms: the most accurate configuration that fits, and why.
+void printAdvice(const std::vector<Row>& rows, const std::vector<double>& budgetsMs,
+                 const std::string& device);
 
 // ---- --fit-study (tradeoff_fit_study.cpp)
 int runFitStudy(const Options& o);

@@ -2,6 +2,8 @@
 #include "tradeoff.hpp"
 
 #include <cstdio>
+#include <optional>
+#include <stdexcept>
 #include <string>
 
 namespace tradeoff {
@@ -28,6 +30,46 @@ void usage(std::FILE* out) {
       "and resolutions (under a minute).\n  paths:");
   for (const std::string& n : world::pathNames()) std::fprintf(out, " %s", n.c_str());
   std::fprintf(out, "\n");
+}
+
+std::optional<int> parseArgs(int argc, char** argv, Options& o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--quick") {
+      o.quick = true;
+    } else if (a == "--replot") {
+      o.replot = true;
+    } else if (a == "--fit-study") {
+      o.fitStudy = true;
+    } else if (a == "--path") {
+      o.path = next();
+    } else if (a == "--out") {
+      o.out = next();
+    } else if (a == "--budget-ms") {
+      o.budgetsMs.push_back(std::stod(next()));
+    } else if (a == "--width") {
+      o.width = uint32_t(std::stoul(next()));
+    } else if (a == "--height") {
+      o.height = uint32_t(std::stoul(next()));
+    } else if (a == "--lod-study") {
+      o.lodStudy = true;
+    } else if (a == "--help" || a == "-h") {
+      usage(stdout);
+      return 0;
+    } else {
+      usage(stderr);
+      return 2;
+    }
+  }
+  if (o.quick) {
+    o.width = 320;
+    o.height = 180;
+  }
+  return std::nullopt;
 }
 
 }  // namespace tradeoff

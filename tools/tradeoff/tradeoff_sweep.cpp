@@ -1,10 +1,25 @@
 // csm_tradeoff: the sweep (configurations measured on poses along a path).
 #include "tradeoff.hpp"
 
-#include <cstdio>
+#include <csm_measure/harness.hpp>
+#include <csm_measure/metrics.hpp>
+#include <csm_measure/raytracer.hpp>
+#include <csm_measure/scene.hpp>
+#include <csm_measure/world_scene.hpp>
 #include <engine/camera.hpp>
 #include <glue/camera.hpp>
+#include <sample_world/settings.hpp>
+#include <sample_world/world.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <fstream>
+#include <functional>
+#include <optional>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace tradeoff {
 
@@ -28,6 +43,271 @@ void progress(size_t done, size_t total, const std::string& what, double elapsed
                eta);
   if (done == total) std::fprintf(stderr, "\n");
   std::fflush(stderr);
+}
+
+std::vector<Config> sweepConfigs(const Options& o) {
+  // Configurations: cascade count x resolution x caster LODs on/off at the other defaults, then
+  // one axis at a time around the defaults (split lambda, kernel, blend band, depth format).
+  std::vector<Config> configs;
+  const std::vector<uint32_t> counts =
+      o.quick ? std::vector<uint32_t>{1, 2, 4} : std::vector<uint32_t>{1, 2, 3, 4, 5, 6};
+  const std::vector<uint32_t> resolutions =
+      o.quick ? std::vector<uint32_t>{512, 1024, 2048}
+              : std::vector<uint32_t>{512, 1024, 2048, 4096, 8192};
+  if (o.lodStudy) {
+    // The default configuration with error-bounded LODs at several budgets (the default: half
+    // a texel), then explicit per-cascade schedules alone (the former default 0,1,2,2 first).
+    for (float e : {0.5f, 2.0f, 8.0f, 32.0f, 64.0f}) {
+      Config cfg;
+      cfg.maxErrorTexels = e;
+      configs.push_back(cfg);
+    }
+    for (const std::vector<uint32_t>& schedule :
+         std::vector<std::vector<uint32_t>>{{0, 1, 2, 2}, {0, 0, 0, 1}, {0, 0, 0, 0}}) {
+      Config cfg;
+      cfg.schedule = schedule;
+      cfg.maxErrorTexels = 0.0f;
+      configs.push_back(cfg);
+    }
+    Config none;
+    none.lods = false;
+    configs.push_back(none);
+  }
+  for (bool lods : {true, false}) {
+    if (o.lodStudy) break;
+    for (uint32_t c : counts) {
+      for (uint32_t r : resolutions) {
+        Config cfg;
+        cfg.cascades = c;
+        cfg.resolution = r;
+        cfg.lods = lods;
+        configs.push_back(cfg);
+      }
+    }
+  }
+  for (double l : {0.0, 0.5, 1.0}) {
+    if (o.lodStudy) break;
+    Config cfg;
+    cfg.lambda = l;
+    configs.push_back(cfg);
+  }
+  for (csm::PcfKernel k : {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent5, csm::PcfKernel::kTent7,
+                           csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
+    if (o.lodStudy) break;
+    Config cfg;
+    cfg.kernel = k;
+    configs.push_back(cfg);
+  }
+  for (double b : {0.0, 0.25}) {
+    if (o.lodStudy) break;
+    Config cfg;
+    cfg.blendBand = b;
+    configs.push_back(cfg);
+  }
+  if (!o.lodStudy) {
+    Config cfg;
+    cfg.format = VK_FORMAT_D16_UNORM;
+    configs.push_back(cfg);
+  }
+  // The fit axes (issue 10): box fit, ladder step (0 = off), receiver-driven splits.
+  for (int k = 0; k < 6; ++k) {
+    if (o.lodStudy) break;
+    Config cfg;
+    if (k == 0) cfg.fit = csm::BoxFit::kTight;
+    if (k == 1) cfg.ladderSteps = 0.0;
+    if (k == 2) cfg.ladderSteps = 4.0;
+    if (k == 3) cfg.ladderSteps = 16.0;
+    if (k == 4) cfg.receivers = true;
+    if (k == 5) {
+      cfg.fit = csm::BoxFit::kTight;
+      cfg.receivers = true;
+    }
+    configs.push_back(cfg);
+  }
+  return configs;
+}
+
+namespace {
+
+/// What every configuration of the sweep is measured with.
+struct SweepRig {
+  const Options& o;
+  const csm_measure::WorldScene& worldScene;
+  const csm_measure::RayTracer& tracer;
+  csm_measure::Harness& harness;
+  const world::FlightPath& path;
+  int poses;
+  int shimmerFrames;
+  int kTimedFrames;
+  VkExtent2D accuracyView;
+  csm::DirectionalLight light;
+  double aspect;
+  std::array<uint32_t, csm::kMaxCascades> cascadeLod;
+};
+
+/// The row of one configuration, or nothing when the harness refuses it (printed).
+std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
+  const Options& o = rig.o;
+  const csm_measure::WorldScene& worldScene = rig.worldScene;
+  const csm_measure::RayTracer& tracer = rig.tracer;
+  csm_measure::Harness& harness = rig.harness;
+  const world::FlightPath* path = &rig.path;
+  const int poses = rig.poses, shimmerFrames = rig.shimmerFrames, kTimedFrames = rig.kTimedFrames;
+  const VkExtent2D accuracyView = rig.accuracyView;
+  const csm::DirectionalLight light = rig.light;
+  const double aspect = rig.aspect;
+  const std::array<uint32_t, csm::kMaxCascades>& cascadeLod = rig.cascadeLod;
+  csm::ShadowSettings s;
+  s.cascadeCount = cfg.cascades;
+  s.resolution = cfg.resolution;
+  s.splitLambda = cfg.lambda;
+  s.blendBand = cfg.blendBand;
+  s.boxFit = cfg.fit;
+  s.sizeLadder = cfg.ladderSteps > 0.0;
+  if (cfg.ladderSteps > 0.0) s.ladderStepsPerOctave = cfg.ladderSteps;
+  harness.setReceiverRange(std::nullopt);
+  csm::vk::RendererOptions ro;
+  ro.depthFormat = cfg.format;
+  ro.lodMaxErrorTexels = cfg.lods ? cfg.maxErrorTexels : 0.0f;
+  const csm::vk::Status st = harness.configure(s, ro);
+  if (!st.ok()) {
+    std::fprintf(stderr, "\nskipping %s: %s\n", cfg.label().c_str(), st.message().c_str());
+    return std::nullopt;
+  }
+  std::array<uint32_t, csm::kMaxCascades> lodOfCascade = cascadeLod;
+  for (size_t c = 0; c < cfg.schedule.size() && c < csm::kMaxCascades; ++c) {
+    lodOfCascade[c] = cfg.schedule[c];
+  }
+  harness.setCasterLods(cfg.lods ? worldScene.lodMeshes : std::vector<std::vector<uint32_t>>{},
+                        lodOfCascade,
+                        cfg.lods ? worldScene.lodErrorM : std::vector<std::vector<float>>{});
+  Row row;
+  row.config = cfg;
+  row.memoryMiB = double(harness.shadowMapBytes()) / (1024.0 * 1024.0);
+  csm_measure::AccuracyStats acc;
+  for (int p = 0; p < poses; ++p) {
+    const double t = (p + 0.5) / poses;
+    const csm::Camera cam = cameraAt(path->at(t), aspect);
+    if (cfg.receivers) {
+      // The receiver range of this pose's full-range frame (what the depth reduction reports
+      // for the frame before).
+      harness.setReceiverRange(std::nullopt);
+      csm::Camera rc = cam;
+      rc.aspect = double(accuracyView.width) / accuracyView.height;
+      csm::CascadeHistory hr;
+      const csm::CascadeFrame fr = harness.computeFrame(rc, light, hr);
+      double lo = 1e300, hi = 0.0;
+      for (const csm_measure::PixelSample& p :
+           harness.renderAccuracy(rc, fr, accuracyView, cfg.kernel)) {
+        const double d = glm::dot(p.posWs - rc.positionWs, rc.forwardWs());
+        lo = std::min(lo, d);
+        hi = std::max(hi, d);
+      }
+      harness.setReceiverRange(hi >= lo ? std::optional<csm::ReceiverDepthRange>(
+                                              csm::ReceiverDepthRange{std::max(0.0, lo), hi})
+                                        : std::nullopt);
+    }
+    csm::CascadeHistory h;
+    // Timing: one warm-up frame, then the fastest of kTimedFrames (lavapipe's timings vary by
+    // tens of percent from frame to frame with the host's scheduling; the minimum is stable).
+    harness.timeFrame(cam, light, h, {o.width, o.height}, cfg.kernel);
+    csm_measure::FrameTimings best{1e30, 1e30, 1e30};
+    for (int k = 0; k < kTimedFrames; ++k) {
+      const csm_measure::FrameTimings ft =
+          harness.timeFrame(cam, light, h, {o.width, o.height}, cfg.kernel);
+      best.shadowGpuMs = std::min(best.shadowGpuMs, ft.shadowGpuMs);
+      best.litGpuMs = std::min(best.litGpuMs, ft.litGpuMs);
+      best.cpuMs = std::min(best.cpuMs, ft.cpuMs);
+    }
+    row.shadowMs += best.shadowGpuMs / poses;
+    row.litMs += best.litGpuMs / poses;
+    row.cpuMs += best.cpuMs / poses;
+    row.triangles += double(harness.shadowTriangles()) / poses;
+    csm::Camera accCam = cam;
+    accCam.aspect = double(accuracyView.width) / accuracyView.height;
+    csm::CascadeHistory ha;
+    const csm::CascadeFrame frame = harness.computeFrame(accCam, light, ha);
+    const std::vector<csm_measure::PixelSample> px =
+        harness.renderAccuracy(accCam, frame, accuracyView, cfg.kernel);
+    acc.merge(csm_measure::measureAccuracy(px, frame, tracer, light));
+    if (p == 0) {
+      // Shimmer at what the first pose sees, over a few frames of the path.
+      std::vector<csm_measure::Receiver> rcv;
+      const size_t step = std::max<size_t>(1, px.size() / 2000);
+      for (size_t i = 0; i < px.size(); i += step) {
+        rcv.push_back({px[i].posWs, px[i].normalWs, csm_measure::InstanceKind::kGround});
+      }
+      const csm_measure::ShimmerRun sh = csm_measure::measureShimmer(
+          harness, rcv, light,
+          [&](int f) {
+            csm::Camera c = cameraAt(path->at(t + 2e-4 * f), aspect);
+            c.aspect = accCam.aspect;
+            return c;
+          },
+          shimmerFrames, cfg.kernel);
+      row.shimmerMean = sh.total.stayed.mean();
+      row.shimmerMax = sh.total.stayed.max;
+    }
+  }
+  row.misclassification = acc.overall.rate();
+  row.meanError = acc.overall.meanAbsError();
+  row.pixels = acc.overall.pixels;
+  return row;
+}
+
+}  // namespace
+
+std::vector<Row> runSweep(const Options& o, std::string& info, std::string& device,
+                          const std::function<double()>& elapsed) {
+  // The world: small enough to generate in seconds, the path's origin (10^7 m for "far").
+  world::WorldDesc wd;
+  wd.treeCount = o.quick ? 3000 : 8000;
+  wd.rockCount = 400;
+  wd.buildingCount = 40;
+  wd.originWs = world::pathWorldOrigin(o.path, wd.sizeM);
+  world::WorldError err;
+  std::optional<world::World> w = world::generateWorld(wd, &err);
+  if (!w) throw std::runtime_error("generateWorld: " + err.message);
+  std::optional<world::FlightPath> path = world::FlightPath::make(o.path, *w, 60.0);
+  if (!path) throw std::runtime_error("unknown path " + o.path);
+  const csm_measure::WorldScene worldScene = csm_measure::sceneFromWorld(*w);
+  const csm_measure::Scene& scene = worldScene.scene;
+  std::fprintf(stderr, "world: %zu caster clusters, %llu triangles; path %s (%.1f s)\n",
+               scene.instances().size(), (unsigned long long)scene.triangleCount(),
+               o.path.c_str(), elapsed());
+  const csm_measure::RayTracer tracer(scene);
+
+  csm_measure::HarnessDesc hd;
+  hd.validation = false;
+  hd.appName = "csm_tradeoff";
+  csm_measure::Harness harness(hd);
+  harness.setScene(scene);
+  const std::array<uint32_t, csm::kMaxCascades> cascadeLod = world::AppSettings().cascadeLod;
+  device = harness.context().properties().deviceName;
+  const std::vector<Config> configs = sweepConfigs(o);
+
+  const int poses = o.quick ? 2 : 5;
+  const int shimmerFrames = o.quick ? 4 : 8;
+  const int kTimedFrames = 2;
+  const VkExtent2D accuracyView = o.quick ? VkExtent2D{240, 135} : VkExtent2D{320, 180};
+  const csm::DirectionalLight light{glm::normalize(glm::dvec3(0.45, -0.8, -0.35))};
+  const double aspect = double(o.width) / double(o.height);
+  const SweepRig rig{o,     worldScene,   tracer, harness,      *path, poses, shimmerFrames,
+                     kTimedFrames, accuracyView, light,  aspect, cascadeLod};
+  std::vector<Row> rows;
+  for (size_t ci = 0; ci < configs.size(); ++ci) {
+    progress(ci, configs.size(), configs[ci].label(), elapsed());
+    if (std::optional<Row> row = measureConfig(rig, configs[ci])) rows.push_back(*row);
+  }
+  progress(configs.size(), configs.size(), "done", elapsed());
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "device: %s; path %s, %d pose(s), view %ux%u (timing), %ux%u (accuracy)",
+                device.c_str(), o.path.c_str(), poses, o.width, o.height, accuracyView.width,
+                accuracyView.height);
+  info = buf;
+  std::ofstream(o.out + "/tradeoff_info.txt") << info << "\n";
+  return rows;
 }
 
 }  // namespace tradeoff
