@@ -357,82 +357,93 @@ std::vector<PixelSample> Harness::renderAccuracy(const csm::Camera& camera,
   const engine::Camera cam = glue::toEngineCamera(camera);
   const glm::mat4 viewProjCr = cam.viewProjectionCr();
   std::memcpy(accuracy_->frameUniforms.mapped(), &viewProjCr, sizeof(viewProjCr));
-  AccuracyTargets& t = *accuracy_;
   ctx_->submitAndWait([&](VkCommandBuffer cmd) {
     recordShadow(cmd, frame);
-    for (auto& image : t.images) {
-      engine::imageBarrier(cmd, image.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
-                           VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE,
-                           VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                           VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-                           VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-    }
-    engine::imageBarrier(
-        cmd, t.depth.handle(), VK_IMAGE_ASPECT_DEPTH_BIT,
-        VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-        VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
-            VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-        VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-    {
-      engine::ScopedLabel label(cmd, "measure accuracy pass");
-      VkRenderingAttachmentInfo color[3];
-      for (int i = 0; i < 3; ++i) {
-        color[i] = vkStruct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
-        color[i].imageView = t.images[i].view();
-        color[i].imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-        color[i].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-        color[i].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-        color[i].clearValue.color = VkClearColorValue{{0.0f, 0.0f, 0.0f, 0.0f}};
-      }
-      auto depth = vkStruct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
-      depth.imageView = t.depth.view();
-      depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-      depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-      depth.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-      depth.clearValue.depthStencil = {1.0f, 0};
-      auto ri = vkStruct<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
-      ri.renderArea = {{0, 0}, extent};
-      ri.layerCount = 1;
-      ri.colorAttachmentCount = 3;
-      ri.pColorAttachments = color;
-      ri.pDepthAttachment = &depth;
-      vkCmdBeginRendering(cmd, &ri);
-      engine::setViewportAndScissor(cmd, extent);
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline.pipeline);
-      const VkDescriptorSet sets[2] = {t.set, view_->lightingSet()};
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline.layout, 0, 2,
-                              sets, 0, nullptr);
-      meshes_->bind(cmd);
-      for (const Instance& in : instances_) {
-        AccuracyPush push{};
-        push.modelCr = glm::mat4(in.linearWs);
-        push.modelCr[3] = glm::vec4(glm::vec3(in.translationWs - camera.positionWs), 1.0f);
-        const glm::mat3 normalMatrix = glm::transpose(glm::inverse(in.linearWs));
-        for (int i = 0; i < 3; ++i) push.normalToWs[i] = glm::vec4(normalMatrix[i], 0.0f);
-        vkCmdPushConstants(cmd, pipeline.pipeline.layout, VK_SHADER_STAGE_VERTEX_BIT, 0,
-                           sizeof(push), &push);
-        const engine::MeshRange& m = meshRanges_[in.mesh];
-        vkCmdDrawIndexed(cmd, m.indexCount, 1, m.firstIndex, m.vertexOffset, 0);
-      }
-      vkCmdEndRendering(cmd);
-    }
-    for (int i = 0; i < 3; ++i) {
-      engine::imageBarrier(cmd, t.images[i].handle(), VK_IMAGE_ASPECT_COLOR_BIT,
-                           VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-                           VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
-                           VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-                           VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
-      VkBufferImageCopy region{};
-      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-      region.imageExtent = {extent.width, extent.height, 1};
-      vkCmdCopyImageToBuffer(cmd, t.images[i].handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                             t.readback[i].handle(), 1, &region);
-    }
-    engine::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
-                          VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+    recordAccuracyPass(cmd, camera.positionWs, extent, pipeline);
   });
+  return readAccuracySamples(camera.positionWs, extent, shadowImage);
+}
 
+void Harness::recordAccuracyPass(VkCommandBuffer cmd, const glm::dvec3& cameraWs,
+                                 VkExtent2D extent, AccuracyPipeline& pipeline) {
+  AccuracyTargets& t = *accuracy_;
+  for (auto& image : t.images) {
+    engine::imageBarrier(cmd, image.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
+                         VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE,
+                         VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                         VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+                         VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+  }
+  engine::imageBarrier(
+      cmd, t.depth.handle(), VK_IMAGE_ASPECT_DEPTH_BIT,
+      VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+  {
+    engine::ScopedLabel label(cmd, "measure accuracy pass");
+    VkRenderingAttachmentInfo color[3];
+    for (int i = 0; i < 3; ++i) {
+      color[i] = vkStruct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+      color[i].imageView = t.images[i].view();
+      color[i].imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+      color[i].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      color[i].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+      color[i].clearValue.color = VkClearColorValue{{0.0f, 0.0f, 0.0f, 0.0f}};
+    }
+    auto depth = vkStruct<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+    depth.imageView = t.depth.view();
+    depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    depth.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    depth.clearValue.depthStencil = {1.0f, 0};
+    auto ri = vkStruct<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
+    ri.renderArea = {{0, 0}, extent};
+    ri.layerCount = 1;
+    ri.colorAttachmentCount = 3;
+    ri.pColorAttachments = color;
+    ri.pDepthAttachment = &depth;
+    vkCmdBeginRendering(cmd, &ri);
+    engine::setViewportAndScissor(cmd, extent);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline.pipeline);
+    const VkDescriptorSet sets[2] = {t.set, view_->lightingSet()};
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline.layout, 0, 2,
+                            sets, 0, nullptr);
+    meshes_->bind(cmd);
+    for (const Instance& in : instances_) {
+      AccuracyPush push{};
+      push.modelCr = glm::mat4(in.linearWs);
+      push.modelCr[3] = glm::vec4(glm::vec3(in.translationWs - cameraWs), 1.0f);
+      const glm::mat3 normalMatrix = glm::transpose(glm::inverse(in.linearWs));
+      for (int i = 0; i < 3; ++i) push.normalToWs[i] = glm::vec4(normalMatrix[i], 0.0f);
+      vkCmdPushConstants(cmd, pipeline.pipeline.layout, VK_SHADER_STAGE_VERTEX_BIT, 0,
+                         sizeof(push), &push);
+      const engine::MeshRange& m = meshRanges_[in.mesh];
+      vkCmdDrawIndexed(cmd, m.indexCount, 1, m.firstIndex, m.vertexOffset, 0);
+    }
+    vkCmdEndRendering(cmd);
+  }
+  for (int i = 0; i < 3; ++i) {
+    engine::imageBarrier(cmd, t.images[i].handle(), VK_IMAGE_ASPECT_COLOR_BIT,
+                         VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+                         VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
+                         VK_ACCESS_2_TRANSFER_READ_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                         VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {extent.width, extent.height, 1};
+    vkCmdCopyImageToBuffer(cmd, t.images[i].handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                           t.readback[i].handle(), 1, &region);
+  }
+  engine::memoryBarrier(cmd, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_WRITE_BIT,
+                        VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
+}
+
+std::vector<PixelSample> Harness::readAccuracySamples(const glm::dvec3& cameraWs,
+                                                      VkExtent2D extent,
+                                                      engine::CpuImage* shadowImage) const {
+  const AccuracyTargets& t = *accuracy_;
   const auto* pos = static_cast<const glm::vec4*>(t.readback[0].mapped());
   const auto* nrm = static_cast<const glm::vec4*>(t.readback[1].mapped());
   const auto* fp = static_cast<const glm::vec4*>(t.readback[2].mapped());
@@ -463,7 +474,7 @@ std::vector<PixelSample> Harness::renderAccuracy(const csm::Camera& camera,
       PixelSample p;
       p.x = x;
       p.y = y;
-      p.posWs = camera.positionWs + glm::dvec3(glm::vec3(pos[i]));
+      p.posWs = cameraWs + glm::dvec3(glm::vec3(pos[i]));
       p.normalWs = glm::vec3(nrm[i]);
       p.shadow = pos[i].w;
       p.cascade = std::isfinite(nrm[i].w) ? int(std::lround(nrm[i].w)) : -2;

@@ -142,6 +142,12 @@ class Harness {
   struct AccuracyTargets;
   void recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame);
   AccuracyPipeline& accuracyPipeline(csm::PcfKernel kernel, bool blend);
+  // renderAccuracy's stages: the pass into the three targets (and their copies to the readback
+  // buffers), then the readback into samples (and the shadow-factor image).
+  void recordAccuracyPass(VkCommandBuffer cmd, const glm::dvec3& cameraWs, VkExtent2D extent,
+                          AccuracyPipeline& pipeline);
+  std::vector<PixelSample> readAccuracySamples(const glm::dvec3& cameraWs, VkExtent2D extent,
+                                               engine::CpuImage* shadowImage) const;
   void ensureAccuracyTargets(VkExtent2D extent);
   void ensureTimingTarget(VkExtent2D extent);
 
