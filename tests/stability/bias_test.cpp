@@ -88,14 +88,11 @@ csm::Camera poleCamera() {
   engine::Camera e;
   e.positionWs = glm::dvec3(0.0, 8.0, 12.0);
   e.lookAt(glm::dvec3(0.0, 0.0, -6.0));
-  csm::Camera c;
-  c.positionWs = e.positionWs;
-  c.orientationWs = e.orientation;
-  c.fovYRad = glm::radians(60.0);
-  c.aspect = double(kView.width) / kView.height;
-  c.nearM = 0.1;
-  c.farM = 1000.0;
-  return c;
+  e.fovYRad = glm::radians(60.0);
+  e.aspect = double(kView.width) / kView.height;
+  e.nearM = 0.1;
+  e.farM = 1000.0;
+  return glue::toCsmCamera(e);
 }
 
 struct Variant {

@@ -96,14 +96,11 @@ csm::Camera softCamera(const glm::dvec3& originWs, const glm::dvec3& offsetLocal
   engine::Camera e;
   e.positionWs = originWs + glm::dvec3(1.5, 7.0, 2.0) + offsetLocal;
   e.lookAt(originWs + glm::dvec3(1.5, 0.0, -9.0) + offsetLocal);
-  csm::Camera c;
-  c.positionWs = e.positionWs;
-  c.orientationWs = e.orientation;
-  c.fovYRad = glm::radians(60.0);
-  c.aspect = double(kView.width) / kView.height;
-  c.nearM = 0.1;
-  c.farM = 500.0;
-  return c;
+  e.fovYRad = glm::radians(60.0);
+  e.aspect = double(kView.width) / kView.height;
+  e.nearM = 0.1;
+  e.farM = 500.0;
+  return glue::toCsmCamera(e);
 }
 
 // 4 cascades of 1024^2 over 40 m: texels of 1-3 cm where the box's penumbrae fall (they are

@@ -10,6 +10,7 @@
 #include <csm_measure/scene.hpp>
 #include <engine/debug.hpp>
 #include <engine/errors.hpp>
+#include <glue/camera.hpp>
 
 #include <cmath>
 #include <filesystem>
@@ -42,14 +43,11 @@ inline csm::Camera baseCamera(const glm::dvec3& originWs, double aspect = 16.0 /
   engine::Camera e;
   e.positionWs = originWs + glm::dvec3(0.0, 7.0, 28.0);
   e.lookAt(originWs + glm::dvec3(0.0, 0.0, -25.0));
-  csm::Camera c;
-  c.positionWs = e.positionWs;
-  c.orientationWs = e.orientation;
-  c.fovYRad = glm::radians(60.0);
-  c.aspect = aspect;
-  c.nearM = 0.1;
-  c.farM = 1000.0;
-  return c;
+  e.fovYRad = glm::radians(60.0);
+  e.aspect = aspect;
+  e.nearM = 0.1;
+  e.farM = 1000.0;
+  return glue::toCsmCamera(e);
 }
 
 /// Settings of the shimmer tests: 4 cascades of 1024^2 over 120 m.
