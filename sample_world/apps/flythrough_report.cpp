@@ -49,7 +49,6 @@ json cascadesJson(const world::FrameStats& st) {
   return arr;
 }
 
-
 json frameJson(int i, double t, const engine::Camera& cam, const world::FrameStats& st,
                double cpuMs) {
   return {{"index", i},
@@ -99,8 +98,7 @@ json summaryJson(const std::vector<json>& framesJson, const world::AppSettings& 
   };
   json summary = {
       {"cpu_setup_ms", mean([](const json& f) { return f["cpu_ms"]["setup"].get<double>(); })},
-      {"cpu_culling_ms",
-       mean([](const json& f) { return f["cpu_ms"]["culling"].get<double>(); })},
+      {"cpu_culling_ms", mean([](const json& f) { return f["cpu_ms"]["culling"].get<double>(); })},
       {"cpu_record_ms", mean([](const json& f) { return f["cpu_ms"]["record"].get<double>(); })},
       {"gpu_shadow_ms", mean([](const json& f) { return f["gpu_ms"]["shadow"].get<double>(); })},
       {"gpu_lit_ms", mean([](const json& f) { return f["gpu_ms"]["lit"].get<double>(); })},
@@ -161,16 +159,16 @@ json worldJson(const world::World& w, const world::WorldRenderer& renderer,
   std::snprintf(hash, sizeof(hash), "%016llx",
                 static_cast<unsigned long long>(world::worldHash(w)));
   return {{"seed", w.desc.seed},
-                     {"size_m", w.desc.sizeM},
-                     {"origin_ws", {w.desc.originWs.x, w.desc.originWs.y, w.desc.originWs.z}},
-                     {"hash", hash},
-                     {"objects", w.objects.size()},
-                     {"objects_by_kind", kinds},
-                     {"objects_not_casting", noCast},
-                     {"objects_not_receiving", noReceive},
-                     {"caster_clusters", w.clusters.size()},
-                     {"caster_triangles_by_lod", lodTris},
-                     {"user_mesh", meshPath}};
+          {"size_m", w.desc.sizeM},
+          {"origin_ws", {w.desc.originWs.x, w.desc.originWs.y, w.desc.originWs.z}},
+          {"hash", hash},
+          {"objects", w.objects.size()},
+          {"objects_by_kind", kinds},
+          {"objects_not_casting", noCast},
+          {"objects_not_receiving", noReceive},
+          {"caster_clusters", w.clusters.size()},
+          {"caster_triangles_by_lod", lodTris},
+          {"user_mesh", meshPath}};
 }
 
 void writeReport(const json& report, const std::string& out) {

@@ -496,7 +496,8 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
 
   recordShadowPass(cmd, timer, stats);
   recordLitPass(f, slot, timer, overlay);
-  if (overlay && (settings_.overlayThumbnails || settings_.overlayMap)) recordOverlay(f, slot, timer);
+  if (overlay && (settings_.overlayThumbnails || settings_.overlayMap))
+    recordOverlay(f, slot, timer);
   vkCmdEndRendering(cmd);
   if (settings_.receiverSplits) recordDepthRange(f);
   stats.cpuRecordMs = msSince(t0);
@@ -610,8 +611,7 @@ void WorldRenderer::recordOverlay(const engine::Frame& f, Slot& slot, engine::Gp
   engine::ScopedLabel label(cmd, "overlay 2d", {0.3f, 0.9f, 0.9f, 1.0f});
   std::vector<OverlayVertex> tris, lines;
   buildOverlay(f.extent, tris, lines);
-  const std::size_t total =
-      std::min<std::size_t>(tris.size() + lines.size(), kMaxOverlayVertices);
+  const std::size_t total = std::min<std::size_t>(tris.size() + lines.size(), kMaxOverlayVertices);
   tris.resize(std::min(tris.size(), total));
   lines.resize(std::min(lines.size(), total - tris.size()) & ~std::size_t(1));
   auto* dst = static_cast<OverlayVertex*>(slot.overlay.mapped());
@@ -626,8 +626,7 @@ void WorldRenderer::recordOverlay(const engine::Frame& f, Slot& slot, engine::Gp
     const std::size_t count = k == 0 ? tris.size() : lines.size();
     if (count == 0) continue;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.pipeline);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 1, &set, 0,
-                            nullptr);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 1, &set, 0, nullptr);
     vkCmdPushConstants(cmd, p.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(inv), &inv);
     vkCmdDraw(cmd, static_cast<std::uint32_t>(count), 1,
               k == 0 ? 0u : static_cast<std::uint32_t>(tris.size()), 0);

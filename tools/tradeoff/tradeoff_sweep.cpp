@@ -273,8 +273,8 @@ std::vector<Row> runSweep(const Options& o, std::string& info, std::string& devi
   const csm_measure::WorldScene worldScene = csm_measure::sceneFromWorld(*w);
   const csm_measure::Scene& scene = worldScene.scene;
   std::fprintf(stderr, "world: %zu caster clusters, %llu triangles; path %s (%.1f s)\n",
-               scene.instances().size(), (unsigned long long)scene.triangleCount(),
-               o.path.c_str(), elapsed());
+               scene.instances().size(), (unsigned long long)scene.triangleCount(), o.path.c_str(),
+               elapsed());
   const csm_measure::RayTracer tracer(scene);
 
   csm_measure::HarnessDesc hd;
@@ -292,8 +292,9 @@ std::vector<Row> runSweep(const Options& o, std::string& info, std::string& devi
   const VkExtent2D accuracyView = o.quick ? VkExtent2D{240, 135} : VkExtent2D{320, 180};
   const csm::DirectionalLight light{glm::normalize(glm::dvec3(0.45, -0.8, -0.35))};
   const double aspect = double(o.width) / double(o.height);
-  const SweepRig rig{o,     worldScene,   tracer, harness,      *path, poses, shimmerFrames,
-                     kTimedFrames, accuracyView, light,  aspect, cascadeLod};
+  const SweepRig rig{o,      worldScene,    tracer,       harness,      *path,
+                     poses,  shimmerFrames, kTimedFrames, accuracyView, light,
+                     aspect, cascadeLod};
   std::vector<Row> rows;
   for (size_t ci = 0; ci < configs.size(); ++ci) {
     progress(ci, configs.size(), configs[ci].label(), elapsed());

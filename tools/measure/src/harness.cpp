@@ -364,8 +364,8 @@ std::vector<PixelSample> Harness::renderAccuracy(const csm::Camera& camera,
   return readAccuracySamples(camera.positionWs, extent, shadowImage);
 }
 
-void Harness::recordAccuracyPass(VkCommandBuffer cmd, const glm::dvec3& cameraWs,
-                                 VkExtent2D extent, AccuracyPipeline& pipeline) {
+void Harness::recordAccuracyPass(VkCommandBuffer cmd, const glm::dvec3& cameraWs, VkExtent2D extent,
+                                 AccuracyPipeline& pipeline) {
   AccuracyTargets& t = *accuracy_;
   for (auto& image : t.images) {
     engine::imageBarrier(cmd, image.handle(), VK_IMAGE_ASPECT_COLOR_BIT,
@@ -375,8 +375,8 @@ void Harness::recordAccuracyPass(VkCommandBuffer cmd, const glm::dvec3& cameraWs
                          VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
   }
   engine::imageBarrier(
-      cmd, t.depth.handle(), VK_IMAGE_ASPECT_DEPTH_BIT,
-      VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT, VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      cmd, t.depth.handle(), VK_IMAGE_ASPECT_DEPTH_BIT, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
       VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
           VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
@@ -417,8 +417,8 @@ void Harness::recordAccuracyPass(VkCommandBuffer cmd, const glm::dvec3& cameraWs
       push.modelCr[3] = glm::vec4(glm::vec3(in.translationWs - cameraWs), 1.0f);
       const glm::mat3 normalMatrix = glm::transpose(glm::inverse(in.linearWs));
       for (int i = 0; i < 3; ++i) push.normalToWs[i] = glm::vec4(normalMatrix[i], 0.0f);
-      vkCmdPushConstants(cmd, pipeline.pipeline.layout, VK_SHADER_STAGE_VERTEX_BIT, 0,
-                         sizeof(push), &push);
+      vkCmdPushConstants(cmd, pipeline.pipeline.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push),
+                         &push);
       const engine::MeshRange& m = meshRanges_[in.mesh];
       vkCmdDrawIndexed(cmd, m.indexCount, 1, m.firstIndex, m.vertexOffset, 0);
     }
@@ -440,8 +440,7 @@ void Harness::recordAccuracyPass(VkCommandBuffer cmd, const glm::dvec3& cameraWs
                         VK_PIPELINE_STAGE_2_HOST_BIT, VK_ACCESS_2_HOST_READ_BIT);
 }
 
-std::vector<PixelSample> Harness::readAccuracySamples(const glm::dvec3& cameraWs,
-                                                      VkExtent2D extent,
+std::vector<PixelSample> Harness::readAccuracySamples(const glm::dvec3& cameraWs, VkExtent2D extent,
                                                       engine::CpuImage* shadowImage) const {
   const AccuracyTargets& t = *accuracy_;
   const auto* pos = static_cast<const glm::vec4*>(t.readback[0].mapped());
