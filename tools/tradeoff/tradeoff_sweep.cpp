@@ -292,9 +292,18 @@ std::vector<Row> runSweep(const Options& o, std::string& info, std::string& devi
   const VkExtent2D accuracyView = o.quick ? VkExtent2D{240, 135} : VkExtent2D{320, 180};
   const csm::DirectionalLight light{glm::normalize(glm::dvec3(0.45, -0.8, -0.35))};
   const double aspect = double(o.width) / double(o.height);
-  const SweepRig rig{o,      worldScene,    tracer,       harness,      *path,
-                     poses,  shimmerFrames, kTimedFrames, accuracyView, light,
-                     aspect, cascadeLod};
+  const SweepRig rig{.o = o,
+                     .worldScene = worldScene,
+                     .tracer = tracer,
+                     .harness = harness,
+                     .path = *path,
+                     .poses = poses,
+                     .shimmerFrames = shimmerFrames,
+                     .kTimedFrames = kTimedFrames,
+                     .accuracyView = accuracyView,
+                     .light = light,
+                     .aspect = aspect,
+                     .cascadeLod = cascadeLod};
   std::vector<Row> rows;
   for (size_t ci = 0; ci < configs.size(); ++ci) {
     progress(ci, configs.size(), configs[ci].label(), elapsed());
