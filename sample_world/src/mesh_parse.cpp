@@ -446,12 +446,17 @@ class PlyBody {
   std::size_t pos_ = 0;
 };
 
-ParsedMesh parsePly(std::string_view data) {
-  Lines lines(data);
+/// A PLY header: the format and the elements with their properties.
+struct PlyHeader {
+  PlyFormat format = PlyFormat::kAscii;
+  std::vector<PlyElement> elements;
+};
+
+/// Reads the header lines after "ply" up to and including "end_header" (refused: unknown
+/// keywords, bad types or counts, more than kMaxPlyHeaderLines lines, no format line).
+PlyHeader readPlyHeader(Lines& lines) {
   std::string_view line;
   std::vector<std::string_view> tokens;
-  if (!lines.next(line) || line != "ply")
-    refuse("not a valid PLY file: the first line is not 'ply'");
   std::optional<PlyFormat> format;
   std::vector<PlyElement> elements;
   bool ended = false;
@@ -513,6 +518,17 @@ ParsedMesh parsePly(std::string_view data) {
     }
   }
   if (!format) refuse("the header has no 'format' line");
+  return {*format, std::move(elements)};
+}
+
+ParsedMesh parsePly(std::string_view data) {
+  Lines lines(data);
+  std::string_view line;
+  if (!lines.next(line) || line != "ply")
+    refuse("not a valid PLY file: the first line is not 'ply'");
+  const PlyHeader header = readPlyHeader(lines);
+  const std::optional<PlyFormat> format = header.format;
+  const std::vector<PlyElement>& elements = header.elements;
   const std::string_view body = data.substr(lines.offset());
   // Counts against the body's size before anything is allocated.
   std::uint64_t needed = 0;
