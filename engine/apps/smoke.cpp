@@ -9,6 +9,7 @@
 #include <cstring>
 #include <glm/gtc/matrix_transform.hpp>
 #include <memory>
+#include <span>
 #include <string>
 
 #include <csm_shaders/engine_mesh.frag.spv.h>
@@ -71,6 +72,46 @@ struct Object {
   glm::vec4 color;
 };
 
+engine::GraphicsPipeline makePipeline(engine::Context& ctx, const engine::RenderTarget& target) {
+  auto vs = engine::createShaderModule(ctx.device(), engine_mesh_vert_spv, "smoke.mesh.vert");
+  auto fs = engine::createShaderModule(ctx.device(), engine_mesh_frag_spv, "smoke.mesh.frag");
+  const VkVertexInputBindingDescription binding = engine::MeshStore::bindingDescription();
+  return engine::GraphicsPipelineBuilder()
+      .vertexShader(vs)
+      .fragmentShader(fs)
+      .vertexInput({&binding, 1}, engine::MeshStore::attributeDescriptions())
+      .colorFormat(target.colorFormat())
+      .depthFormat(target.depthFormat())
+      .cullMode(VK_CULL_MODE_BACK_BIT)
+      .pushConstants(VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, sizeof(MeshPush))
+      .build(ctx, "smoke.mesh.pipeline");
+}
+
+/// Draws the objects (spun by `frame` frames) inside the current rendering.
+void drawObjects(VkCommandBuffer cmd, const engine::GraphicsPipeline& pipeline,
+                 const engine::MeshStore& meshes, const engine::MeshRange& cube,
+                 const engine::Camera& camera, std::span<const Object> objects, int frame) {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline);
+  meshes.bind(cmd);
+  const glm::mat4 viewProj = camera.viewProjectionCr();
+  for (const Object& o : objects) {
+    const glm::mat4 rotation =
+        glm::rotate(glm::mat4(1.0f), o.spin * float(frame), glm::vec3(0, 1, 0));
+    const glm::mat4 model = glm::translate(glm::mat4(1.0f), camera.toCameraRelative(o.positionWs)) *
+                            rotation * glm::scale(glm::mat4(1.0f), o.scale);
+    MeshPush push{};
+    push.mvpCr = viewProj * model;
+    const glm::mat3 normal = glm::transpose(
+        glm::inverse(glm::mat3(rotation) * glm::mat3(glm::scale(glm::mat4(1.0f), o.scale))));
+    for (int c = 0; c < 3; ++c) push.normalToWs[c] = glm::vec4(normal[c], 0.0f);
+    push.color = o.color;
+    vkCmdPushConstants(cmd, pipeline.layout,
+                       VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push),
+                       &push);
+    vkCmdDrawIndexed(cmd, cube.indexCount, 1, cube.firstIndex, cube.vertexOffset, 0);
+  }
+}
+
 int run(const Options& opt) {
   engine::ContextDesc desc;
   desc.appName = "csm_engine_smoke";
@@ -102,20 +143,7 @@ int run(const Options& opt) {
     engine::makeCube(vertices, indices);
     const engine::MeshRange cube = meshes.upload(vertices, indices);
 
-    auto vs = engine::createShaderModule(ctx.device(), engine_mesh_vert_spv, "smoke.mesh.vert");
-    auto fs = engine::createShaderModule(ctx.device(), engine_mesh_frag_spv, "smoke.mesh.frag");
-    const VkVertexInputBindingDescription binding = engine::MeshStore::bindingDescription();
-    engine::GraphicsPipeline pipeline =
-        engine::GraphicsPipelineBuilder()
-            .vertexShader(vs)
-            .fragmentShader(fs)
-            .vertexInput({&binding, 1}, engine::MeshStore::attributeDescriptions())
-            .colorFormat(target->colorFormat())
-            .depthFormat(target->depthFormat())
-            .cullMode(VK_CULL_MODE_BACK_BIT)
-            .pushConstants(VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT,
-                           sizeof(MeshPush))
-            .build(ctx, "smoke.mesh.pipeline");
+    const engine::GraphicsPipeline pipeline = makePipeline(ctx, *target);
     engine::GpuTimer timer(ctx);
 
     // A scene 10^6 m from the origin: camera-relative rendering keeps it exact in float.
@@ -154,26 +182,7 @@ int run(const Options& opt) {
         engine::ScopedLabel label(cmd, "smoke pass");
         timer.begin(cmd, "smoke pass");
         engine::beginRendering(*frame, VkClearColorValue{{0.05f, 0.07f, 0.1f, 1.0f}});
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline);
-        meshes.bind(cmd);
-        const glm::mat4 viewProj = camera.viewProjectionCr();
-        for (const Object& o : objects) {
-          const glm::mat4 rotation =
-              glm::rotate(glm::mat4(1.0f), o.spin * float(rendered), glm::vec3(0, 1, 0));
-          const glm::mat4 model =
-              glm::translate(glm::mat4(1.0f), camera.toCameraRelative(o.positionWs)) * rotation *
-              glm::scale(glm::mat4(1.0f), o.scale);
-          MeshPush push{};
-          push.mvpCr = viewProj * model;
-          const glm::mat3 normal = glm::transpose(
-              glm::inverse(glm::mat3(rotation) * glm::mat3(glm::scale(glm::mat4(1.0f), o.scale))));
-          for (int c = 0; c < 3; ++c) push.normalToWs[c] = glm::vec4(normal[c], 0.0f);
-          push.color = o.color;
-          vkCmdPushConstants(cmd, pipeline.layout,
-                             VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, 0,
-                             sizeof(push), &push);
-          vkCmdDrawIndexed(cmd, cube.indexCount, 1, cube.firstIndex, cube.vertexOffset, 0);
-        }
+        drawObjects(cmd, pipeline, meshes, cube, camera, objects, rendered);
         vkCmdEndRendering(cmd);
         timer.end(cmd, "smoke pass");
       }
