@@ -3,8 +3,9 @@
 //   GPU ms of the shadow pass and of the lit pass (timestamp queries), CPU ms (cascade math,
 //   culling, recording), shadow-map memory, triangles the shadow pass draws, misclassification
 //   rate and mean |s - v| of every receiver pixel against Embree shadow rays (full-detail
-//   triangles, also with caster LODs on), and stabilised shimmer at the receivers the first pose
-//   sees, over a few frames of the path.
+//   triangles, also with caster LODs on), mean |s - v_soft| against the sun as a 0.53 degree disk
+//   (soft err: what PCSS is for), and stabilised shimmer at the receivers the first pose sees,
+//   over a few frames of the path.
 // Axes: cascade count 1..6 x resolution 512..8192 x caster LODs on/off (each cascade draws the
 // sample world's simplified caster meshes at the fly-through's default LOD for it: 0, 1, 2, 2...),
 // then split lambda, PCF kernel, blend band, depth format, box fit, size-ladder step (or off) and
@@ -24,6 +25,7 @@
 #include <csm_measure/metrics.hpp>
 #include <csm_measure/raytracer.hpp>
 #include <csm_measure/scene.hpp>
+#include <csm_measure/soft_truth.hpp>
 #include <csm_measure/world_scene.hpp>
 #include <engine/camera.hpp>
 #include <engine/errors.hpp>
@@ -151,6 +153,7 @@ struct Row {
   double shadowMs = 0, litMs = 0, cpuMs = 0;
   double memoryMiB = 0;
   double misclassification = 0, meanError = 0;
+  double softError = -1;  ///< mean |s - v_soft| against a sun of 0.53 degrees; -1: not measured
   double shimmerMean = 0, shimmerMax = 0;
   double triangles = 0;  ///< triangles the shadow pass draws per frame (mean over poses)
   uint64_t pixels = 0;
@@ -218,11 +221,12 @@ std::vector<Row> readCsv(const std::string& path) {
     r.shimmerMax = std::stod(f[15]);
     r.triangles = std::stod(f[16]);
     r.pixels = std::stoull(f[17]);
-    if (f.size() == 23) {
+    if (f.size() >= 23) {
       r.config.fit = f[20] == "tight" ? csm::BoxFit::kTight : csm::BoxFit::kSphere;
       r.config.ladderSteps = std::stod(f[21]);
       r.config.receivers = f[22] == "1";
     }
+    if (f.size() >= 24) r.softError = std::stod(f[23]);
     rows.push_back(r);
   }
   return rows;
@@ -563,6 +567,10 @@ int run(int argc, char** argv) {
     const VkExtent2D accuracyView = o.quick ? VkExtent2D{240, 135} : VkExtent2D{320, 180};
     const csm::DirectionalLight light{glm::normalize(glm::dvec3(0.45, -0.8, -0.35))};
     const double aspect = double(o.width) / double(o.height);
+    // Soft truth (sun 0.53 degrees, 256 rays per pixel) of each pose's receivers: they do not
+    // depend on the shadow settings, so it is traced once per pose (soft_truth.hpp).
+    std::vector<std::vector<float>> softTruth(static_cast<size_t>(poses));
+    std::vector<std::vector<glm::dvec3>> softPositions(static_cast<size_t>(poses));
 
     for (size_t ci = 0; ci < configs.size(); ++ci) {
       const Config& cfg = configs[ci];
@@ -595,6 +603,7 @@ int run(int argc, char** argv) {
       row.config = cfg;
       row.memoryMiB = double(harness.shadowMapBytes()) / (1024.0 * 1024.0);
       csm_measure::AccuracyStats acc;
+      csm_measure::SoftErrorStats soft;
       for (int p = 0; p < poses; ++p) {
         const double t = (p + 0.5) / poses;
         const csm::Camera cam = cameraAt(path->at(t), aspect);
@@ -640,6 +649,22 @@ int run(int argc, char** argv) {
         const std::vector<csm_measure::PixelSample> px =
             harness.renderAccuracy(accCam, frame, accuracyView, cfg.kernel);
         acc.merge(csm_measure::measureAccuracy(px, frame, tracer, light));
+        std::vector<float>& st = softTruth[size_t(p)];
+        std::vector<glm::dvec3>& sp = softPositions[size_t(p)];
+        bool same = st.size() == px.size();
+        for (size_t i = 0; same && i < px.size(); i += 97) same = px[i].posWs == sp[i / 97];
+        if (!same) {
+          st = csm_measure::softTruthOfReceivers(px, tracer, light, 0.53);
+          sp.clear();
+          for (size_t i = 0; i < px.size(); i += 97) sp.push_back(px[i].posWs);
+        }
+        std::vector<float> compared = st;
+        for (size_t i = 0; i < px.size(); ++i) {
+          if (px[i].cascade < 0) compared[i] = -1.0f;
+        }
+        const csm_measure::SoftErrorStats se = csm_measure::measureSoftError(px, compared);
+        soft.pixels += se.pixels;
+        soft.absErrorSum += se.absErrorSum;
         if (p == 0) {
           // Shimmer at what the first pose sees, over a few frames of the path.
           std::vector<csm_measure::Receiver> rcv;
@@ -661,6 +686,7 @@ int run(int argc, char** argv) {
       }
       row.misclassification = acc.overall.rate();
       row.meanError = acc.overall.meanAbsError();
+      row.softError = soft.meanAbsError();
       row.pixels = acc.overall.pixels;
       rows.push_back(row);
     }
@@ -687,20 +713,21 @@ int run(int argc, char** argv) {
     std::ofstream f(csv);
     f << "cascades,resolution,lambda,kernel,blend_band,format,lods,shadow_gpu_ms,lit_gpu_ms,"
          "gpu_ms,cpu_ms,memory_mib,misclassification,mean_abs_error,shimmer_mean,shimmer_max,"
-         "shadow_triangles,pixels,pareto,default,box_fit,ladder_steps,receiver_splits\n";
+         "shadow_triangles,pixels,pareto,default,box_fit,ladder_steps,receiver_splits,"
+         "mean_abs_error_soft\n";
     for (const Row& r : rows) {
       const Config& c = r.config;
       char line[512];
       std::snprintf(line, sizeof line,
                     "%u,%u,%.2f,%s,%.2f,%s,%d,%.3f,%.3f,%.3f,%.3f,%.1f,%.5f,%.5f,%.3e,%.4f,%.0f,"
-                    "%llu,%d,%d,%s,%.0f,%d\n",
+                    "%llu,%d,%d,%s,%.0f,%d,%.5f\n",
                     c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
                     c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lods ? 1 : 0, r.shadowMs,
                     r.litMs, r.gpuMs(), r.cpuMs, r.memoryMiB, r.misclassification, r.meanError,
                     r.shimmerMean, r.shimmerMax, r.triangles, (unsigned long long)r.pixels,
                     r.pareto ? 1 : 0, c.isDefault() ? 1 : 0,
                     c.fit == csm::BoxFit::kTight ? "tight" : "sphere", c.ladderSteps,
-                    c.receivers ? 1 : 0);
+                    c.receivers ? 1 : 0, r.softError);
       f << line;
     }
   }
@@ -708,17 +735,18 @@ int run(int argc, char** argv) {
   std::printf("%s\n\n", info.c_str());
   std::printf(
       "| cascades | resolution | lambda | kernel | band | format | LODs | shadow ms | lit ms | "
-      "CPU ms | MiB | misclassified | mean err | shimmer max | shadow tris | fit | front |\n"
-      "|---:|---:|---:|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n");
+      "CPU ms | MiB | misclassified | mean err | soft err | shimmer max | shadow tris | fit | "
+      "front |\n"
+      "|---:|---:|---:|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n");
   for (const Row& r : rows) {
     const Config& c = r.config;
     std::printf(
         "| %u | %u | %.2f | %s | %.2f | %s | %s | %.2f | %.2f | %.2f | %.0f | %.3f%% | %.4f | "
-        "%.4f | %.0f | %s | %s |\n",
+        "%.4f | %.4f | %.0f | %s | %s |\n",
         c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
         c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lodLabel().c_str(), r.shadowMs, r.litMs,
-        r.cpuMs, r.memoryMiB, 100.0 * r.misclassification, r.meanError, r.shimmerMax, r.triangles,
-        c.fitLabel().empty() ? "-" : c.fitLabel().c_str() + 1,
+        r.cpuMs, r.memoryMiB, 100.0 * r.misclassification, r.meanError, r.softError, r.shimmerMax,
+        r.triangles, c.fitLabel().empty() ? "-" : c.fitLabel().c_str() + 1,
         r.pareto ? (c.isDefault() ? "yes (default)" : "yes") : (c.isDefault() ? "(default)" : ""));
   }
   // The plot: every configuration (LODs on filled, off hollow), the front (sorted by time) as a
