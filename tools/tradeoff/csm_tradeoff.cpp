@@ -190,8 +190,8 @@ std::vector<Row> readCsv(const std::string& path) {
       f.push_back(line.substr(p, q - p));
     }
     f.push_back(line.substr(p));
-    // 20 columns before the fit axes were added, 23 since.
-    if (f.size() != 20 && f.size() != 23) {
+    // 20 columns before the fit axes were added, 23 since, 24 with the soft error.
+    if (f.size() != 20 && f.size() != 23 && f.size() != 24) {
       throw std::runtime_error("--replot: bad line in " + path + ": " + line);
     }
     Row r;
@@ -740,12 +740,14 @@ int run(int argc, char** argv) {
       "|---:|---:|---:|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n");
   for (const Row& r : rows) {
     const Config& c = r.config;
+    char soft[32] = "-";  // not measured (a CSV from before the column)
+    if (r.softError >= 0.0) std::snprintf(soft, sizeof soft, "%.4f", r.softError);
     std::printf(
         "| %u | %u | %.2f | %s | %.2f | %s | %s | %.2f | %.2f | %.2f | %.0f | %.3f%% | %.4f | "
-        "%.4f | %.4f | %.0f | %s | %s |\n",
+        "%s | %.4f | %.0f | %s | %s |\n",
         c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
         c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lodLabel().c_str(), r.shadowMs, r.litMs,
-        r.cpuMs, r.memoryMiB, 100.0 * r.misclassification, r.meanError, r.softError, r.shimmerMax,
+        r.cpuMs, r.memoryMiB, 100.0 * r.misclassification, r.meanError, soft, r.shimmerMax,
         r.triangles, c.fitLabel().empty() ? "-" : c.fitLabel().c_str() + 1,
         r.pareto ? (c.isDefault() ? "yes (default)" : "yes") : (c.isDefault() ? "(default)" : ""));
   }
