@@ -10,9 +10,9 @@
 // normals (unit length). Resources (set CSM_SET): the CsmUniforms block at CSM_BINDING_UNIFORMS
 // (C++: csm/gpu_layout.hpp), the shadow map through a comparison sampler at
 // CSM_BINDING_SHADOW_MAP and through a plain nearest sampler at CSM_BINDING_SHADOW_DEPTH (debug
-// outputs and the PCSS blocker search). Variants are specialization constants: CSM_SPEC_KERNEL
-// (PCF kernel), CSM_SPEC_BLEND (0: hard switch at the split, 1: blend across the band) and
-// CSM_SPEC_PCSS_TAPS (taps of the PCSS blocker search and filter).
+// outputs and PCSS, whose taps compare texel by texel). Variants are specialization constants:
+// CSM_SPEC_KERNEL (PCF kernel), CSM_SPEC_BLEND (0: hard switch at the split, 1: blend across the
+// band) and CSM_SPEC_PCSS_TAPS (taps of the PCSS blocker search and filter).
 // Define CSM_UNIFORMS_ONLY to declare only the uniform block (the depth pass does).
 #ifndef CSM_GLSL
 #define CSM_GLSL
@@ -219,7 +219,7 @@ float csmPcfPoisson(vec2 t, float scale, float layer, float depth, vec2 pixel) {
 // hides the part of the disk that its outline covers inside a circle of radius d tan(a) about the
 // receiver's own texel (similar triangles, measured in light space, i.e. on the shadow map's
 // plane). So: (1) search the raw depths around the receiver for blockers and average their
-// distance d, (2) filter with comparison taps spread uniformly over a disk of radius d tan(a).
+// distance d, (2) filter with bilinear taps spread uniformly over a disk of radius d tan(a).
 // Radii are in metres and converted with each cascade's texel size, so the penumbra is the same
 // in every cascade and across a blend band. Every texel a tap reads is compared with the
 // receiver's plane at that texel's centre (the plane from the normal, so it also works in compute
@@ -269,7 +269,8 @@ vec4 csmPcssGather(int i, vec2 base) {
   const vec4 d = textureGather(csmDepthMap, vec3(csmWrapUv(base + 1.0, i), float(i)));
   if (csmU.counts.w == 0u) return d;
   const float res = csmU.params.z;
-  const bvec2 in0 = bvec2(base.x >= 0.0 && base.x <= res - 1.0, base.y >= 0.0 && base.y <= res - 1.0);
+  const bvec2 in0 =
+      bvec2(base.x >= 0.0 && base.x <= res - 1.0, base.y >= 0.0 && base.y <= res - 1.0);
   const bvec2 in1 = bvec2(base.x + 1.0 >= 0.0 && base.x + 1.0 <= res - 1.0,
                           base.y + 1.0 >= 0.0 && base.y + 1.0 <= res - 1.0);
   return vec4(in0.x && in1.y ? d.x : 1.0, in1.x && in1.y ? d.y : 1.0,
