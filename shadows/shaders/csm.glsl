@@ -10,9 +10,9 @@
 // normals (unit length). Resources (set CSM_SET): the CsmUniforms block at CSM_BINDING_UNIFORMS
 // (C++: csm/gpu_layout.hpp), the shadow map through a comparison sampler at
 // CSM_BINDING_SHADOW_MAP and through a plain nearest sampler at CSM_BINDING_SHADOW_DEPTH (debug
-// outputs and the PCSS blocker search). Variants are specialization constants: CSM_SPEC_KERNEL
-// (PCF kernel), CSM_SPEC_BLEND (0: hard switch at the split, 1: blend across the band) and
-// CSM_SPEC_PCSS_TAPS (taps of the PCSS blocker search and filter).
+// outputs and PCSS, whose taps compare texel by texel). Variants are specialization constants:
+// CSM_SPEC_KERNEL (PCF kernel), CSM_SPEC_BLEND (0: hard switch at the split, 1: blend across the
+// band) and CSM_SPEC_PCSS_TAPS (taps of the PCSS blocker search and filter).
 // Define CSM_UNIFORMS_ONLY to declare only the uniform block (the depth pass does).
 #ifndef CSM_GLSL
 #define CSM_GLSL
@@ -219,11 +219,12 @@ float csmPcfPoisson(vec2 t, float scale, float layer, float depth, vec2 pixel) {
 // hides the part of the disk that its outline covers inside a circle of radius d tan(a) about the
 // receiver's own texel (similar triangles, measured in light space, i.e. on the shadow map's
 // plane). So: (1) search the raw depths around the receiver for blockers and average their
-// distance d, (2) filter with comparison taps spread uniformly over a disk of radius d tan(a).
+// distance d, (2) filter with bilinear taps spread uniformly over a disk of radius d tan(a).
 // Radii are in metres and converted with each cascade's texel size, so the penumbra is the same
-// in every cascade and across a blend band. Every tap is compared against the receiver's plane
-// (from its normal, so it also works in compute shaders), not its centre depth: wide kernels on
-// slopes do not shadow themselves.
+// in every cascade and across a blend band. Every texel a tap reads is compared with the
+// receiver's plane at that texel's centre (the plane from the normal, so it also works in compute
+// shaders), not with one depth per tap: wide kernels on slopes do not shadow themselves, and no
+// normal offset moves the receiver (and so the shadow edge) sideways.
 
 /// Receiver plane in the map of cascade i: change of stored depth per texel of offset.
 vec2 csmPcssDepthSlope(int i, vec3 normalWs) {
@@ -261,11 +262,46 @@ vec2 csmVogel(int k, int n, float a) {
   return r * vec2(cos(phi), sin(phi));
 }
 
+/// Raw depths of the 2x2 texels (base, base + 1) of cascade i, in textureGather order: (i0, j1),
+/// (i1, j1), (i1, j0), (i0, j0). A wrapped layer repeats: texels outside the cascade's box read
+/// the far plane (no blocker, lit), as the border of an unwrapped map does.
+vec4 csmPcssGather(int i, vec2 base) {
+  const vec4 d = textureGather(csmDepthMap, vec3(csmWrapUv(base + 1.0, i), float(i)));
+  if (csmU.counts.w == 0u) return d;
+  const float res = csmU.params.z;
+  const bvec2 in0 =
+      bvec2(base.x >= 0.0 && base.x <= res - 1.0, base.y >= 0.0 && base.y <= res - 1.0);
+  const bvec2 in1 = bvec2(base.x + 1.0 >= 0.0 && base.x + 1.0 <= res - 1.0,
+                          base.y + 1.0 >= 0.0 && base.y + 1.0 <= res - 1.0);
+  return vec4(in0.x && in1.y ? d.x : 1.0, in1.x && in1.y ? d.y : 1.0,
+              in1.x && in0.y ? d.z : 1.0, in0.x && in0.y ? d.w : 1.0);
+}
+
+/// The receiver's plane at the centres of the 2x2 texels (base, base + 1), gather order: the
+/// depth to compare each texel with (c: the receiver's map coordinates, slope: csmPcssDepthSlope).
+vec4 csmPcssPlaneDepth(vec3 c, vec2 slope, vec2 base) {
+  const vec2 o = base + 0.5 - c.xy;
+  return c.z + vec4(dot(slope, o + vec2(0.0, 1.0)), dot(slope, o + vec2(1.0, 1.0)),
+                    dot(slope, o + vec2(1.0, 0.0)), dot(slope, o));
+}
+
+/// A bilinear comparison tap at map point p of cascade i whose four texels are each compared with
+/// the receiver's plane at their OWN centre (a comparison sampler compares all four with one
+/// depth). A sloped receiver then never shadows itself within the tap's footprint, so PCSS needs
+/// no normal offset, which would move every shadow edge toward its caster.
+float csmPcssTap(int i, vec3 c, vec2 slope, vec2 p) {
+  const vec2 f = p - 0.5;
+  const vec2 base = floor(f);
+  const vec4 lit =
+      vec4(lessThanEqual(csmPcssPlaneDepth(c, slope, base), csmPcssGather(i, base)));
+  const vec2 w = f - base;
+  return mix(mix(lit.w, lit.z, w.x), mix(lit.x, lit.y, w.x), w.y);
+}
+
 /// Average distance (m) between the receiver's plane and the blockers found within `radius`
 /// texels of t (raw depths, 2x2 texels per gather) whose penumbra reaches t; negative when there
 /// is none.
 float csmPcssBlockerDistance(int i, vec3 c, vec2 slope, float radius, float angle) {
-  const float layer = float(i);
   const float metresPerDepth = csmU.cascades[i].depthInfo.y;
   // Texels of penumbra radius per metre between blocker and receiver.
   const float reachPerMetre = csmU.softParams.x / max(csmU.cascades[i].splitTexel.z, 1e-9);
@@ -277,23 +313,8 @@ float csmPcssBlockerDistance(int i, vec3 c, vec2 slope, float radius, float angl
   for (int k = 0; k < csmPcssTaps; ++k) {
     const vec2 p = c.xy + csmVogel(k, csmPcssTaps, angle) * radius;
     const vec2 base = floor(p - 0.5);  // texel (i0, j0) of the 2x2 footprint about p
-    vec4 d = textureGather(csmDepthMap, vec3(csmWrapUv(base + 1.0, i), layer));
-    // Gather order: (i0, j1), (i1, j1), (i1, j0), (i0, j0); texel centres at index + 0.5.
-    if (csmU.counts.w != 0u) {
-      // A wrapped layer repeats: texels outside the cascade's box read the far plane (no
-      // blocker), as the border of an unwrapped map does.
-      const float res = csmU.params.z;
-      const bvec2 in0 = bvec2(base.x >= 0.0 && base.x <= res - 1.0,
-                              base.y >= 0.0 && base.y <= res - 1.0);
-      const bvec2 in1 = bvec2(base.x + 1.0 >= 0.0 && base.x + 1.0 <= res - 1.0,
-                              base.y + 1.0 >= 0.0 && base.y + 1.0 <= res - 1.0);
-      d = vec4(in0.x && in1.y ? d.x : 1.0, in1.x && in1.y ? d.y : 1.0,
-               in1.x && in0.y ? d.z : 1.0, in0.x && in0.y ? d.w : 1.0);
-    }
-    const vec2 o = base + 0.5 - c.xy;
-    const vec4 ref = c.z + vec4(dot(slope, o + vec2(0.0, 1.0)), dot(slope, o + vec2(1.0, 1.0)),
-                                dot(slope, o + vec2(1.0, 0.0)), dot(slope, o));
-    const vec4 gap = ref - d;
+    const vec2 o = base + 0.5 - c.xy;   // texel centres at index + 0.5
+    const vec4 gap = csmPcssPlaneDepth(c, slope, base) - csmPcssGather(i, base);
     // Only blockers whose penumbra cone reaches the receiver count: lateral distance (texels)
     // within gap * tan(a), plus a texel of slack. A tall wall a few texels away does not widen
     // the penumbra at its own foot.
@@ -309,13 +330,31 @@ float csmPcssBlockerDistance(int i, vec3 c, vec2 slope, float radius, float angl
   return count > 0.0 ? sum / count * metresPerDepth : -1.0;
 }
 
-/// PCSS shadow factor of cascade i at a receiver (map coordinates c from csmShadowCoord).
-float csmPcss(int i, vec3 c, vec3 normalWs) {
-  const float layer = float(i);
+/// Map coordinates of a receiver for PCSS: xy where the receiver itself projects, z its depth
+/// less the bias. Every comparison is against the receiver's plane texel by texel (csmPcssTap),
+/// so a plane needs no offset to clear its own texels; what remains is a second surface rising
+/// from the plane (the foot of a lit wall), whose first texels lie above the plane's
+/// extrapolation. So the plane is lifted along the normal by params.y x texel x sin(theta), as
+/// the normal offset lifts it for the single tap (the same leak bound at contacts), but only in
+/// depth (params.y texels of the plane's slope): the receiver is not moved sideways, and the
+/// shadow edge stays where the caster puts it (a normal offset moves every edge toward its
+/// caster, by params.y x texel x sin^2(theta)). Plus the depth floor, as csmShadowCoord.
+vec3 csmPcssCoord(int i, vec3 posCr, vec2 slope) {
+  const vec4 st = csmU.cascades[i].splitTexel;
+  const vec4 clip = csmU.cascades[i].viewProjCr * vec4(posCr, 1.0);
+  const float metresPerDepth = max(csmU.cascades[i].depthInfo.y, 1e-30);
+  const float floorDepth = csmU.biasParams.x * st.z / metresPerDepth + csmU.biasParams.y;
+  const float lift = csmU.params.y * length(slope);
+  return vec3((clip.xy * 0.5 + 0.5) * csmU.params.z, clip.z - floorDepth - lift);
+}
+
+/// PCSS shadow factor of cascade i at a receiver.
+float csmPcss(int i, vec3 posCr, vec3 normalWs) {
+  const vec2 slope = csmPcssDepthSlope(i, normalWs);
+  const vec3 c = csmPcssCoord(i, posCr, slope);
   const float texelM = max(csmU.cascades[i].splitTexel.z, 1e-9);
   const float tanHalf = csmU.softParams.x;
   const float maxRadiusM = csmU.softParams.y;
-  const vec2 slope = csmPcssDepthSlope(i, normalWs);
   const float angle = csmPcssAngle(i, c.xy);
   // Search as far as the widest penumbra: the setting, in metres. (Not the distance to the near
   // side of the cascade's depth range: that moves in steps as the camera turns, and the search
@@ -324,18 +363,17 @@ float csmPcss(int i, vec3 c, vec3 normalWs) {
   const float blockerM = csmPcssBlockerDistance(i, c, slope, searchTexels, angle);
   // No blocker above the plane: what the bilinear comparison at the centre says (near contact a
   // blocker may sit within the plane's tolerance).
-  if (blockerM < 0.0) return csmTap(c.xy, layer, c.z);
+  if (blockerM < 0.0) return csmPcssTap(i, c, slope, c.xy);
   const float radiusM = min(blockerM * tanHalf, maxRadiusM);
   // Each bilinear tap blurs by a tent of +-1 texel (variance 1/6 texel^2 per axis); a uniform
   // disk of radius r has r^2 / 4. Shrink the disk so that the two together spread as far as the
   // true penumbra. A penumbra narrower than the bilinear tap's own is the single tap.
   const float radiusTexels = radiusM / texelM;
   const float radius = sqrt(max(radiusTexels * radiusTexels - 0.6667, 0.0));
-  if (radius < 0.05) return csmTap(c.xy, layer, c.z);
+  if (radius < 0.05) return csmPcssTap(i, c, slope, c.xy);
   float sum = 0.0;
   for (int k = 0; k < csmPcssTaps; ++k) {
-    const vec2 o = csmVogel(k, csmPcssTaps, angle) * radius;
-    sum += csmTap(c.xy + o, layer, c.z + dot(slope, o));
+    sum += csmPcssTap(i, c, slope, c.xy + csmVogel(k, csmPcssTaps, angle) * radius);
   }
   return sum / float(csmPcssTaps);
 }
@@ -366,12 +404,12 @@ vec3 csmShadowCoord(int i, vec3 posCr, vec3 normalWs) {
 
 /// Filtered shadow factor of cascade i at a receiver: 1 lit, 0 in shadow.
 float csmSampleCascade(int i, vec3 posCr, vec3 normalWs, vec2 pixel) {
+  if (csmKernel == CSM_KERNEL_PCSS) return csmPcss(i, posCr, normalWs);
   const vec3 c = csmShadowCoord(i, posCr, normalWs);
   const float layer = float(i);
   const float scale = csmU.cascades[i].splitTexel.w;
   if (csmKernel == CSM_KERNEL_1TAP) return csmTap(c.xy, layer, c.z);
   if (csmKernel == CSM_KERNEL_POISSON16) return csmPcfPoisson(c.xy, scale, layer, c.z, pixel);
-  if (csmKernel == CSM_KERNEL_PCSS) return csmPcss(i, c, normalWs);
   return csmPcfTent(c.xy, scale, layer, c.z);
 }
 

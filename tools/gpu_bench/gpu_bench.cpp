@@ -6,9 +6,10 @@
 //   1. shadow pass (and lit pass with tent3x3) per resolution x cascade count x render mode;
 //   2. lit pass per kernel x cascade count at 2048.
 // Usage: csm_gpu_bench [--quick] [--frames N] [--width W --height H] [--kernel-cost ROUNDS]
-// --kernel-cost prints only the lit pass of tent 3x3 / 5x5 / 7x7 and PCSS (4 cascades of 2048^2),
-// measured in ROUNDS interleaved rounds (each round measures every kernel once), as the median
-// and as a ratio to tent 3x3: a comparison that the machine's drift cannot bias.
+// --kernel-cost prints only the lit pass of tent 3x3 / 5x5 / 7x7 and PCSS with 8 / 16 / 32 taps
+// (4 cascades of 2048^2), measured in ROUNDS interleaved rounds (each round measures every kernel
+// once), as the median and as a ratio to tent 3x3: a comparison that the machine's drift cannot
+// bias.
 #include <csm/core.hpp>
 #include <csm/gpu_layout.hpp>
 #include <csm/vulkan/shadow_renderer.hpp>
@@ -86,8 +87,10 @@ class Bench {
   std::string deviceName() const { return ctx_->properties().deviceName; }
 
   /// Average GPU ms of {shadow pass, lit pass} over opt_.frames frames after one warm-up.
+  /// `pcssTaps`: PCSS's tap count (specialisation constant CSM_SPEC_PCSS_TAPS).
   std::pair<double, double> measure(uint32_t resolution, uint32_t cascades, csm::PcfKernel kernel,
-                                    csm::vk::RenderMode mode) {
+                                    csm::vk::RenderMode mode,
+                                    uint32_t pcssTaps = CSM_PCSS_DEFAULT_TAPS) {
     csm::ShadowSettings settings;
     settings.resolution = resolution;
     settings.cascadeCount = cascades;
@@ -96,10 +99,10 @@ class Bench {
     options.renderMode = mode;
     const csm::vk::Status st = view_->setSettings(settings, options);
     if (!st.ok()) throw std::runtime_error("update: " + st.message());
-    auto& lit = lit_[uint32_t(kernel)];
+    auto& lit = lit_[uint32_t(kernel) | pcssTaps << 8];
     if (!lit) {
       lit = glue::makeLitPass(*ctx_, target_->colorFormat(), target_->depthFormat(),
-                              view_->lightingSetLayout(), kernel, true);
+                              view_->lightingSetLayout(), kernel, true, pcssTaps);
     }
     const csm::Camera cam = glue::toCsmCamera(camera_);
     view_->resetHistory();
@@ -200,16 +203,24 @@ class Bench {
 
 // Lit pass of the wide kernels against PCSS, interleaved (see the file comment).
 int kernelCost(Bench& bench, int rounds) {
-  const std::vector<std::pair<const char*, csm::PcfKernel>> kernels = {
-      {"tent3x3", csm::PcfKernel::kTent3},
-      {"tent5x5", csm::PcfKernel::kTent5},
-      {"tent7x7", csm::PcfKernel::kTent7},
-      {"pcss", csm::PcfKernel::kPcss}};
+  struct K {
+    const char* name;
+    csm::PcfKernel kernel;
+    uint32_t pcssTaps;
+  };
+  const std::vector<K> kernels = {{"tent3x3", csm::PcfKernel::kTent3, CSM_PCSS_DEFAULT_TAPS},
+                                  {"tent5x5", csm::PcfKernel::kTent5, CSM_PCSS_DEFAULT_TAPS},
+                                  {"tent7x7", csm::PcfKernel::kTent7, CSM_PCSS_DEFAULT_TAPS},
+                                  {"pcss 8 taps", csm::PcfKernel::kPcss, 8},
+                                  {"pcss 16 taps", csm::PcfKernel::kPcss, 16},
+                                  {"pcss 32 taps", csm::PcfKernel::kPcss, 32}};
   std::vector<std::vector<double>> ms(kernels.size());
   for (int r = 0; r < rounds; ++r) {
     for (size_t k = 0; k < kernels.size(); ++k) {
-      ms[k].push_back(
-          bench.measure(2048, 4, kernels[k].second, csm::vk::RenderMode::kPerLayer).second);
+      ms[k].push_back(bench
+                          .measure(2048, 4, kernels[k].kernel, csm::vk::RenderMode::kPerLayer,
+                                   kernels[k].pcssTaps)
+                          .second);
     }
   }
   auto median = [](std::vector<double> v) {
@@ -222,7 +233,7 @@ int kernelCost(Bench& bench, int rounds) {
   for (size_t k = 0; k < kernels.size(); ++k) {
     std::vector<double> ratio;
     for (int r = 0; r < rounds; ++r) ratio.push_back(ms[k][size_t(r)] / ms[0][size_t(r)]);
-    std::printf("| %s | %.2f | %.2f |\n", kernels[k].first, median(ms[k]), median(ratio));
+    std::printf("| %s | %.2f | %.2f |\n", kernels[k].name, median(ms[k]), median(ratio));
   }
   return 0;
 }

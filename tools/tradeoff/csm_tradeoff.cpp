@@ -3,8 +3,9 @@
 //   GPU ms of the shadow pass and of the lit pass (timestamp queries), CPU ms (cascade math,
 //   culling, recording), shadow-map memory, triangles the shadow pass draws, misclassification
 //   rate and mean |s - v| of every receiver pixel against Embree shadow rays (full-detail
-//   triangles, also with caster LODs on), and stabilised shimmer at the receivers the first pose
-//   sees, over a few frames of the path.
+//   triangles, also with caster LODs on), mean |s - v_soft| against the sun as a 0.53 degree disk
+//   (soft err: what PCSS is for), and stabilised shimmer at the receivers the first pose sees,
+//   over a few frames of the path.
 // Axes: cascade count 1..6 x resolution 512..8192 x caster LODs on/off (each cascade draws the
 // sample world's simplified caster meshes at the fly-through's default LOD for it: 0, 1, 2, 2...),
 // then split lambda, PCF kernel, blend band, depth format, box fit, size-ladder step (or off) and

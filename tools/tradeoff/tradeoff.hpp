@@ -123,6 +123,7 @@ struct Row {
   double shadowMs = 0, litMs = 0, cpuMs = 0;
   double memoryMiB = 0;
   double misclassification = 0, meanError = 0;
+  double softError = -1;  ///< mean |s - v_soft| against a sun of 0.53 degrees; -1: not measured
   double shimmerMean = 0, shimmerMax = 0;
   double triangles = 0;  ///< triangles the shadow pass draws per frame (mean over poses)
   uint64_t pixels = 0;

@@ -27,8 +27,8 @@ std::vector<Row> readCsv(const std::string& path) {
       f.push_back(line.substr(p, q - p));
     }
     f.push_back(line.substr(p));
-    // 20 columns before the fit axes were added, 23 since.
-    if (f.size() != 20 && f.size() != 23) {
+    // 20 columns before the fit axes were added, 23 since, 24 with the soft error.
+    if (f.size() != 20 && f.size() != 23 && f.size() != 24) {
       throw std::runtime_error("--replot: bad line in " + path + ": " + line);
     }
     Row r;
@@ -58,11 +58,12 @@ std::vector<Row> readCsv(const std::string& path) {
     r.shimmerMax = std::stod(f[15]);
     r.triangles = std::stod(f[16]);
     r.pixels = std::stoull(f[17]);
-    if (f.size() == 23) {
+    if (f.size() >= 23) {
       r.config.fit = f[20] == "tight" ? csm::BoxFit::kTight : csm::BoxFit::kSphere;
       r.config.ladderSteps = std::stod(f[21]);
       r.config.receivers = f[22] == "1";
     }
+    if (f.size() >= 24) r.softError = std::stod(f[23]);
     rows.push_back(r);
   }
   return rows;
@@ -83,20 +84,21 @@ void writeCsv(const std::vector<Row>& rows, const std::string& csv) {
   std::ofstream f(csv);
   f << "cascades,resolution,lambda,kernel,blend_band,format,lods,shadow_gpu_ms,lit_gpu_ms,"
        "gpu_ms,cpu_ms,memory_mib,misclassification,mean_abs_error,shimmer_mean,shimmer_max,"
-       "shadow_triangles,pixels,pareto,default,box_fit,ladder_steps,receiver_splits\n";
+       "shadow_triangles,pixels,pareto,default,box_fit,ladder_steps,receiver_splits,"
+       "mean_abs_error_soft\n";
   for (const Row& r : rows) {
     const Config& c = r.config;
     char line[512];
     std::snprintf(line, sizeof line,
                   "%u,%u,%.2f,%s,%.2f,%s,%d,%.3f,%.3f,%.3f,%.3f,%.1f,%.5f,%.5f,%.3e,%.4f,%.0f,"
-                  "%llu,%d,%d,%s,%.0f,%d\n",
+                  "%llu,%d,%d,%s,%.0f,%d,%.5f\n",
                   c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
                   c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lods ? 1 : 0, r.shadowMs,
                   r.litMs, r.gpuMs(), r.cpuMs, r.memoryMiB, r.misclassification, r.meanError,
                   r.shimmerMean, r.shimmerMax, r.triangles, (unsigned long long)r.pixels,
                   r.pareto ? 1 : 0, c.isDefault() ? 1 : 0,
                   c.fit == csm::BoxFit::kTight ? "tight" : "sphere", c.ladderSteps,
-                  c.receivers ? 1 : 0);
+                  c.receivers ? 1 : 0, r.softError);
     f << line;
   }
 }
@@ -106,17 +108,20 @@ void printTable(const std::vector<Row>& rows, const std::string& info) {
   std::printf("%s\n\n", info.c_str());
   std::printf(
       "| cascades | resolution | lambda | kernel | band | format | LODs | shadow ms | lit ms | "
-      "CPU ms | MiB | misclassified | mean err | shimmer max | shadow tris | fit | front |\n"
-      "|---:|---:|---:|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n");
+      "CPU ms | MiB | misclassified | mean err | soft err | shimmer max | shadow tris | fit | "
+      "front |\n"
+      "|---:|---:|---:|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|\n");
   for (const Row& r : rows) {
     const Config& c = r.config;
+    char soft[32] = "-";  // not measured (a CSV from before the column)
+    if (r.softError >= 0.0) std::snprintf(soft, sizeof soft, "%.4f", r.softError);
     std::printf(
         "| %u | %u | %.2f | %s | %.2f | %s | %s | %.2f | %.2f | %.2f | %.0f | %.3f%% | %.4f | "
-        "%.4f | %.0f | %s | %s |\n",
+        "%s | %.4f | %.0f | %s | %s |\n",
         c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
         c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lodLabel().c_str(), r.shadowMs, r.litMs,
-        r.cpuMs, r.memoryMiB, 100.0 * r.misclassification, r.meanError, r.shimmerMax, r.triangles,
-        c.fitLabel().empty() ? "-" : c.fitLabel().c_str() + 1,
+        r.cpuMs, r.memoryMiB, 100.0 * r.misclassification, r.meanError, soft, r.shimmerMax,
+        r.triangles, c.fitLabel().empty() ? "-" : c.fitLabel().c_str() + 1,
         r.pareto ? (c.isDefault() ? "yes (default)" : "yes") : (c.isDefault() ? "(default)" : ""));
   }
 }

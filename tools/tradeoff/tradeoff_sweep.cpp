@@ -5,6 +5,7 @@
 #include <csm_measure/metrics.hpp>
 #include <csm_measure/raytracer.hpp>
 #include <csm_measure/scene.hpp>
+#include <csm_measure/soft_truth.hpp>
 #include <csm_measure/world_scene.hpp>
 #include <engine/camera.hpp>
 #include <glue/camera.hpp>
@@ -143,6 +144,10 @@ struct SweepRig {
   csm::DirectionalLight light;
   double aspect;
   std::array<uint32_t, csm::kMaxCascades> cascadeLod;
+  /// Soft truth (sun 0.53 degrees, 256 rays per pixel) of each pose's receivers and a sample of
+  /// their positions: they do not depend on the shadow settings, so it is traced once per pose.
+  std::vector<std::vector<float>>& softTruth;
+  std::vector<std::vector<glm::dvec3>>& softPositions;
 };
 
 /// The row of one configuration, or nothing when the harness refuses it (printed).
@@ -185,6 +190,7 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
   row.config = cfg;
   row.memoryMiB = double(harness.shadowMapBytes()) / (1024.0 * 1024.0);
   csm_measure::AccuracyStats acc;
+  csm_measure::SoftErrorStats soft;
   for (int p = 0; p < poses; ++p) {
     const double t = (p + 0.5) / poses;
     const csm::Camera cam = cameraAt(path->at(t), aspect);
@@ -230,6 +236,22 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
     const std::vector<csm_measure::PixelSample> px =
         harness.renderAccuracy(accCam, frame, accuracyView, cfg.kernel);
     acc.merge(csm_measure::measureAccuracy(px, frame, tracer, light));
+    std::vector<float>& st = rig.softTruth[size_t(p)];
+    std::vector<glm::dvec3>& sp = rig.softPositions[size_t(p)];
+    bool same = st.size() == px.size();
+    for (size_t i = 0; same && i < px.size(); i += 97) same = px[i].posWs == sp[i / 97];
+    if (!same) {
+      st = csm_measure::softTruthOfReceivers(px, tracer, light, 0.53);
+      sp.clear();
+      for (size_t i = 0; i < px.size(); i += 97) sp.push_back(px[i].posWs);
+    }
+    std::vector<float> compared = st;
+    for (size_t i = 0; i < px.size(); ++i) {
+      if (px[i].cascade < 0) compared[i] = -1.0f;
+    }
+    const csm_measure::SoftErrorStats se = csm_measure::measureSoftError(px, compared);
+    soft.pixels += se.pixels;
+    soft.absErrorSum += se.absErrorSum;
     if (p == 0) {
       // Shimmer at what the first pose sees, over a few frames of the path.
       std::vector<csm_measure::Receiver> rcv;
@@ -251,6 +273,7 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
   }
   row.misclassification = acc.overall.rate();
   row.meanError = acc.overall.meanAbsError();
+  row.softError = soft.meanAbsError();
   row.pixels = acc.overall.pixels;
   return row;
 }
@@ -292,6 +315,8 @@ std::vector<Row> runSweep(const Options& o, std::string& info, std::string& devi
   const VkExtent2D accuracyView = o.quick ? VkExtent2D{240, 135} : VkExtent2D{320, 180};
   const csm::DirectionalLight light{glm::normalize(glm::dvec3(0.45, -0.8, -0.35))};
   const double aspect = double(o.width) / double(o.height);
+  std::vector<std::vector<float>> softTruth(static_cast<size_t>(poses));
+  std::vector<std::vector<glm::dvec3>> softPositions(static_cast<size_t>(poses));
   const SweepRig rig{.o = o,
                      .worldScene = worldScene,
                      .tracer = tracer,
@@ -303,7 +328,9 @@ std::vector<Row> runSweep(const Options& o, std::string& info, std::string& devi
                      .accuracyView = accuracyView,
                      .light = light,
                      .aspect = aspect,
-                     .cascadeLod = cascadeLod};
+                     .cascadeLod = cascadeLod,
+                     .softTruth = softTruth,
+                     .softPositions = softPositions};
   std::vector<Row> rows;
   for (size_t ci = 0; ci < configs.size(); ++ci) {
     progress(ci, configs.size(), configs[ci].label(), elapsed());

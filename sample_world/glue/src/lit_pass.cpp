@@ -161,12 +161,13 @@ void LitPass::draw(VkCommandBuffer cmd, const MeshStore& meshes, VkDescriptorSet
 
 std::unique_ptr<LitPass> makeLitPass(engine::Context& ctx, VkFormat colorFormat,
                                      VkFormat depthFormat, VkDescriptorSetLayout lightingSetLayout,
-                                     csm::PcfKernel kernel, bool blend) {
+                                     csm::PcfKernel kernel, bool blend, uint32_t pcssTaps) {
   LitPassDesc desc;
   desc.colorFormat = colorFormat;
   desc.depthFormat = depthFormat;
   desc.shadowSetLayout = lightingSetLayout;
   desc.specialization = {{CSM_SPEC_KERNEL, uint32_t(kernel)}, {CSM_SPEC_BLEND, blend ? 1u : 0u}};
+  if (pcssTaps != 0) desc.specialization.push_back({CSM_SPEC_PCSS_TAPS, pcssTaps});
   return std::make_unique<LitPass>(ctx, desc);
 }
 

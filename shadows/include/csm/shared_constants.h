@@ -27,11 +27,9 @@
 #define CSM_KERNEL_COUNT 6
 // How far (texels of the kernel's own cascade, before its scale) each kernel reads from its
 // centre: the radius the normal offset is scaled by. csmKernelRadius() (GLSL) and
-// csm::kernelRadiusTexels() (C++) both return these. PCSS's wide taps are biased by the receiver
-// plane (csm.glsl); its normal offset only has to clear the bilinear footprint at the centre:
-// 1.25, because at 1.5 (the 3x3 tent's) the shadow edge moves toward the light enough to cost
-// accuracy against the area-light truth (mean error +13% on the test scenes) and at 1.0 a
-// receiver 1e7 m out sits on a depth tie.
+// csm::kernelRadiusTexels() (C++) both return these. PCSS has no normal offset: it compares each
+// texel with the receiver's plane and lifts that plane in depth (csmPcssCoord in csm.glsl); its
+// radius here is used only where csmShadowCoord serves PCSS (the debug views).
 #define CSM_KERNEL_RADIUS_1TAP 1.0
 #define CSM_KERNEL_RADIUS_TENT3 1.5
 #define CSM_KERNEL_RADIUS_TENT5 2.5

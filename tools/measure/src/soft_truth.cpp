@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <random>
 #include <thread>
 
@@ -23,14 +24,17 @@ glm::dvec2 concentric(double a, double b) noexcept {
   return b * glm::dvec2(std::cos(phi), std::sin(phi));
 }
 
-bool comparable(const PixelSample& p, const csm::CascadeFrame& frame,
-                const glm::dvec3& toLight) noexcept {
+bool finiteAndFacing(const PixelSample& p, const glm::dvec3& toLight) noexcept {
   const bool finite = std::isfinite(p.shadow) && std::isfinite(p.posWs.x) &&
                       std::isfinite(p.posWs.y) && std::isfinite(p.posWs.z) &&
                       std::isfinite(p.normalWs.x) && std::isfinite(p.normalWs.y) &&
                       std::isfinite(p.normalWs.z);
-  return finite && p.cascade >= 0 && p.cascade < int(frame.cascadeCount) &&
-         glm::dot(glm::dvec3(p.normalWs), toLight) > 0.0;
+  return finite && glm::dot(glm::dvec3(p.normalWs), toLight) > 0.0;
+}
+
+bool comparable(const PixelSample& p, const csm::CascadeFrame& frame,
+                const glm::dvec3& toLight) noexcept {
+  return finiteAndFacing(p, toLight) && p.cascade >= 0 && p.cascade < int(frame.cascadeCount);
 }
 
 }  // namespace
@@ -90,16 +94,16 @@ nlohmann::json SoftErrorStats::toJson() const {
           {"non_finite", nonFinite}};
 }
 
-std::vector<float> softTruthOfPixels(std::span<const PixelSample> pixels,
-                                     const csm::CascadeFrame& frame, const RayTracer& tracer,
-                                     const csm::DirectionalLight& light,
-                                     double angularDiameterDeg) {
-  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
+namespace {
+
+std::vector<float> softTruthWhere(std::span<const PixelSample> pixels, const RayTracer& tracer,
+                                  const csm::DirectionalLight& light, double angularDiameterDeg,
+                                  const std::function<bool(const PixelSample&)>& compared) {
   std::vector<glm::dvec3> pos;
   std::vector<glm::vec3> nrm;
   std::vector<size_t> index;
   for (size_t i = 0; i < pixels.size(); ++i) {
-    if (!comparable(pixels[i], frame, toLight)) continue;
+    if (!compared(pixels[i])) continue;
     pos.push_back(pixels[i].posWs);
     nrm.push_back(pixels[i].normalWs);
     index.push_back(i);
@@ -109,6 +113,25 @@ std::vector<float> softTruthOfPixels(std::span<const PixelSample> pixels,
   std::vector<float> truth(pixels.size(), -1.0f);
   for (size_t k = 0; k < index.size(); ++k) truth[index[k]] = vis[k];
   return truth;
+}
+
+}  // namespace
+
+std::vector<float> softTruthOfPixels(std::span<const PixelSample> pixels,
+                                     const csm::CascadeFrame& frame, const RayTracer& tracer,
+                                     const csm::DirectionalLight& light,
+                                     double angularDiameterDeg) {
+  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
+  return softTruthWhere(pixels, tracer, light, angularDiameterDeg,
+                        [&](const PixelSample& p) { return comparable(p, frame, toLight); });
+}
+
+std::vector<float> softTruthOfReceivers(std::span<const PixelSample> pixels,
+                                        const RayTracer& tracer, const csm::DirectionalLight& light,
+                                        double angularDiameterDeg) {
+  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
+  return softTruthWhere(pixels, tracer, light, angularDiameterDeg,
+                        [&](const PixelSample& p) { return finiteAndFacing(p, toLight); });
 }
 
 SoftErrorStats measureSoftError(std::span<const PixelSample> pixels, std::span<const float> truth) {

@@ -89,12 +89,13 @@ class LitPass {
   glm::dvec3 cameraPositionWs_{0.0};
 };
 
-/// The lit pass of one csm.glsl variant (PCF kernel; blend band on or off) for these formats,
-/// sampling the module's lighting set (`lightingSetLayout`).
+/// The lit pass of one csm.glsl variant (PCF kernel; blend band on or off; PCSS taps, 0 = the
+/// shader's default) for these formats, sampling the module's lighting set (`lightingSetLayout`).
 [[nodiscard]] std::unique_ptr<LitPass> makeLitPass(engine::Context& ctx, VkFormat colorFormat,
                                                    VkFormat depthFormat,
                                                    VkDescriptorSetLayout lightingSetLayout,
-                                                   csm::PcfKernel kernel, bool blend);
+                                                   csm::PcfKernel kernel, bool blend,
+                                                   uint32_t pcssTaps = 0);
 
 /// Records a timed lit pass into `frame` (the benchmarks' and the measurements' timing loop):
 /// the uniforms, then inside timer scope "lit" a rendering cleared to the sky colour and the draws.

@@ -48,6 +48,14 @@ std::vector<float> softTruthOfPixels(std::span<const PixelSample> pixels,
                                      const csm::CascadeFrame& frame, const RayTracer& tracer,
                                      const csm::DirectionalLight& light, double angularDiameterDeg);
 
+/// The soft truth of every finite pixel facing the light, whatever cascade covers it (-1 for the
+/// others). It depends only on the pixels' positions and normals, so a sweep over shadow settings
+/// traces it once per view; mark the pixels a frame does not compare (cascade < 0) -1 before
+/// measureSoftError.
+std::vector<float> softTruthOfReceivers(std::span<const PixelSample> pixels,
+                                        const RayTracer& tracer, const csm::DirectionalLight& light,
+                                        double angularDiameterDeg);
+
 /// Compares each compared pixel's shadow factor with `truth` (from softTruthOfPixels).
 SoftErrorStats measureSoftError(std::span<const PixelSample> pixels, std::span<const float> truth);
 
