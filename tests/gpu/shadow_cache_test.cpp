@@ -12,6 +12,7 @@
 #include <engine/mesh_store.hpp>
 #include <sample_world/shadow_host.hpp>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -102,7 +103,7 @@ class CacheRig {
   }
 
   /// Adds a view: cached, or the reference (cached but fully re-rendered every frame).
-  ViewRig& addView() {
+  ViewRig& addView(std::uint64_t budgetTexels = 0) {
     ViewRig rig;
     rig.view = world::createShadowView(*ctx_);
     csm::ShadowSettings settings;
@@ -112,6 +113,7 @@ class CacheRig {
     csm::vk::RendererOptions options;
     options.cache = true;
     options.renderMode = csm::vk::RenderMode::kPerLayer;
+    options.cacheBudgetTexels = budgetTexels;
     csm::vk::Status s = rig.view->setSettings(settings, options);
     if (!s.ok()) throw std::runtime_error(s.message());
     const csm::AabbWs scene{{-200, -1, -200}, {200, 20, 200}};
@@ -395,6 +397,135 @@ TEST(ShadowCache, InvalidatedBoxRerendersOnlyItsTexels) {
   });
   EXPECT_EQ(engine::validationMessageCount(), 0u);
 }
+
+/// The layer `c` of view `v` as read back by the last frame.
+std::vector<std::uint32_t> layerOf(const CacheRig& rig, std::size_t v, std::uint32_t c) {
+  const auto* p = static_cast<const std::uint32_t*>(rig.views_[v].readback->mapped());
+  const std::size_t layer = std::size_t(kResolution) * kResolution;
+  return {p + c * layer, p + (c + 1) * layer};
+}
+
+class CacheBudget : public ::testing::TestWithParam<std::string> {};
+
+// A texel budget of one layer per frame (the least allowed): cascade 0 is bit-identical to a
+// full render every frame; the other cascades re-render at most the budget per frame; a cascade
+// that is refreshed is bit-identical to the full render, one that is deferred shows exactly what
+// it showed at its last refresh with that refresh's box and matrix (without dynamic casters,
+// "sun": its texels unchanged), and once the camera stops every cascade is bit-identical within
+// a frame per cascade. View 0 is also invalidated whole every 30 frames and on the first still
+// frame (all cascades want a layer each: the budget must spread them); the sun path changes the
+// light every 40 frames (deferred cascades keep the old light's basis, their casters culled in
+// it).
+TEST_P(CacheBudget, NearExactFarLagConsistentlyAndConverge) {
+  const std::string path = GetParam().substr(0, GetParam().find('_'));
+  const bool dynamic = GetParam() != "sun";  // "sun": no dynamic casters, deferred layers still
+  const std::uint64_t budget = std::uint64_t(kResolution) * kResolution;
+  CacheRig rig;
+  rig.addView(budget);
+  rig.addView();
+  const int moving = std::max(2, flightFrames() / 2), still = 8;
+  std::array<csm::Cascade, kCascades> shownCascade{};
+  std::array<glm::dmat3, kCascades> shownBasis{};
+  std::array<std::vector<std::uint32_t>, kCascades> shownLayer;
+  std::uint64_t deferredFrames = 0;
+  std::uint32_t maxLag = 0;
+  int convergedAt = -1;
+  for (int f = 0; f < moving + still; ++f) {
+    const int at = std::min(f, moving - 1);
+    const csm::Camera cam = pathCamera(path, at);
+    const csm::DirectionalLight light = pathLight(path, at);
+    if (dynamic) {
+      rig.setDynamic(f);
+    } else {
+      rig.instances_.resize(rig.staticCount_);
+      rig.bounds_.resize(rig.staticCount_);
+    }
+    for (std::size_t v = 0; v < 2; ++v) {
+      csm::vk::Status s =
+          rig.views_[v].view->setCasters(rig.meshDraws_, rig.instances_, rig.bounds_);
+      ASSERT_TRUE(s.ok()) << s.message();
+    }
+    if ((f % 30 == 15 && f < moving) || f == moving) rig.views_[0].view->invalidateAll();
+    rig.frame(cam, light, {false, true});
+    if (HasFailure()) return;
+    const auto& stats = rig.views_[0].view->renderer().cacheStats();
+    const csm::CascadeFrame& fr = rig.views_[0].view->frame();
+    const csm::CascadeFrame& ref = rig.views_[1].view->frame();
+    std::uint64_t capped = 0;
+    bool allExact = true;
+    for (std::uint32_t c = 0; c < kCascades; ++c) {
+      if (fr.cascades[c].empty) continue;
+      const std::string where =
+          path + " frame " + std::to_string(f) + " cascade " + std::to_string(c);
+      // Capped: cascades beyond the exact one, after their first frame (nothing to show yet).
+      if (c > 0 && !shownLayer[c].empty()) capped += stats[c].staticTexels;
+      const std::vector<std::uint32_t> layer = layerOf(rig, 0, c);
+      if (!stats[c].deferred) {
+        ASSERT_EQ(stats[c].lagFrames, 0u) << where;
+        ASSERT_TRUE(layer == layerOf(rig, 1, c)) << where << ": refreshed but not bit-identical";
+        ASSERT_EQ(fr.cascades[c].boxCenterWs, ref.cascades[c].boxCenterWs) << where;
+        shownCascade[c] = fr.cascades[c];
+        shownBasis[c] = fr.lightBasisWs;
+        shownLayer[c] = layer;
+        continue;
+      }
+      ASSERT_GT(c, 0u) << where << ": cascade 0 must be exact";
+      allExact = false;
+      ++deferredFrames;
+      maxLag = std::max(maxLag, stats[c].lagFrames);
+      // Self-consistent: the box, window and matrix of its last refresh (about today's camera).
+      const csm::Cascade& was = shownCascade[c];
+      ASSERT_EQ(fr.cascades[c].boxCenterWs, was.boxCenterWs) << where;
+      ASSERT_EQ(fr.cascades[c].halfExtentLs, was.halfExtentLs) << where;
+      ASSERT_EQ(fr.cascades[c].depthNearLs, was.depthNearLs) << where;
+      ASSERT_EQ(fr.cascades[c].depthFarLs, was.depthFarLs) << where;
+      const glm::mat4 m = csm::cameraRelativeViewProj(shownBasis[c], cam.positionWs, was);
+      ASSERT_TRUE(rig.views_[0].view->renderer().uniforms().cascades[c].viewProjCr == m) << where;
+      if (!dynamic) {
+        ASSERT_TRUE(layer == shownLayer[c]) << where << ": a deferred layer changed";
+      }
+    }
+    EXPECT_LE(capped, budget) << path << " frame " << f << ": over the budget";
+    if (f >= moving && allExact && convergedAt < 0) convergedAt = f - moving;
+    if (f >= moving && convergedAt >= 0) {
+      std::string first;
+      ASSERT_EQ(rig.differences(0, 1, &first), 0u)
+          << path << " still frame " << f - moving << ": " << first;
+    }
+  }
+  std::printf(
+      "[cache budget] %s: %llu cascade-frames deferred, largest lag %u frames, exact "
+      "%d frames after the camera stopped\n",
+      path.c_str(), static_cast<unsigned long long>(deferredFrames), maxLag, convergedAt);
+  EXPECT_GT(deferredFrames, 0u) << "the budget never deferred anything: the test tests nothing";
+  ASSERT_GE(convergedAt, 0) << "never converged after the camera stopped";
+  EXPECT_LE(convergedAt, int(kCascades) - 1) << "one frame per lagging cascade at most";
+  EXPECT_EQ(engine::validationMessageCount(), 0u);
+}
+
+TEST(ShadowCache, BudgetOptionsAreValidated) {
+  CacheRig rig;
+  rig.addView();
+  csm::ShadowSettings settings = rig.views_[0].view->settings();
+  csm::vk::RendererOptions options = rig.views_[0].view->options();
+  options.cacheBudgetTexels = std::uint64_t(kResolution) * kResolution - 1;
+  csm::vk::Status s = rig.views_[0].view->setSettings(settings, options);
+  EXPECT_EQ(s.code(), csm::vk::ErrorCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("cacheBudgetTexels = 262143"), std::string::npos) << s.message();
+  EXPECT_NE(s.message().find("262144"), std::string::npos) << s.message();
+  options.cacheBudgetTexels = 0;
+  options.cacheExactCascades = 0;
+  s = rig.views_[0].view->setSettings(settings, options);
+  EXPECT_NE(s.message().find("cacheExactCascades = 0 is invalid: allowed [1, 8]"),
+            std::string::npos)
+      << s.message();
+  options.cacheExactCascades = 2;
+  options.cacheBudgetTexels = std::uint64_t(kResolution) * kResolution;
+  EXPECT_TRUE(rig.views_[0].view->setSettings(settings, options).ok());
+}
+
+INSTANTIATE_TEST_SUITE_P(Paths, CacheBudget, ::testing::Values("fast", "sun", "sun_dynamic"),
+                         [](const auto& info) { return info.param; });
 
 INSTANTIATE_TEST_SUITE_P(Paths, CacheFlight, ::testing::Values("walk", "fast", "turn", "sun"),
                          [](const auto& info) { return info.param; });

@@ -86,7 +86,58 @@ TexelRect boxTexels(const AabbWs& box, const glm::dmat3& basisT, double texel) n
   return {toIndex(lo[0]) - 1, toIndex(lo[1]) - 1, toIndex(hi[0]) + 2, toIndex(hi[1]) + 2};
 }
 
+/// The stale parts of a static layer that holds box `old` (when `valid`) for box `box`: the
+/// newly exposed rows and columns and what lies under the `pending` boxes. The whole box when
+/// the layer is not valid or the parts add up to a layer or more (one full render is then no
+/// dearer). Returns whether it is the whole box.
+bool staleRects(bool valid, const TexelRect& old, const TexelRect& box,
+                const std::vector<AabbWs>& pending, const glm::dmat3& basisT, double texel,
+                std::vector<TexelRect>& out) {
+  out.clear();
+  if (valid) {
+    if (box.x0 < old.x0) out.push_back({box.x0, box.y0, std::min(old.x0, box.x1), box.y1});
+    if (box.x1 > old.x1) out.push_back({std::max(old.x1, box.x0), box.y0, box.x1, box.y1});
+    const std::int64_t ox0 = std::max(box.x0, old.x0), ox1 = std::min(box.x1, old.x1);
+    if (box.y0 < old.y0) out.push_back({ox0, box.y0, ox1, std::min(old.y0, box.y1)});
+    if (box.y1 > old.y1) out.push_back({ox0, std::max(old.y1, box.y0), ox1, box.y1});
+    for (const AabbWs& b : pending) {
+      const TexelRect r = boxTexels(b, basisT, texel).intersect(box);
+      if (!r.empty()) out.push_back(r);
+    }
+    std::erase_if(out, [](const TexelRect& r) { return r.empty(); });
+    std::uint64_t sum = 0;
+    for (const TexelRect& r : out) sum += r.area();
+    if (sum < box.area()) return false;
+  }
+  out.assign(1, box);
+  return true;
+}
+
+std::uint64_t totalArea(const std::vector<TexelRect>& rects) noexcept {
+  std::uint64_t sum = 0;
+  for (const TexelRect& r : rects) sum += r.area();
+  return sum;
+}
+
 }  // namespace
+
+Status ShadowRenderer::checkCacheOptions(const ShadowSettings& settings,
+                                         const RendererOptions& options) {
+  const std::uint64_t layer = std::uint64_t(settings.resolution) * settings.resolution;
+  if (options.cacheBudgetTexels != 0 && options.cacheBudgetTexels < layer) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("options.cacheBudgetTexels = %llu is invalid: allowed 0 (no cap) or at "
+                      "least one layer, settings.resolution^2 = %llu",
+                      static_cast<unsigned long long>(options.cacheBudgetTexels),
+                      static_cast<unsigned long long>(layer)));
+  }
+  if (options.cacheExactCascades < 1 || options.cacheExactCascades > kMaxCascades) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("options.cacheExactCascades = %u is invalid: allowed [1, %u]",
+                      options.cacheExactCascades, kMaxCascades));
+  }
+  return {};
+}
 
 // ---------------------------------------------------------------------------------------------
 // Windows
@@ -105,6 +156,8 @@ void ShadowRenderer::applyCacheWindows(CascadeFrame& frame) {
     }
     return true;
   };
+  std::array<bool, kMaxCascades> covered{};
+  std::vector<TexelRect> stale;
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     Cascade& c = frame.cascades[i];
     if (c.empty) continue;
@@ -133,9 +186,76 @@ void ShadowRenderer::applyCacheWindows(CascadeFrame& frame) {
       w.zNear = std::floor(needNear / q) * q - q;
       w.zFar = std::ceil(needFar / q) * q + q;
     }
+    // What the layer shows covers this frame's slice: its box holds the box the slice needs
+    // (the sphere, across a change of light), its depth window the sphere.
+    CacheShown& sh = shown_[i];
+    if (sh.valid) {
+      const glm::dmat3 shownT = glm::transpose(sh.basis);
+      const glm::dvec3 shownCenter = shownT * sh.cascade.boxCenterWs;
+      const glm::dvec3 sphere = shownT * c.sphereCenterWs;
+      const bool sameLight = sh.basis == basis;
+      const glm::dvec3 needCenter = sameLight ? centerLs : sphere;
+      const double needHalf = sameLight && c.neededHalfExtentM > 0.0
+                                  ? std::min(c.neededHalfExtentM, c.halfExtentLs.x)
+                                  : (sameLight ? c.halfExtentLs.x : c.sphereRadiusM);
+      const double half = sh.cascade.halfExtentLs.x;
+      covered[i] = std::abs(needCenter.x - shownCenter.x) + needHalf <= half &&
+                   std::abs(needCenter.y - shownCenter.y) + needHalf <= half &&
+                   sphere.z - c.sphereRadiusM >= sh.window.zNear &&
+                   sphere.z + c.sphereRadiusM <= sh.window.zFar;
+    }
     c.depthNearLs = w.zNear - centerLs.z;
     c.depthFarLs = w.zFar - centerLs.z;
     c.viewProjCr = cameraRelativeViewProj(basis, frame.cameraPositionWs, c);
+    staleRects(w.staticValid, {w.boxX, w.boxY, w.boxX + res, w.boxY + res},
+               {boxX, boxY, boxX + res, boxY + res}, w.pending, basisT, texel, stale);
+    sh.wanted = totalArea(stale);
+  }
+
+  // The budget: the exact cascades, and those never shown, are refreshed whatever they cost;
+  // the others in order of staleness while their refresh fits what is left of the budget. A
+  // deferred cascade shows its last refresh.
+  const std::uint64_t budget = options_.cacheBudgetTexels;
+  std::vector<std::uint32_t> order;
+  auto refresh = [&](std::uint32_t i) {
+    CacheShown& sh = shown_[i];
+    sh.valid = true;
+    sh.deferred = false;
+    sh.lag = 0;
+    sh.window = windows_[i];
+    sh.window.pending.clear();
+    sh.cascade = frame.cascades[i];
+    sh.basis = basis;
+  };
+  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+    if (frame.cascades[i].empty) continue;
+    if (budget == 0 || i < options_.cacheExactCascades || !shown_[i].valid) {
+      refresh(i);
+    } else {
+      order.push_back(i);
+    }
+  }
+  // The most stale first: frames of lag, one more for a cascade whose box no longer covers its
+  // slice (it shows a lit fringe), so that it goes first among equals but cannot starve a
+  // cascade that lags longer.
+  auto staleness = [&](std::uint32_t i) { return shown_[i].lag + (covered[i] ? 0u : 1u); };
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    if (staleness(a) != staleness(b)) return staleness(a) > staleness(b);
+    return !covered[a] && covered[b];
+  });
+  std::uint64_t left = budget;
+  for (std::uint32_t i : order) {
+    CacheShown& sh = shown_[i];
+    if (sh.wanted <= left) {
+      left -= sh.wanted;
+      refresh(i);
+      continue;
+    }
+    sh.deferred = true;
+    ++sh.lag;
+    Cascade& c = frame.cascades[i];
+    c = sh.cascade;
+    c.viewProjCr = cameraRelativeViewProj(sh.basis, frame.cameraPositionWs, c);
   }
 }
 
@@ -143,13 +263,24 @@ Status ShadowRenderer::invalidate(const AabbWs& boxWs) {
   if (auto e = csm::validate(boxWs, "invalidate box")) {
     return Status(ErrorCode::kInvalidArgument, e->message());
   }
-  if (options_.cache) invalidBoxes_.push_back(boxWs);
+  if (!options_.cache) return {};
+  for (CacheWindow& w : windows_) {
+    if (!w.staticValid) continue;  // re-rendered whole anyway
+    if (w.pending.size() >= 64) {
+      w.staticValid = false;  // many boxes: one full render
+      w.pending.clear();
+    } else {
+      w.pending.push_back(boxWs);
+    }
+  }
   return {};
 }
 
 void ShadowRenderer::invalidateAll() noexcept {
-  for (CacheWindow& w : windows_) w.staticValid = false;
-  invalidBoxes_.clear();
+  for (CacheWindow& w : windows_) {
+    w.staticValid = false;
+    w.pending.clear();
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -224,16 +355,15 @@ void ShadowRenderer::retireStaticImage() noexcept {
 Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame,
                                         const CasterList& casters, const CullResult& visible) {
   const std::int64_t res = resolution_;
-  const glm::dmat3& basis = frame.lightBasisWs;
-  const glm::dmat3 basisT = glm::transpose(basis);
-  // The frame must carry the windows (applyCacheWindows before culling).
+  // The frame must carry the windows (applyCacheWindows before culling). Each cascade is drawn
+  // in the window and light basis its layer shows (shown_: this frame's unless deferred).
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     const Cascade& c = frame.cascades[i];
     if (c.empty) continue;
-    const CacheWindow& w = windows_[i];
-    const double centerZ = glm::dot(basis[2], c.boxCenterWs);
+    const CacheWindow& w = shown_[i].window;
+    const double centerZ = glm::dot(shown_[i].basis[2], c.boxCenterWs);
     const double tol = 1e-6 * std::max(1.0, std::abs(w.zFar - w.zNear));
-    if (!w.valid || w.texel != c.texelSizeLs.x ||
+    if (!shown_[i].valid || !w.valid || w.texel != c.texelSizeLs.x ||
         std::abs(centerZ + c.depthNearLs - w.zNear) > tol ||
         std::abs(centerZ + c.depthFarLs - w.zFar) > tol) {
       return Status(ErrorCode::kInvalidArgument,
@@ -254,8 +384,15 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     const Cascade& c = frame.cascades[i];
     if (c.empty) continue;
-    const CacheWindow& w = windows_[i];
-    const glm::dvec3 centerLs = basisT * c.boxCenterWs;
+    const CacheWindow& w = shown_[i].window;
+    if (shown_[i].basis != frame.lightBasisWs) {
+      // Deferred across a change of light: its world-grid origin in the basis it shows.
+      CascadeFrame old = frame;
+      old.lightBasisWs = shown_[i].basis;
+      uniforms_.cascades[i].depthInfo =
+          packUniforms(old, settings_, uniformOptions_).cascades[i].depthInfo;
+    }
+    const glm::dvec3 centerLs = glm::transpose(shown_[i].basis) * c.boxCenterWs;
     const std::int64_t bx = std::llround(centerLs.x / w.texel) - res / 2;
     const std::int64_t by = std::llround(centerLs.y / w.texel) - res / 2;
     boxes[i] = {bx, by, bx + res, by + res};
@@ -335,6 +472,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
   const std::size_t instanceCount = casters.instances.size();
   std::vector<TexelRect> casterRects;
   const MeshDraw* bound = nullptr;
+  glm::dmat3 basisT(1.0);  // the light basis (transposed) of the cascade being drawn
 
   // Draws caster `index` in cascade `cascade` about the window's anchor: model -> the window's
   // clip space, where layer pixel x = world texel index - anchorX (before the block shift).
@@ -459,37 +597,38 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     const Cascade& c = frame.cascades[i];
     if (c.empty) continue;
-    CacheWindow& w = windows_[i];
+    CacheWindow& w = windows_[i];        // the static layer's state
+    CacheShown& sh = shown_[i];          // what the sampled layer shows (drawn in its window)
+    const CacheWindow& win = sh.window;  // = w's window unless deferred
+    basisT = glm::transpose(sh.basis);
     CascadeCacheStats& st = cacheStats_[i];
+    st.deferred = sh.deferred;
+    st.lagFrames = sh.lag;
+    st.wantedTexels = sh.wanted;
     const TexelRect box = boxes[i];
     const std::vector<std::uint32_t>& list = visible.visible[i];
     bool dynamicNow = false;
     for (std::uint32_t idx : list) {
-      casterRects[idx] = boxTexels(casters.boundsWs[idx], basisT, w.texel);
+      casterRects[idx] = boxTexels(casters.boundsWs[idx], basisT, win.texel);
       dynamicNow = dynamicNow || casters.instances[idx].dynamic;
     }
 
     // What of the static layer is stale: everything (new window), the newly exposed rows and
-    // columns, and what lies under invalidated boxes.
+    // columns, and what lies under invalidated boxes. A deferred cascade draws none of it.
     dirty.clear();
-    const bool full = !w.staticValid;
-    if (full) {
-      dirty.push_back(box);
-      st.newWindow = true;
-    } else {
-      const TexelRect old{w.boxX, w.boxY, w.boxX + res, w.boxY + res};
-      if (box.x0 < old.x0) dirty.push_back({box.x0, box.y0, std::min(old.x0, box.x1), box.y1});
-      if (box.x1 > old.x1) dirty.push_back({std::max(old.x1, box.x0), box.y0, box.x1, box.y1});
-      const std::int64_t ox0 = std::max(box.x0, old.x0), ox1 = std::min(box.x1, old.x1);
-      if (box.y0 < old.y0) dirty.push_back({ox0, box.y0, ox1, std::min(old.y0, box.y1)});
-      if (box.y1 > old.y1) dirty.push_back({ox0, std::max(old.y1, box.y0), ox1, box.y1});
-      for (const AabbWs& b : invalidBoxes_) {
-        const TexelRect r = boxTexels(b, basisT, w.texel).intersect(box);
-        if (!r.empty()) dirty.push_back(r);
-      }
+    bool full = false;
+    if (!sh.deferred) {
+      full = staleRects(w.staticValid, {w.boxX, w.boxY, w.boxX + res, w.boxY + res}, box, w.pending,
+                        basisT, w.texel, dirty);
+      st.newWindow = !w.staticValid;
     }
-    std::erase_if(dirty, [](const TexelRect& r) { return r.empty(); });
-    const bool copy = !dirty.empty() || dynamicNow || w.dynamicLast;
+    const bool copy = !dirty.empty() || dynamicNow || sh.dynamicLast;
+    if (!sh.deferred) {
+      w.staticValid = true;
+      w.boxX = box.x0;
+      w.boxY = box.y0;
+      w.pending.clear();
+    }
     if (!copy) continue;  // the sampled layer already holds this frame's depth
     if (cascadeHook_) cascadeHook_(cmd, i);
     any = true;
@@ -497,7 +636,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     if (!dirty.empty()) {
       beginPass(staticViews_[i], full, "static", i);
       for (const TexelRect& r : dirty) {
-        split(w, r, layerRects);
+        split(win, r, layerRects);
         for (const LayerRect& lr : layerRects) {
           setRect(lr);
           if (!full) {
@@ -507,14 +646,11 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
             vkCmdClearAttachments(cmd, 1, &ca, 1, &cr);
           }
           st.staticTexels += lr.world.area();
-          st.staticTriangles += drawRect(i, w, list, false, lr);
+          st.staticTriangles += drawRect(i, win, list, false, lr);
         }
       }
       endPass();
     }
-    w.staticValid = true;
-    w.boxX = box.x0;
-    w.boxY = box.y0;
 
     // Static layer -> sampled layer, then the dynamic casters over it.
     VkImageMemoryBarrier2 b[2] = {
@@ -567,16 +703,15 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     copiedMask |= 1u << i;
     if (dynamicNow) {
       beginPass(layerViews_[i], false, "dynamic", i);
-      split(w, box, layerRects);
+      split(win, box, layerRects);
       for (const LayerRect& lr : layerRects) {
         setRect(lr);
-        st.dynamicTriangles += drawRect(i, w, list, true, lr);
+        st.dynamicTriangles += drawRect(i, win, list, true, lr);
       }
       endPass();
     }
-    w.dynamicLast = dynamicNow;
+    sh.dynamicLast = dynamicNow;
   }
-  invalidBoxes_.clear();
   if (cascadeHook_ && any) cascadeHook_(cmd, kCascadeHookEnd);
 
   // Layers written this frame -> the sampled layout; the others stayed sampleable.

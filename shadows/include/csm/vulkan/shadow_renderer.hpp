@@ -139,6 +139,16 @@ struct RendererOptions {
   /// of the static depth. csm.glsl reads the same world texels (wrap offsets in the uniforms).
   /// Costs one more depth image of the same size (cacheBytes()). Needs settings.stabilize.
   bool cache = false;
+  /// Cached cascades: the most static texels re-rendered per frame in the cascades beyond the
+  /// first cacheExactCascades (which are always exact and not counted). A cascade whose refresh
+  /// does not fit keeps showing the depth, box and matrix it was last rendered with (its shadows
+  /// lag, consistently) and is refreshed in a later frame, the one lagging most first (a cascade
+  /// whose box no longer covers its slice before all). 0 (default) = no cap; else at least
+  /// resolution^2 (one whole layer, so the most stale cascade always fits).
+  std::uint64_t cacheBudgetTexels = 0;
+  /// Cached cascades with a budget: how many cascades from the camera out are refreshed every
+  /// frame whatever they cost, [1, kMaxCascades].
+  std::uint32_t cacheExactCascades = 1;
 };
 
 /// A range of an index buffer drawn as one caster mesh.
@@ -225,6 +235,15 @@ struct CascadeCacheStats {
   /// The cascade's window was new (first frame, or a change of size, light, depth range,
   /// resolution or format): the whole layer was re-rendered.
   bool newWindow = false;
+  /// RendererOptions::cacheBudgetTexels: the cascade's refresh did not fit this frame; it shows
+  /// what it showed lagFrames frames ago (box, matrix, static depth; dynamic casters are drawn
+  /// at their current place). lagFrames = 0: the cascade is exact this frame.
+  bool deferred = false;
+  std::uint32_t lagFrames = 0;
+  /// Static texels that a refresh would have re-rendered (= staticTexels when not deferred).
+  std::uint64_t wantedTexels = 0;
+  /// Texels copied from the static layer into the sampled one (whole layer or rectangles).
+  std::uint64_t copiedTexels = 0;
 };
 
 /// What a draw callback gets for one cascade: the command buffer inside the cascade's render
@@ -350,6 +369,15 @@ class ShadowRenderer {
   [[nodiscard]] const std::array<CascadeCacheStats, kMaxCascades>& cacheStats() const noexcept {
     return cacheStats_;
   }
+  /// The light basis the content of cascade `i` was rendered with (the frame's, unless the
+  /// cascade is deferred by the budget across a change of light direction); ShadowView culls a
+  /// deferred cascade's casters with it.
+  [[nodiscard]] const glm::dmat3& cacheLightBasis(std::uint32_t i) const noexcept {
+    return shown_[std::min<std::uint32_t>(i, kMaxCascades - 1)].basis;
+  }
+  [[nodiscard]] bool cacheDeferred(std::uint32_t i) const noexcept {
+    return i < kMaxCascades && shown_[i].deferred;
+  }
   /// Device memory of the static-depth cache image (0 without the cache).
   [[nodiscard]] VkDeviceSize cacheBytes() const noexcept { return cacheBytes_; }
   /// The static-depth image (DEPTH_ATTACHMENT_OPTIMAL after a cached record; null without cache).
@@ -456,10 +484,25 @@ class ShadowRenderer {
     double zNear = 0.0, zFar = 0.0;         // absolute light-space depth window
     bool staticValid = false;               // the static layer holds box (boxX, boxY)
     std::int64_t boxX = 0, boxY = 0;
-    bool dynamicLast = false;  // dynamic casters were drawn into the sampled layer last time
+    std::vector<AabbWs> pending;  // invalidated boxes not yet re-rendered in this cascade
   };
+  // What the sampled layer of a cascade shows (its last refresh): the window, box and basis it
+  // was rendered with; a cascade deferred by the budget keeps showing it.
+  struct CacheShown {
+    bool valid = false;
+    bool deferred = false;  // deferred this frame
+    std::uint32_t lag = 0;  // frames since its last refresh
+    CacheWindow window;     // anchor, texel, depth window (pending/dynamicRects unused)
+    Cascade cascade;
+    glm::dmat3 basis{1.0};
+    std::uint64_t wanted = 0;  // static texels its refresh costs this frame
+    bool dynamicLast = false;  // dynamic casters were drawn into the sampled layer last time
+    // Layer rectangles ([x0, y0, x1, y1) texels) dynamic casters were drawn into last time.
+    std::vector<std::array<std::int32_t, 4>> dynamicRects;
+  };
+  static Status checkCacheOptions(const ShadowSettings& settings, const RendererOptions& options);
   std::array<CacheWindow, kMaxCascades> windows_{};
-  std::vector<AabbWs> invalidBoxes_;
+  std::array<CacheShown, kMaxCascades> shown_{};
   std::array<CascadeCacheStats, kMaxCascades> cacheStats_{};
   VkImage staticImage_ = VK_NULL_HANDLE;
   VkDeviceMemory staticMemory_ = VK_NULL_HANDLE;
