@@ -258,7 +258,8 @@ json cascadesJson(const world::FrameStats& st) {
                    {"lod", st.lod[c]},
                    {"casters", st.casters[c]},
                    {"triangles", st.triangles[c]},
-                   {"texels_rendered", st.texelsRendered[c]}});
+                   {"texels_rendered", st.texelsRendered[c]},
+                   {"lag_frames", st.lagFrames[c]}});
   }
   return arr;
 }
@@ -480,6 +481,7 @@ int runHeadless(const Options& o, const std::string& why) {
     };
     summary["shadow_cache"] = o.settings.shadowCache;
     summary["shadow_cache_bytes"] = lastStats.cacheBytes;
+    summary["shadow_cache_budget_texels"] = o.settings.cacheBudgetTexels;
     summary["gpu_shadow_ms_median"] =
         median([](const json& f) { return f["gpu_ms"]["shadow"].get<double>(); });
     for (std::uint32_t c = 0; c < o.settings.shadow.cascadeCount; ++c) {
