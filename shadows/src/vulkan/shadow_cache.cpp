@@ -113,6 +113,29 @@ bool staleRects(bool valid, const TexelRect& old, const TexelRect& box,
   return true;
 }
 
+/// Adds the part of `r` that `rects` does not cover yet, as disjoint rectangles.
+void addDisjoint(std::vector<TexelRect>& rects, const TexelRect& r) {
+  std::vector<TexelRect> todo{r}, next;
+  for (const TexelRect& p : rects) {
+    next.clear();
+    for (const TexelRect& t : todo) {
+      const TexelRect o = t.intersect(p);
+      if (o.empty()) {
+        next.push_back(t);
+        continue;
+      }
+      // t minus o: the rows above and below o, then the columns beside it.
+      if (t.y0 < o.y0) next.push_back({t.x0, t.y0, t.x1, o.y0});
+      if (o.y1 < t.y1) next.push_back({t.x0, o.y1, t.x1, t.y1});
+      if (t.x0 < o.x0) next.push_back({t.x0, o.y0, o.x0, o.y1});
+      if (o.x1 < t.x1) next.push_back({o.x1, o.y0, t.x1, o.y1});
+    }
+    std::swap(todo, next);
+    if (todo.empty()) return;
+  }
+  rects.insert(rects.end(), todo.begin(), todo.end());
+}
+
 std::uint64_t totalArea(const std::vector<TexelRect>& rects) noexcept {
   std::uint64_t sum = 0;
   for (const TexelRect& r : rects) sum += r.area();
@@ -520,6 +543,14 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     }
   };
 
+  auto layerTexels = [](const LayerRect& lr) {
+    return TexelRect{lr.scissor.offset.x, lr.scissor.offset.y,
+                     lr.scissor.offset.x + std::int64_t(lr.scissor.extent.width),
+                     lr.scissor.offset.y + std::int64_t(lr.scissor.extent.height)};
+  };
+  std::vector<TexelRect> copyParts;
+  std::vector<VkImageCopy> copyRegions;
+
   auto beginPass = [&](VkImageView view, bool clear, const char* what, std::uint32_t cascade) {
     // Both images are DEPTH_ATTACHMENT_OPTIMAL while drawn (see the barriers around the copy).
     if (beginLabel_) {
@@ -652,7 +683,56 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
       endPass();
     }
 
-    // Static layer -> sampled layer, then the dynamic casters over it.
+    // Static layer -> sampled layer, then the dynamic casters over it. The sampled layer holds
+    // the static depth except where it was re-rendered this frame and where dynamic casters were
+    // drawn last time: only those rectangles are copied (the whole layer on a full render, when
+    // they are most of it, or with cacheCopyRects off).
+    copyParts.clear();
+    bool whole = full || !options_.cacheCopyRects;
+    if (!whole) {
+      for (const TexelRect& r : dirty) {
+        split(win, r, layerRects);
+        for (const LayerRect& lr : layerRects) addDisjoint(copyParts, layerTexels(lr));
+      }
+      for (const auto& d : sh.dynamicRects) addDisjoint(copyParts, {d[0], d[1], d[2], d[3]});
+      whole = copyParts.size() > 256 || totalArea(copyParts) * 4 >= 3 * std::uint64_t(res * res);
+    }
+    if (whole) copyParts.assign(1, TexelRect{0, 0, res, res});
+    copyRegions.clear();
+    for (const TexelRect& r : copyParts) {
+      VkImageCopy region{};
+      region.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, i, 1};
+      region.dstSubresource = region.srcSubresource;
+      region.srcOffset = {std::int32_t(r.x0), std::int32_t(r.y0), 0};
+      region.dstOffset = region.srcOffset;
+      region.extent = {std::uint32_t(r.x1 - r.x0), std::uint32_t(r.y1 - r.y0), 1};
+      copyRegions.push_back(region);
+      st.copiedTexels += r.area();
+    }
+    // The rectangles this frame's dynamic casters cover (copied back next time).
+    sh.dynamicRects.clear();
+    if (dynamicNow) {
+      std::vector<TexelRect> parts;
+      for (std::uint32_t idx : list) {
+        if (!casters.instances[idx].dynamic) continue;
+        split(win, casterRects[idx].intersect(box), layerRects);
+        for (const LayerRect& lr : layerRects) {
+          if (parts.size() >= 64) {  // many casters: their bounding rectangle
+            TexelRect& u = parts[0];
+            const TexelRect t = layerTexels(lr);
+            u = {std::min(u.x0, t.x0), std::min(u.y0, t.y0), std::max(u.x1, t.x1),
+                 std::max(u.y1, t.y1)};
+            parts.resize(1);
+          } else {
+            parts.push_back(layerTexels(lr));
+          }
+        }
+      }
+      for (const TexelRect& t : parts) {
+        sh.dynamicRects.push_back(
+            {std::int32_t(t.x0), std::int32_t(t.y0), std::int32_t(t.x1), std::int32_t(t.y1)});
+      }
+    }
     VkImageMemoryBarrier2 b[2] = {
         vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
         vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
@@ -672,34 +752,42 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     b[1].srcStageMask = options_.consumerStages;
     b[1].srcAccessMask = VK_ACCESS_2_NONE;
     b[1].dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    b[1].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;  // overwritten whole by the copy
+    // Overwritten whole by the copy, else kept where not copied (sampled since last frame).
+    b[1].oldLayout = whole ? VK_IMAGE_LAYOUT_UNDEFINED : sampledLayout();
     b[1].newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
     auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
     dep.imageMemoryBarrierCount = 2;
     dep.pImageMemoryBarriers = b;
-    vkCmdPipelineBarrier2(cmd, &dep);
-    VkImageCopy region{};
-    region.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, i, 1};
-    region.dstSubresource = region.srcSubresource;
-    region.extent = {resolution_, resolution_, 1};
-    vkCmdCopyImage(cmd, staticImage_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image_,
-                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-    st.copied = true;
-    // Then: the sampled layer to the attachment (dynamic casters) and, at the end, to the
-    // sampled layout; the static layer back to the attachment layout for the next frame.
-    b[1].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    b[1].srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    b[1].dstStageMask = depthStages;
-    b[1].dstAccessMask = depthAccess;
-    b[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    b[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    b[0].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    b[0].srcAccessMask = VK_ACCESS_2_NONE;
-    b[0].dstStageMask = depthStages;
-    b[0].dstAccessMask = depthAccess;
-    b[0].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    b[0].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    vkCmdPipelineBarrier2(cmd, &dep);
+    if (copyRegions.empty()) {
+      // Nothing to restore (dynamic casters appear): the layer straight to the attachment.
+      b[1].dstStageMask = depthStages;
+      b[1].dstAccessMask = depthAccess;
+      b[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      dep.imageMemoryBarrierCount = 1;
+      dep.pImageMemoryBarriers = b + 1;
+      vkCmdPipelineBarrier2(cmd, &dep);
+    } else {
+      vkCmdPipelineBarrier2(cmd, &dep);
+      vkCmdCopyImage(cmd, staticImage_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image_,
+                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                     static_cast<std::uint32_t>(copyRegions.size()), copyRegions.data());
+      st.copied = true;
+      // Then: the sampled layer to the attachment (dynamic casters) and, at the end, to the
+      // sampled layout; the static layer back to the attachment layout for the next frame.
+      b[1].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+      b[1].srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+      b[1].dstStageMask = depthStages;
+      b[1].dstAccessMask = depthAccess;
+      b[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+      b[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      b[0].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+      b[0].srcAccessMask = VK_ACCESS_2_NONE;
+      b[0].dstStageMask = depthStages;
+      b[0].dstAccessMask = depthAccess;
+      b[0].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+      b[0].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      vkCmdPipelineBarrier2(cmd, &dep);
+    }
     copiedMask |= 1u << i;
     if (dynamicNow) {
       beginPass(layerViews_[i], false, "dynamic", i);

@@ -149,6 +149,10 @@ struct RendererOptions {
   /// Cached cascades with a budget: how many cascades from the camera out are refreshed every
   /// frame whatever they cost, [1, kMaxCascades].
   std::uint32_t cacheExactCascades = 1;
+  /// Cached cascades: restore the sampled layer from the static one only where it changed (the
+  /// rectangles re-rendered this frame and those dynamic casters covered last frame). false:
+  /// copy the whole layer whenever something changed (the simpler scheme, kept to compare).
+  bool cacheCopyRects = true;
 };
 
 /// A range of an index buffer drawn as one caster mesh.
