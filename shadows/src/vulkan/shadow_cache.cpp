@@ -550,6 +550,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
   };
   std::vector<TexelRect> copyParts;
   std::vector<VkImageCopy> copyRegions;
+  std::vector<LayerRect> redrawParts;
 
   auto beginPass = [&](VkImageView view, bool clear, const char* what, std::uint32_t cascade) {
     // Both images are DEPTH_ATTACHMENT_OPTIMAL while drawn (see the barriers around the copy).
@@ -685,10 +686,12 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
 
     // Static layer -> sampled layer, then the dynamic casters over it. The sampled layer holds
     // the static depth except where it was re-rendered this frame and where dynamic casters were
-    // drawn last time: only those rectangles are copied (the whole layer on a full render, when
-    // they are most of it, or with cacheCopyRects off).
+    // drawn last time: only those rectangles are restored, copied (kCopyRects) or cleared and
+    // redrawn with the static casters (kRedraw); the whole layer is copied on a full render, when
+    // they are most of it, or with kWholeLayer.
     copyParts.clear();
-    bool whole = full || !options_.cacheCopyRects;
+    redrawParts.clear();
+    bool whole = full || options_.cacheRestore == CacheRestore::kWholeLayer;
     if (!whole) {
       for (const TexelRect& r : dirty) {
         split(win, r, layerRects);
@@ -698,6 +701,24 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
       whole = copyParts.size() > 256 || totalArea(copyParts) * 4 >= 3 * std::uint64_t(res * res);
     }
     if (whole) copyParts.assign(1, TexelRect{0, 0, res, res});
+    if (!whole && options_.cacheRestore == CacheRestore::kRedraw) {
+      // The restored rectangles, with the block each lies in (as the box's own split).
+      split(win, box, layerRects);
+      for (const TexelRect& p : copyParts) {
+        for (const LayerRect& lr : layerRects) {
+          const TexelRect q = p.intersect(layerTexels(lr));
+          if (q.empty()) continue;
+          const std::int64_t dx = lr.world.x0 - lr.scissor.offset.x;
+          const std::int64_t dy = lr.world.y0 - lr.scissor.offset.y;
+          LayerRect r{{q.x0 + dx, q.y0 + dy, q.x1 + dx, q.y1 + dy}, lr.mx, lr.my, {}};
+          r.scissor.offset = {std::int32_t(q.x0), std::int32_t(q.y0)};
+          r.scissor.extent = {std::uint32_t(q.x1 - q.x0), std::uint32_t(q.y1 - q.y0)};
+          redrawParts.push_back(r);
+          st.restoredTexels += q.area();
+        }
+      }
+      copyParts.clear();
+    }
     copyRegions.clear();
     for (const TexelRect& r : copyParts) {
       VkImageCopy region{};
@@ -707,7 +728,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
       region.dstOffset = region.srcOffset;
       region.extent = {std::uint32_t(r.x1 - r.x0), std::uint32_t(r.y1 - r.y0), 1};
       copyRegions.push_back(region);
-      st.copiedTexels += r.area();
+      st.restoredTexels += r.area();
     }
     // The rectangles this frame's dynamic casters cover (copied back next time).
     sh.dynamicRects.clear();
@@ -789,8 +810,16 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
       vkCmdPipelineBarrier2(cmd, &dep);
     }
     copiedMask |= 1u << i;
-    if (dynamicNow) {
+    if (dynamicNow || !redrawParts.empty()) {
       beginPass(layerViews_[i], false, "dynamic", i);
+      for (const LayerRect& lr : redrawParts) {
+        setRect(lr);
+        VkClearAttachment ca{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
+        ca.clearValue.depthStencil = {1.0f, 0};
+        const VkClearRect cr{lr.scissor, 0, 1};
+        vkCmdClearAttachments(cmd, 1, &ca, 1, &cr);
+        st.restoreTriangles += drawRect(i, win, list, false, lr);
+      }
       split(win, box, layerRects);
       for (const LayerRect& lr : layerRects) {
         setRect(lr);
