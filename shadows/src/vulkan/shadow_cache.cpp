@@ -551,6 +551,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
   std::vector<TexelRect> copyParts;
   std::vector<VkImageCopy> copyRegions;
   std::vector<LayerRect> redrawParts;
+  std::vector<LayerRect> staticPieces;
 
   auto beginPass = [&](VkImageView view, bool clear, const char* what, std::uint32_t cascade) {
     // Both images are DEPTH_ATTACHMENT_OPTIMAL while drawn (see the barriers around the copy).
@@ -590,32 +591,96 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     vkCmdSetScissor(cmd, 0, 1, &lr.scissor);
   };
   // Draws the casters of `list` with dynamic == `dynamic` that overlap `lr`; returns triangles.
+  // Draws caster `idx` (at the LOD of the uncached pass: the schedule and the texel error
+  // budget) under the current viewport and scissor; returns its triangles.
+  auto drawCaster = [&](std::uint32_t cascade, const CacheWindow& w, std::uint32_t idx) {
+    const CasterInstance& inst = casters.instances[idx];
+    const MeshDraw& mesh = casters.meshes[inst.meshForLod(
+        casterLod(inst, options_.cascadeLod[cascade], w.texel, options_.lodMaxErrorTexels))];
+    if (mesh.indexCount == 0) return std::uint64_t(0);
+    if (bound == nullptr || bound->vertexBuffer != mesh.vertexBuffer ||
+        bound->vertexBufferOffset != mesh.vertexBufferOffset) {
+      vkCmdBindVertexBuffers(cmd, 0, 1, &mesh.vertexBuffer, &mesh.vertexBufferOffset);
+    }
+    if (bound == nullptr || bound->indexBuffer != mesh.indexBuffer ||
+        bound->indexBufferOffset != mesh.indexBufferOffset) {
+      vkCmdBindIndexBuffer(cmd, mesh.indexBuffer, mesh.indexBufferOffset, layout_.indexType);
+    }
+    bound = &mesh;
+    const DepthPush push{anchorTransform(w, inst), cascade};
+    vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
+                       &push);
+    vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, 0);
+    return std::uint64_t(mesh.indexCount / 3);
+  };
+  // Draws the casters of `list` with dynamic == `dynamic` that overlap `lr`; returns triangles.
   auto drawRect = [&](std::uint32_t cascade, const CacheWindow& w,
                       const std::vector<std::uint32_t>& list, bool dynamic, const LayerRect& lr) {
     std::uint64_t triangles = 0;
-    const std::uint32_t schedule = options_.cascadeLod[cascade];
     for (std::uint32_t idx : list) {
-      const CasterInstance& inst = casters.instances[idx];
-      if (inst.dynamic != dynamic) continue;
+      if (casters.instances[idx].dynamic != dynamic) continue;
       if (casterRects[idx].intersect(lr.world).empty()) continue;
-      // The LOD of the uncached pass: the schedule and the texel error budget.
-      const MeshDraw& mesh = casters.meshes[inst.meshForLod(
-          casterLod(inst, schedule, w.texel, options_.lodMaxErrorTexels))];
-      if (mesh.indexCount == 0) continue;
-      if (bound == nullptr || bound->vertexBuffer != mesh.vertexBuffer ||
-          bound->vertexBufferOffset != mesh.vertexBufferOffset) {
-        vkCmdBindVertexBuffers(cmd, 0, 1, &mesh.vertexBuffer, &mesh.vertexBufferOffset);
+      triangles += drawCaster(cascade, w, idx);
+    }
+    return triangles;
+  };
+  // Draws the static casters of `list` over the stale rectangles `pieces` (already cleared). A
+  // caster over several pieces of one block (an L-shaped exposure, a strip and a box) is drawn
+  // once, scissored to the bounding rectangle of its parts, when that rectangle is no larger
+  // than the parts together: drawing it over texels that are valid leaves them bit-identical
+  // (they already hold the minimum over every static caster, this one included). Otherwise
+  // once per piece. Returns triangles; counts the draws saved in `saved`.
+  struct Hit {
+    std::size_t piece;
+    TexelRect part;
+    bool done;
+  };
+  std::vector<Hit> hits;
+  auto drawPieces = [&](std::uint32_t cascade, const CacheWindow& w,
+                        const std::vector<std::uint32_t>& list,
+                        const std::vector<LayerRect>& pieces, std::uint64_t& saved) {
+    std::uint64_t triangles = 0;
+    for (std::uint32_t idx : list) {
+      if (casters.instances[idx].dynamic) continue;
+      hits.clear();
+      for (std::size_t k = 0; k < pieces.size(); ++k) {
+        const TexelRect q = casterRects[idx].intersect(pieces[k].world);
+        if (!q.empty()) hits.push_back({k, q, false});
       }
-      if (bound == nullptr || bound->indexBuffer != mesh.indexBuffer ||
-          bound->indexBufferOffset != mesh.indexBufferOffset) {
-        vkCmdBindIndexBuffer(cmd, mesh.indexBuffer, mesh.indexBufferOffset, layout_.indexType);
+      for (std::size_t h = 0; h < hits.size(); ++h) {
+        if (hits[h].done) continue;  // drawn with an earlier hit of its block
+        const LayerRect& first = pieces[hits[h].piece];
+        // This hit and the later ones of the same block (same viewport).
+        TexelRect u = hits[h].part;
+        std::uint64_t sum = u.area();
+        std::size_t n = 1;
+        for (std::size_t g = h + 1; g < hits.size(); ++g) {
+          const LayerRect& other = pieces[hits[g].piece];
+          if (other.mx != first.mx || other.my != first.my) continue;
+          const TexelRect& q = hits[g].part;
+          u = {std::min(u.x0, q.x0), std::min(u.y0, q.y0), std::max(u.x1, q.x1),
+               std::max(u.y1, q.y1)};
+          sum += q.area();
+          ++n;
+        }
+        if (n > 1 && u.area() <= sum) {
+          LayerRect merged = first;
+          merged.world = u;
+          merged.scissor.offset = {std::int32_t(first.scissor.offset.x + (u.x0 - first.world.x0)),
+                                   std::int32_t(first.scissor.offset.y + (u.y0 - first.world.y0))};
+          merged.scissor.extent = {std::uint32_t(u.x1 - u.x0), std::uint32_t(u.y1 - u.y0)};
+          setRect(merged);
+          triangles += drawCaster(cascade, w, idx);
+          saved += n - 1;
+          for (std::size_t g = h + 1; g < hits.size(); ++g) {
+            const LayerRect& other = pieces[hits[g].piece];
+            if (other.mx == first.mx && other.my == first.my) hits[g].done = true;
+          }
+          continue;
+        }
+        setRect(first);
+        triangles += drawCaster(cascade, w, idx);
       }
-      bound = &mesh;
-      const DepthPush push{anchorTransform(w, inst), cascade};
-      vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
-                         &push);
-      vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, 0);
-      triangles += mesh.indexCount / 3;
     }
     return triangles;
   };
@@ -667,10 +732,10 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
 
     if (!dirty.empty()) {
       beginPass(staticViews_[i], full, "static", i);
+      staticPieces.clear();
       for (const TexelRect& r : dirty) {
         split(win, r, layerRects);
         for (const LayerRect& lr : layerRects) {
-          setRect(lr);
           if (!full) {
             VkClearAttachment ca{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
             ca.clearValue.depthStencil = {1.0f, 0};
@@ -678,9 +743,10 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
             vkCmdClearAttachments(cmd, 1, &ca, 1, &cr);
           }
           st.staticTexels += lr.world.area();
-          st.staticTriangles += drawRect(i, win, list, false, lr);
+          staticPieces.push_back(lr);
         }
       }
+      st.staticTriangles += drawPieces(i, win, list, staticPieces, st.mergedDraws);
       endPass();
     }
 
@@ -813,13 +879,12 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     if (dynamicNow || !redrawParts.empty()) {
       beginPass(layerViews_[i], false, "dynamic", i);
       for (const LayerRect& lr : redrawParts) {
-        setRect(lr);
         VkClearAttachment ca{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
         ca.clearValue.depthStencil = {1.0f, 0};
         const VkClearRect cr{lr.scissor, 0, 1};
         vkCmdClearAttachments(cmd, 1, &ca, 1, &cr);
-        st.restoreTriangles += drawRect(i, win, list, false, lr);
       }
+      st.restoreTriangles += drawPieces(i, win, list, redrawParts, st.mergedDraws);
       split(win, box, layerRects);
       for (const LayerRect& lr : layerRects) {
         setRect(lr);

@@ -265,6 +265,9 @@ struct CascadeCacheStats {
   /// CacheRestore::kRedraw), and the static triangles redrawn for it.
   std::uint64_t restoredTexels = 0;
   std::uint64_t restoreTriangles = 0;
+  /// Draws saved by drawing a caster over several stale rectangles of one block once, scissored
+  /// to the bounding rectangle of its parts (where that is no larger than the parts together).
+  std::uint64_t mergedDraws = 0;
 };
 
 /// What a draw callback gets for one cascade: the command buffer inside the cascade's render
