@@ -44,7 +44,8 @@ json cascadesJson(const world::FrameStats& st) {
                    {"lod", st.lod[c]},
                    {"casters", st.casters[c]},
                    {"triangles", st.triangles[c]},
-                   {"texels_rendered", st.texelsRendered[c]}});
+                   {"texels_rendered", st.texelsRendered[c]},
+                   {"lag_frames", st.lagFrames[c]}});
   }
   return arr;
 }
@@ -116,6 +117,7 @@ json summaryJson(const std::vector<json>& framesJson, const world::AppSettings& 
   };
   summary["shadow_cache"] = settings.shadowCache;
   summary["shadow_cache_bytes"] = lastStats.cacheBytes;
+  summary["shadow_cache_budget_texels"] = settings.cacheBudgetTexels;
   summary["gpu_shadow_ms_median"] =
       median([](const json& f) { return f["gpu_ms"]["shadow"].get<double>(); });
   for (std::uint32_t c = 0; c < settings.shadow.cascadeCount; ++c) {

@@ -177,6 +177,11 @@ const std::vector<Entry>& table() {
                     [](AppSettings& s) -> float& { return s.shadow.normalOffsetTexels; }),
       boolean("shadow.stabilize", [](AppSettings& s) -> bool& { return s.shadow.stabilize; }),
       boolean("shadow.cache", [](AppSettings& s) -> bool& { return s.shadowCache; }),
+      number<std::uint64_t>(
+          "shadow.cacheBudgetTexels",
+          "an integer in [0, 2^40]: 0 = no cap, else at least shadow.resolution^2", 0,
+          1099511627776.0, true,
+          [](AppSettings& s) -> std::uint64_t& { return s.cacheBudgetTexels; }),
       number<float>("shadow.minCasterTexels", "texels in [0, 1e6]", 0, 1e6, false,
                     [](AppSettings& s) -> float& { return s.shadow.minCasterTexels; }),
       choice("shadow.depthFormat", "one of d32, d16", kDepthFormats,
@@ -366,6 +371,12 @@ std::optional<std::string> applyConfigText(AppSettings& s, std::string_view text
 std::optional<std::string> validateSettings(const AppSettings& s) {
   if (auto e = csm::validate(effectiveShadow(s))) return e->message();
   if (s.farM <= 1.0) return "camera.far must exceed the near plane (0.5 m)";
+  const std::uint64_t layer = std::uint64_t(s.shadow.resolution) * s.shadow.resolution;
+  if (s.cacheBudgetTexels != 0 && s.cacheBudgetTexels < layer) {
+    return "shadow.cacheBudgetTexels = " + std::to_string(s.cacheBudgetTexels) +
+           " is invalid: allowed 0 (no cap) or at least shadow.resolution^2 = " +
+           std::to_string(layer);
+  }
   return std::nullopt;
 }
 

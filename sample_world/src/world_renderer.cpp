@@ -322,6 +322,7 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   // The cache needs stabilised cascades (texels fixed in the world); the unstabilised comparison
   // mode renders every frame in full instead of being refused.
   options.cache = settings.shadowCache && settings.shadow.stabilize;
+  options.cacheBudgetTexels = settings.cacheBudgetTexels;
   if (settings.casterLods) {
     for (std::uint32_t c = 0; c < csm::kMaxCascades; ++c) {
       options.cascadeLod[c] = std::min(settings.cascadeLod[c], kLodCount - 1);
@@ -554,12 +555,14 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
   if (!s.ok()) throw std::runtime_error("ShadowView::recordPass: " + s.message());
   // What was drawn: with the cache only the re-rendered texels and their casters' triangles.
   stats.texelsRendered = {};
+  stats.lagFrames = {};
   stats.cacheBytes = shadow_->renderer().cacheBytes();
   for (std::uint32_t c = 0; c < cascades.cascadeCount; ++c) {
     if (cascades.cascades[c].empty) continue;
     if (shadow_->options().cache) {
       const csm::vk::CascadeCacheStats& cs = shadow_->renderer().cacheStats()[c];
       stats.texelsRendered[c] = cs.staticTexels;
+      stats.lagFrames[c] = cs.lagFrames;
       stats.triangles[c] = cs.staticTriangles + cs.dynamicTriangles;
     } else {
       stats.texelsRendered[c] = std::uint64_t(cascades.resolution) * cascades.resolution;

@@ -82,4 +82,27 @@ TEST(Cli, PcssKernelAndLightAngle) {
   EXPECT_DOUBLE_EQ(report["settings"]["shadow.maxPenumbra"].get<double>(), 0.8);
 }
 
+// The cache's texel budget: below one layer is refused with the key and the least allowed value;
+// a valid one reaches report.json, with each cascade's lag.
+TEST(Cli, CacheBudgetTexels) {
+  ProcessResult r =
+      runApp("--headless --set shadow.resolution=512 --set shadow.cacheBudgetTexels=1000");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.output.find("shadow.cacheBudgetTexels = 1000"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("262144"), std::string::npos) << r.output;
+  r = runApp("--headless --set shadow.cacheBudgetTexels=-1");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.output.find("shadow.cacheBudgetTexels"), std::string::npos) << r.output;
+  const fs::path out = fs::temp_directory_path() / "csm_flythrough_cli_budget";
+  r = runApp("--headless --frames 3 --out " + out.string() +
+             " --set shadow.resolution=512 --set shadow.cacheBudgetTexels=262144"
+             " --set view.width=320 --set view.height=180");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  std::ifstream in(out / "report.json");
+  const json report = json::parse(in);
+  EXPECT_EQ(report["settings"]["shadow.cacheBudgetTexels"].get<std::uint64_t>(), 262144u);
+  EXPECT_EQ(report["summary"]["shadow_cache_budget_texels"].get<std::uint64_t>(), 262144u);
+  EXPECT_TRUE(report["per_frame"][0]["cascades"][0].contains("lag_frames"));
+}
+
 }  // namespace

@@ -32,6 +32,9 @@ struct AppSettings {
   /// default (the fly-through's shadow pass is 7x cheaper on `fast` with it; every frame is
   /// exact). Needs stabilised cascades and the per-layer render mode.
   bool shadowCache = true;
+  /// The cache's texel budget (csm::vk::RendererOptions::cacheBudgetTexels): at most this many
+  /// static texels re-rendered per frame beyond cascade 0; 0 = no cap (every frame exact).
+  std::uint64_t cacheBudgetTexels = 0;
   /// PCF kernel of constant size in metres across cascades.
   bool worldSpaceKernel = false;
   /// Sun direction: azimuth from +x toward +z, elevation above the horizon, degrees.

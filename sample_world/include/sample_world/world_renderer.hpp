@@ -39,6 +39,8 @@ struct FrameStats {
   std::array<std::uint64_t, csm::kMaxCascades> triangles{};  ///< drawn this frame
   /// Shadow-map texels re-rendered this frame (the whole layer without the cache).
   std::array<std::uint64_t, csm::kMaxCascades> texelsRendered{};
+  /// Frames the cascade's content lags the camera (the cache's texel budget deferred it).
+  std::array<std::uint32_t, csm::kMaxCascades> lagFrames{};
   /// Device memory of the static-depth cache (0 without it).
   std::uint64_t cacheBytes = 0;
   /// The coarsest LOD a cluster was drawn with in each cascade.

@@ -547,6 +547,7 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
                       unsigned(options.cullMode)));
   }
 
+  if (s = checkCacheOptions(settings, options); !s.ok()) return s;
   if (options.cache && !settings.stabilize) {
     return Status(ErrorCode::kInvalidArgument,
                   "options.cache = true needs settings.stabilize = true (cached texels must be "
@@ -582,7 +583,7 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
     // A new image (resolution, count, format, cache) invalidates every cached cascade.
     retireStaticImage();
     windows_ = {};
-    invalidBoxes_.clear();
+    shown_ = {};
     if (options.cache) {
       s = createStaticImage(settings, options.depthFormat);
       if (!s.ok()) return s;

@@ -140,6 +140,24 @@ void ShadowView::adoptCasters(std::span<const MeshDraw> meshes,
   computed_ = false;
 }
 
+// A cascade the cache budget deferred across a change of light still shows the light basis it
+// was rendered with: its (dynamic) casters are culled in that basis.
+void ShadowView::cullDeferred(const CascadeFrame& frame) {
+  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+    if (frame.cascades[i].empty || !renderer_->cacheDeferred(i) ||
+        renderer_->cacheLightBasis(i) == frame.lightBasisWs) {
+      continue;
+    }
+    CascadeFrame old = frame;
+    old.lightBasisWs = renderer_->cacheLightBasis(i);
+    old.lightDirectionWs = old.lightBasisWs[2];
+    for (std::uint32_t j = 0; j < old.cascadeCount; ++j) old.cascades[j].empty = j != i;
+    CullResult one;
+    cullCasters(casterSet_, old, settings_.minCasterTexels, one);
+    cull_.visible[i] = std::move(one.visible[i]);
+  }
+}
+
 Status ShadowView::setSceneBounds(const AabbWs* boundsWs) {
   if (boundsWs == nullptr) {
     hasSceneBounds_ = false;
@@ -169,6 +187,7 @@ Status ShadowView::record(VkCommandBuffer cmd, const CascadeFrame& frame) {
   CascadeFrame windowed = frame;
   renderer_->applyCacheWindows(windowed);  // cached cascades: the depth windows (else no-op)
   cullCasters(casterSet_, windowed, settings_.minCasterTexels, cull_);
+  cullDeferred(windowed);
   Status s = renderer_->recordShadowPass(cmd, windowed, CasterList{meshes_, instances_, boundsWs_},
                                          &cull_);
   if (!s.ok()) return s;
@@ -188,6 +207,7 @@ Status ShadowView::compute(const Camera& camera, const DirectionalLight& light) 
   frame_ = frame.value();
   renderer_->applyCacheWindows(frame_);  // cached cascades: the depth windows (else no-op)
   cullCasters(casterSet_, frame_, settings_.minCasterTexels, cull_);
+  cullDeferred(frame_);
   computed_ = true;
   return {};
 }

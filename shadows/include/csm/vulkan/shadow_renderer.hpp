@@ -108,6 +108,21 @@ enum class RenderMode {
   kAuto,
 };
 
+/// How a cached cascade's sampled layer is restored to the static depth (RendererOptions).
+/// Whatever the choice, a new window or a change over most of the layer copies the whole layer.
+enum class CacheRestore {
+  /// Copy the whole static layer whenever anything in the cascade changed (dynamic casters
+  /// included): the simplest scheme.
+  kWholeLayer,
+  /// Copy only the changed rectangles. Measured 3.4x slower than kWholeLayer on lavapipe at
+  /// 4096^2 (its partial depth copies cost more than whole ones; see README).
+  kCopyRects,
+  /// Clear the changed rectangles and draw the static casters over them again, scissored,
+  /// in the dynamic casters' pass: no copy. Bit-identical (a texel is always rasterised with the
+  /// same vertices, viewport and tile). The default: measured fastest (README).
+  kRedraw,
+};
+
 /// What the renderer builds its resources from (besides csm::ShadowSettings).
 struct RendererOptions {
   /// VK_FORMAT_D32_SFLOAT (default) or VK_FORMAT_D16_UNORM.
@@ -139,6 +154,20 @@ struct RendererOptions {
   /// of the static depth. csm.glsl reads the same world texels (wrap offsets in the uniforms).
   /// Costs one more depth image of the same size (cacheBytes()). Needs settings.stabilize.
   bool cache = false;
+  /// Cached cascades: the most static texels re-rendered per frame in the cascades beyond the
+  /// first cacheExactCascades (which are always exact and not counted). A cascade whose refresh
+  /// does not fit keeps showing the depth, box and matrix it was last rendered with (its shadows
+  /// lag, consistently) and is refreshed in a later frame, the one lagging most first (a cascade
+  /// whose box no longer covers its slice before all). 0 (default) = no cap; else at least
+  /// resolution^2 (one whole layer, so the most stale cascade always fits).
+  std::uint64_t cacheBudgetTexels = 0;
+  /// Cached cascades with a budget: how many cascades from the camera out are refreshed every
+  /// frame whatever they cost, [1, kMaxCascades].
+  std::uint32_t cacheExactCascades = 1;
+  /// Cached cascades: how the sampled layer gets the static depth back where it changed (the
+  /// rectangles re-rendered this frame and those dynamic casters covered last frame) before the
+  /// dynamic casters are drawn. See CacheRestore.
+  CacheRestore cacheRestore = CacheRestore::kRedraw;
 };
 
 /// A range of an index buffer drawn as one caster mesh.
@@ -225,6 +254,20 @@ struct CascadeCacheStats {
   /// The cascade's window was new (first frame, or a change of size, light, depth range,
   /// resolution or format): the whole layer was re-rendered.
   bool newWindow = false;
+  /// RendererOptions::cacheBudgetTexels: the cascade's refresh did not fit this frame; it shows
+  /// what it showed lagFrames frames ago (box, matrix, static depth; dynamic casters are drawn
+  /// at their current place). lagFrames = 0: the cascade is exact this frame.
+  bool deferred = false;
+  std::uint32_t lagFrames = 0;
+  /// Static texels that a refresh would have re-rendered (= staticTexels when not deferred).
+  std::uint64_t wantedTexels = 0;
+  /// Texels of the sampled layer restored to the static depth (copied, or redrawn with
+  /// CacheRestore::kRedraw), and the static triangles redrawn for it.
+  std::uint64_t restoredTexels = 0;
+  std::uint64_t restoreTriangles = 0;
+  /// Draws saved by drawing a caster over several stale rectangles of one block once, scissored
+  /// to the bounding rectangle of its parts (where that is no larger than the parts together).
+  std::uint64_t mergedDraws = 0;
 };
 
 /// What a draw callback gets for one cascade: the command buffer inside the cascade's render
@@ -350,6 +393,15 @@ class ShadowRenderer {
   [[nodiscard]] const std::array<CascadeCacheStats, kMaxCascades>& cacheStats() const noexcept {
     return cacheStats_;
   }
+  /// The light basis the content of cascade `i` was rendered with (the frame's, unless the
+  /// cascade is deferred by the budget across a change of light direction); ShadowView culls a
+  /// deferred cascade's casters with it.
+  [[nodiscard]] const glm::dmat3& cacheLightBasis(std::uint32_t i) const noexcept {
+    return shown_[std::min<std::uint32_t>(i, kMaxCascades - 1)].basis;
+  }
+  [[nodiscard]] bool cacheDeferred(std::uint32_t i) const noexcept {
+    return i < kMaxCascades && shown_[i].deferred;
+  }
   /// Device memory of the static-depth cache image (0 without the cache).
   [[nodiscard]] VkDeviceSize cacheBytes() const noexcept { return cacheBytes_; }
   /// The static-depth image (DEPTH_ATTACHMENT_OPTIMAL after a cached record; null without cache).
@@ -456,10 +508,25 @@ class ShadowRenderer {
     double zNear = 0.0, zFar = 0.0;         // absolute light-space depth window
     bool staticValid = false;               // the static layer holds box (boxX, boxY)
     std::int64_t boxX = 0, boxY = 0;
-    bool dynamicLast = false;  // dynamic casters were drawn into the sampled layer last time
+    std::vector<AabbWs> pending;  // invalidated boxes not yet re-rendered in this cascade
   };
+  // What the sampled layer of a cascade shows (its last refresh): the window, box and basis it
+  // was rendered with; a cascade deferred by the budget keeps showing it.
+  struct CacheShown {
+    bool valid = false;
+    bool deferred = false;  // deferred this frame
+    std::uint32_t lag = 0;  // frames since its last refresh
+    CacheWindow window;     // anchor, texel, depth window (pending/dynamicRects unused)
+    Cascade cascade;
+    glm::dmat3 basis{1.0};
+    std::uint64_t wanted = 0;  // static texels its refresh costs this frame
+    bool dynamicLast = false;  // dynamic casters were drawn into the sampled layer last time
+    // Layer rectangles ([x0, y0, x1, y1) texels) dynamic casters were drawn into last time.
+    std::vector<std::array<std::int32_t, 4>> dynamicRects;
+  };
+  static Status checkCacheOptions(const ShadowSettings& settings, const RendererOptions& options);
   std::array<CacheWindow, kMaxCascades> windows_{};
-  std::vector<AabbWs> invalidBoxes_;
+  std::array<CacheShown, kMaxCascades> shown_{};
   std::array<CascadeCacheStats, kMaxCascades> cacheStats_{};
   VkImage staticImage_ = VK_NULL_HANDLE;
   VkDeviceMemory staticMemory_ = VK_NULL_HANDLE;

@@ -129,6 +129,7 @@ class ShadowView {
  private:
   ShadowView() = default;
   void adoptCasters(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances);
+  void cullDeferred(const CascadeFrame& frame);
 
   std::unique_ptr<ShadowRenderer> renderer_;
   ShadowSettings settings_{};
