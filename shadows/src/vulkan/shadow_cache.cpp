@@ -86,6 +86,89 @@ TexelRect boxTexels(const AabbWs& box, const glm::dmat3& basisT, double texel) n
   return {toIndex(lo[0]) - 1, toIndex(lo[1]) - 1, toIndex(hi[0]) + 2, toIndex(hi[1]) + 2};
 }
 
+/// The stages and accesses of a depth attachment (the depth pass's reads and writes).
+constexpr VkPipelineStageFlags2 kDepthStages =
+    VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+constexpr VkAccessFlags2 kDepthAccess =
+    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+
+// Model -> a cached window's clip space (`Window`: ShadowRenderer::CacheWindow, a private type
+// deduced here), drawn about the window's anchor: layer pixel x = world texel index - anchorX
+// (before the block shift).
+template <class Window>
+glm::mat4 anchorTransform(const Window& w, std::int64_t res, const glm::dmat3& basisT,
+                          const CasterInstance& inst) {
+  const double half = 0.5 * double(res) * w.texel;
+  const glm::dvec3 anchorLs(double(w.anchorX) * w.texel + half, double(w.anchorY) * w.texel + half,
+                            0.0);
+  const glm::dvec3 scale(1.0 / half, 1.0 / half, 1.0 / (w.zFar - w.zNear));
+  const glm::dmat3 linear = basisT * glm::dmat3(inst.linearWs);
+  // In light space about the anchor: subtract in double (both may be ~1e7 m).
+  const glm::dvec3 t = basisT * inst.translationWs - anchorLs - glm::dvec3(0, 0, w.zNear);
+  glm::mat4 m(0.0f);
+  for (int col = 0; col < 3; ++col) {
+    for (int row = 0; row < 3; ++row) {
+      m[col][row] = static_cast<float>(linear[col][row] * scale[row]);
+    }
+  }
+  for (int row = 0; row < 3; ++row) m[3][row] = static_cast<float>(t[row] * scale[row]);
+  m[3][3] = 1.0f;
+  return m;
+}
+
+// The layer rectangles (and their block shifts) of a world rectangle.
+struct LayerRect {
+  TexelRect world;
+  std::int64_t mx, my;
+  VkRect2D scissor;
+};
+
+// The layer rectangles of world rectangle `r` in a cached window (`Window`: CacheWindow).
+template <class Window>
+void split(const Window& w, std::int64_t res, const TexelRect& r, std::vector<LayerRect>& out) {
+  out.clear();
+  if (r.empty()) return;
+  for (std::int64_t mx = floorDiv(r.x0 - w.anchorX, res); mx <= floorDiv(r.x1 - 1 - w.anchorX, res);
+       ++mx) {
+    for (std::int64_t my = floorDiv(r.y0 - w.anchorY, res);
+         my <= floorDiv(r.y1 - 1 - w.anchorY, res); ++my) {
+      const TexelRect block{w.anchorX + mx * res, w.anchorY + my * res, w.anchorX + (mx + 1) * res,
+                            w.anchorY + (my + 1) * res};
+      const TexelRect part = r.intersect(block);
+      if (part.empty()) continue;
+      LayerRect lr{part, mx, my, {}};
+      lr.scissor.offset = {std::int32_t(part.x0 - block.x0), std::int32_t(part.y0 - block.y0)};
+      lr.scissor.extent = {std::uint32_t(part.x1 - part.x0), std::uint32_t(part.y1 - part.y0)};
+      out.push_back(lr);
+    }
+  }
+}
+
+/// Viewport and scissor of one layer rectangle: the viewport shifted by its block.
+void setLayerRect(VkCommandBuffer cmd, const LayerRect& lr, std::int64_t res) {
+  const VkViewport vp{-float(lr.mx * res), -float(lr.my * res), float(res), float(res), 0.0f, 1.0f};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &lr.scissor);
+}
+
+/// What of a kept window's static layer is stale: the rows and columns newly exposed by the
+/// box's move and what lies under invalidated boxes (`Window`: ShadowRenderer::CacheWindow).
+template <class Window>
+void exposedAndInvalidated(const Window& w, const TexelRect& box, std::int64_t res,
+                           const std::vector<AabbWs>& invalidBoxes, const glm::dmat3& basisT,
+                           std::vector<TexelRect>& dirty) {
+  const TexelRect old{w.boxX, w.boxY, w.boxX + res, w.boxY + res};
+  if (box.x0 < old.x0) dirty.push_back({box.x0, box.y0, std::min(old.x0, box.x1), box.y1});
+  if (box.x1 > old.x1) dirty.push_back({std::max(old.x1, box.x0), box.y0, box.x1, box.y1});
+  const std::int64_t ox0 = std::max(box.x0, old.x0), ox1 = std::min(box.x1, old.x1);
+  if (box.y0 < old.y0) dirty.push_back({ox0, box.y0, ox1, std::min(old.y0, box.y1)});
+  if (box.y1 > old.y1) dirty.push_back({ox0, std::max(old.y1, box.y0), ox1, box.y1});
+  for (const AabbWs& b : invalidBoxes) {
+    const TexelRect r = boxTexels(b, basisT, w.texel).intersect(box);
+    if (!r.empty()) dirty.push_back(r);
+  }
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -221,12 +304,9 @@ void ShadowRenderer::retireStaticImage() noexcept {
 // ---------------------------------------------------------------------------------------------
 // The cached pass
 
-Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame,
-                                        const CasterList& casters, const CullResult& visible) {
-  const std::int64_t res = resolution_;
+// The frame must carry the windows (applyCacheWindows before culling).
+Status ShadowRenderer::checkCacheWindows(const CascadeFrame& frame) const {
   const glm::dmat3& basis = frame.lightBasisWs;
-  const glm::dmat3 basisT = glm::transpose(basis);
-  // The frame must carry the windows (applyCacheWindows before culling).
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     const Cascade& c = frame.cascades[i];
     if (c.empty) continue;
@@ -242,26 +322,12 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
                         i));
     }
   }
+  return {};
+}
 
-  ++records_;
-  collectRetired(false);
-  const bool wasUndefined = pendingClear_;
-  pendingClear_ = false;
-  uniformsCleared_ = true;
-  uniforms_ = packUniforms(frame, settings_, uniformOptions_);
-  uniforms_.counts.w = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
-  std::array<TexelRect, kMaxCascades> boxes{};
-  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
-    const Cascade& c = frame.cascades[i];
-    if (c.empty) continue;
-    const CacheWindow& w = windows_[i];
-    const glm::dvec3 centerLs = basisT * c.boxCenterWs;
-    const std::int64_t bx = std::llround(centerLs.x / w.texel) - res / 2;
-    const std::int64_t by = std::llround(centerLs.y / w.texel) - res / 2;
-    boxes[i] = {bx, by, bx + res, by + res};
-    uniforms_.cascades[i].wrapInfo.x = float(floorMod(bx - w.anchorX, res));
-    uniforms_.cascades[i].wrapInfo.y = float(floorMod(by - w.anchorY, res));
-  }
+// The cached pass's start: its label, the uniform block (write after the previous frame's
+// reads), the static image after last frame's copies, and a new sampled image.
+void ShadowRenderer::recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined) {
   if (beginLabel_) {
     auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
     label.pLabelName = "csm shadow pass (cached)";
@@ -274,10 +340,6 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
   // (DEPTH_ATTACHMENT_OPTIMAL between frames) after last frame's copies; a new sampled image.
   const VkPipelineStageFlags2 readers =
       options_.consumerStages | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT;
-  const VkPipelineStageFlags2 depthStages =
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-  const VkAccessFlags2 depthAccess = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
-                                     VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
   {
     auto toWrite = vkInit<VkBufferMemoryBarrier2>(VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2);
     toWrite.srcStageMask = readers;
@@ -301,14 +363,14 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     img[0].image = image_;
     img[0].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
     img[1] = img[0];
-    img[1].srcStageMask = depthStages | VK_PIPELINE_STAGE_2_COPY_BIT;
+    img[1].srcStageMask = kDepthStages | VK_PIPELINE_STAGE_2_COPY_BIT;
     img[1].srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
     img[1].oldLayout =
         staticInitialised_ ? VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
     img[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
     img[1].image = staticImage_;
-    img[1].dstStageMask = depthStages;
-    img[1].dstAccessMask = depthAccess;
+    img[1].dstStageMask = kDepthStages;
+    img[1].dstAccessMask = kDepthAccess;
     if (!staticInitialised_) {
       for (CacheWindow& w : windows_) w.staticValid = false;
     }
@@ -330,95 +392,147 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     dep2.pBufferMemoryBarriers = &toRead;
     vkCmdPipelineBarrier2(cmd, &dep2);
   }
+}
+
+// Begins dynamic rendering into one layer view of the static or the sampled image.
+void ShadowRenderer::beginCachedRendering(VkCommandBuffer cmd, VkImageView view, bool clear,
+                                          const char* what, std::uint32_t cascade) {
+  // Both images are DEPTH_ATTACHMENT_OPTIMAL while drawn (see the barriers around the copy).
+  if (beginLabel_) {
+    const std::string name = std::string("csm cascade ") + std::to_string(cascade) + " " + what;
+    auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
+    label.pLabelName = name.c_str();
+    beginLabel_(cmd, &label);
+  }
+  auto depth = vkInit<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
+  depth.imageView = view;
+  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth.loadOp = clear ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  depth.clearValue.depthStencil = {1.0f, 0};
+  auto ri = vkInit<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
+  ri.renderArea = {{0, 0}, {resolution_, resolution_}};
+  ri.layerCount = 1;
+  ri.pDepthAttachment = &depth;
+  vkCmdBeginRendering(cmd, &ri);
+  vkCmdSetDepthBias(cmd, settings_.depthBiasConstant, 0.0f, settings_.depthBiasSlope);
+  vkCmdSetCullMode(cmd, options_.cullMode);
+  vkCmdSetFrontFace(cmd, options_.frontFace);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
+                          0, nullptr);
+}
+
+// Static layer `i` -> the sampled layer `i` (whole), leaving both as depth attachments.
+void ShadowRenderer::recordStaticCopy(VkCommandBuffer cmd, std::uint32_t i) {
+  VkImageMemoryBarrier2 b[2] = {
+      vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
+      vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
+  b[0].srcStageMask = kDepthStages;
+  b[0].srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  b[0].dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  b[0].dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
+  b[0].oldLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  b[0].newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  b[0].srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b[0].dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b[0].image = staticImage_;
+  b[0].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, i, 1};
+  // The sampled layer: last frame's readers finish before the copy overwrites it.
+  b[1] = b[0];
+  b[1].image = image_;
+  b[1].srcStageMask = options_.consumerStages;
+  b[1].srcAccessMask = VK_ACCESS_2_NONE;
+  b[1].dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  b[1].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;  // overwritten whole by the copy
+  b[1].newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
+  dep.imageMemoryBarrierCount = 2;
+  dep.pImageMemoryBarriers = b;
+  vkCmdPipelineBarrier2(cmd, &dep);
+  VkImageCopy region{};
+  region.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, i, 1};
+  region.dstSubresource = region.srcSubresource;
+  region.extent = {resolution_, resolution_, 1};
+  vkCmdCopyImage(cmd, staticImage_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image_,
+                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  // Then: the sampled layer to the attachment (dynamic casters) and, at the end, to the
+  // sampled layout; the static layer back to the attachment layout for the next frame.
+  b[1].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  b[1].srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  b[1].dstStageMask = kDepthStages;
+  b[1].dstAccessMask = kDepthAccess;
+  b[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  b[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  b[0].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  b[0].srcAccessMask = VK_ACCESS_2_NONE;
+  b[0].dstStageMask = kDepthStages;
+  b[0].dstAccessMask = kDepthAccess;
+  b[0].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  b[0].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  vkCmdPipelineBarrier2(cmd, &dep);
+}
+
+// The cached pass's end: layers written this frame -> the sampled layout.
+void ShadowRenderer::recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMask) {
+  // The others stayed sampleable.
+  std::vector<VkImageMemoryBarrier2> toSampled;
+  for (std::uint32_t i = 0; i < layerCount_; ++i) {
+    if ((copiedMask & (1u << i)) == 0) continue;
+    auto b = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
+    b.srcStageMask = kDepthStages;
+    b.srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+    b.dstStageMask = options_.consumerStages;
+    b.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
+    b.oldLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    b.newLayout = sampledLayout();
+    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = image_;
+    b.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, i, 1};
+    toSampled.push_back(b);
+  }
+  auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
+  dep.imageMemoryBarrierCount = static_cast<std::uint32_t>(toSampled.size());
+  dep.pImageMemoryBarriers = toSampled.data();
+  if (!toSampled.empty()) vkCmdPipelineBarrier2(cmd, &dep);
+  if (endLabel_) endLabel_(cmd);
+}
+
+Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                                        const CasterList& casters, const CullResult& visible) {
+  const std::int64_t res = resolution_;
+  const glm::dmat3& basis = frame.lightBasisWs;
+  const glm::dmat3 basisT = glm::transpose(basis);
+  Status s = checkCacheWindows(frame);
+  if (!s.ok()) return s;
+
+  ++records_;
+  collectRetired(false);
+  const bool wasUndefined = pendingClear_;
+  pendingClear_ = false;
+  uniformsCleared_ = true;
+  uniforms_ = packUniforms(frame, settings_, uniformOptions_);
+  uniforms_.counts.w = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
+  std::array<TexelRect, kMaxCascades> boxes{};
+  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+    const Cascade& c = frame.cascades[i];
+    if (c.empty) continue;
+    const CacheWindow& w = windows_[i];
+    const glm::dvec3 centerLs = basisT * c.boxCenterWs;
+    const std::int64_t bx = std::llround(centerLs.x / w.texel) - res / 2;
+    const std::int64_t by = std::llround(centerLs.y / w.texel) - res / 2;
+    boxes[i] = {bx, by, bx + res, by + res};
+    uniforms_.cascades[i].wrapInfo.x = float(floorMod(bx - w.anchorX, res));
+    uniforms_.cascades[i].wrapInfo.y = float(floorMod(by - w.anchorY, res));
+  }
+  recordCachedBegin(cmd, wasUndefined);
 
   // Light-space texel rectangles of the casters drawn this frame (computed once per cascade).
   const std::size_t instanceCount = casters.instances.size();
   std::vector<TexelRect> casterRects;
   const MeshDraw* bound = nullptr;
 
-  // Draws caster `index` in cascade `cascade` about the window's anchor: model -> the window's
-  // clip space, where layer pixel x = world texel index - anchorX (before the block shift).
-  auto anchorTransform = [&](const CacheWindow& w, const CasterInstance& inst) {
-    const double half = 0.5 * double(res) * w.texel;
-    const glm::dvec3 anchorLs(double(w.anchorX) * w.texel + half,
-                              double(w.anchorY) * w.texel + half, 0.0);
-    const glm::dvec3 scale(1.0 / half, 1.0 / half, 1.0 / (w.zFar - w.zNear));
-    const glm::dmat3 linear = basisT * glm::dmat3(inst.linearWs);
-    // In light space about the anchor: subtract in double (both may be ~1e7 m).
-    const glm::dvec3 t = basisT * inst.translationWs - anchorLs - glm::dvec3(0, 0, w.zNear);
-    glm::mat4 m(0.0f);
-    for (int col = 0; col < 3; ++col) {
-      for (int row = 0; row < 3; ++row) {
-        m[col][row] = static_cast<float>(linear[col][row] * scale[row]);
-      }
-    }
-    for (int row = 0; row < 3; ++row) m[3][row] = static_cast<float>(t[row] * scale[row]);
-    m[3][3] = 1.0f;
-    return m;
-  };
-
-  // The layer rectangles (and their block shifts) of a world rectangle.
-  struct LayerRect {
-    TexelRect world;
-    std::int64_t mx, my;
-    VkRect2D scissor;
-  };
-  auto split = [&](const CacheWindow& w, const TexelRect& r, std::vector<LayerRect>& out) {
-    out.clear();
-    if (r.empty()) return;
-    for (std::int64_t mx = floorDiv(r.x0 - w.anchorX, res);
-         mx <= floorDiv(r.x1 - 1 - w.anchorX, res); ++mx) {
-      for (std::int64_t my = floorDiv(r.y0 - w.anchorY, res);
-           my <= floorDiv(r.y1 - 1 - w.anchorY, res); ++my) {
-        const TexelRect block{w.anchorX + mx * res, w.anchorY + my * res,
-                              w.anchorX + (mx + 1) * res, w.anchorY + (my + 1) * res};
-        const TexelRect part = r.intersect(block);
-        if (part.empty()) continue;
-        LayerRect lr{part, mx, my, {}};
-        lr.scissor.offset = {std::int32_t(part.x0 - block.x0), std::int32_t(part.y0 - block.y0)};
-        lr.scissor.extent = {std::uint32_t(part.x1 - part.x0), std::uint32_t(part.y1 - part.y0)};
-        out.push_back(lr);
-      }
-    }
-  };
-
-  auto beginPass = [&](VkImageView view, bool clear, const char* what, std::uint32_t cascade) {
-    // Both images are DEPTH_ATTACHMENT_OPTIMAL while drawn (see the barriers around the copy).
-    if (beginLabel_) {
-      const std::string name = std::string("csm cascade ") + std::to_string(cascade) + " " + what;
-      auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
-      label.pLabelName = name.c_str();
-      beginLabel_(cmd, &label);
-    }
-    auto depth = vkInit<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
-    depth.imageView = view;
-    depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    depth.loadOp = clear ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
-    depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    depth.clearValue.depthStencil = {1.0f, 0};
-    auto ri = vkInit<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
-    ri.renderArea = {{0, 0}, {resolution_, resolution_}};
-    ri.layerCount = 1;
-    ri.pDepthAttachment = &depth;
-    vkCmdBeginRendering(cmd, &ri);
-    vkCmdSetDepthBias(cmd, settings_.depthBiasConstant, 0.0f, settings_.depthBiasSlope);
-    vkCmdSetCullMode(cmd, options_.cullMode);
-    vkCmdSetFrontFace(cmd, options_.frontFace);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
-                            0, nullptr);
-    bound = nullptr;
-  };
-  auto endPass = [&] {
-    vkCmdEndRendering(cmd);
-    if (endLabel_) endLabel_(cmd);
-  };
-  auto setRect = [&](const LayerRect& lr) {
-    const VkViewport vp{
-        -float(lr.mx * res), -float(lr.my * res), float(res), float(res), 0.0f, 1.0f};
-    vkCmdSetViewport(cmd, 0, 1, &vp);
-    vkCmdSetScissor(cmd, 0, 1, &lr.scissor);
-  };
   // Draws the casters of `list` with dynamic == `dynamic` that overlap `lr`; returns triangles.
   auto drawRect = [&](std::uint32_t cascade, const CacheWindow& w,
                       const std::vector<std::uint32_t>& list, bool dynamic, const LayerRect& lr) {
@@ -441,7 +555,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
         vkCmdBindIndexBuffer(cmd, mesh.indexBuffer, mesh.indexBufferOffset, layout_.indexType);
       }
       bound = &mesh;
-      const DepthPush push{anchorTransform(w, inst), cascade};
+      const DepthPush push{anchorTransform(w, res, basisT, inst), cascade};
       vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                          &push);
       vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, 0);
@@ -477,16 +591,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
       dirty.push_back(box);
       st.newWindow = true;
     } else {
-      const TexelRect old{w.boxX, w.boxY, w.boxX + res, w.boxY + res};
-      if (box.x0 < old.x0) dirty.push_back({box.x0, box.y0, std::min(old.x0, box.x1), box.y1});
-      if (box.x1 > old.x1) dirty.push_back({std::max(old.x1, box.x0), box.y0, box.x1, box.y1});
-      const std::int64_t ox0 = std::max(box.x0, old.x0), ox1 = std::min(box.x1, old.x1);
-      if (box.y0 < old.y0) dirty.push_back({ox0, box.y0, ox1, std::min(old.y0, box.y1)});
-      if (box.y1 > old.y1) dirty.push_back({ox0, std::max(old.y1, box.y0), ox1, box.y1});
-      for (const AabbWs& b : invalidBoxes_) {
-        const TexelRect r = boxTexels(b, basisT, w.texel).intersect(box);
-        if (!r.empty()) dirty.push_back(r);
-      }
+      exposedAndInvalidated(w, box, res, invalidBoxes_, basisT, dirty);
     }
     std::erase_if(dirty, [](const TexelRect& r) { return r.empty(); });
     const bool copy = !dirty.empty() || dynamicNow || w.dynamicLast;
@@ -495,11 +600,12 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     any = true;
 
     if (!dirty.empty()) {
-      beginPass(staticViews_[i], full, "static", i);
+      beginCachedRendering(cmd, staticViews_[i], full, "static", i);
+      bound = nullptr;
       for (const TexelRect& r : dirty) {
-        split(w, r, layerRects);
+        split(w, res, r, layerRects);
         for (const LayerRect& lr : layerRects) {
-          setRect(lr);
+          setLayerRect(cmd, lr, res);
           if (!full) {
             VkClearAttachment ca{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
             ca.clearValue.depthStencil = {1.0f, 0};
@@ -510,97 +616,31 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
           st.staticTriangles += drawRect(i, w, list, false, lr);
         }
       }
-      endPass();
+      endLayer(cmd);
     }
     w.staticValid = true;
     w.boxX = box.x0;
     w.boxY = box.y0;
 
-    // Static layer -> sampled layer, then the dynamic casters over it.
-    VkImageMemoryBarrier2 b[2] = {
-        vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
-        vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
-    b[0].srcStageMask = depthStages;
-    b[0].srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-    b[0].dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    b[0].dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-    b[0].oldLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    b[0].newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    b[0].srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b[0].dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b[0].image = staticImage_;
-    b[0].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, i, 1};
-    // The sampled layer: last frame's readers finish before the copy overwrites it.
-    b[1] = b[0];
-    b[1].image = image_;
-    b[1].srcStageMask = options_.consumerStages;
-    b[1].srcAccessMask = VK_ACCESS_2_NONE;
-    b[1].dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    b[1].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;  // overwritten whole by the copy
-    b[1].newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
-    dep.imageMemoryBarrierCount = 2;
-    dep.pImageMemoryBarriers = b;
-    vkCmdPipelineBarrier2(cmd, &dep);
-    VkImageCopy region{};
-    region.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, i, 1};
-    region.dstSubresource = region.srcSubresource;
-    region.extent = {resolution_, resolution_, 1};
-    vkCmdCopyImage(cmd, staticImage_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image_,
-                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+    recordStaticCopy(cmd, i);
     st.copied = true;
-    // Then: the sampled layer to the attachment (dynamic casters) and, at the end, to the
-    // sampled layout; the static layer back to the attachment layout for the next frame.
-    b[1].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    b[1].srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    b[1].dstStageMask = depthStages;
-    b[1].dstAccessMask = depthAccess;
-    b[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    b[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    b[0].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    b[0].srcAccessMask = VK_ACCESS_2_NONE;
-    b[0].dstStageMask = depthStages;
-    b[0].dstAccessMask = depthAccess;
-    b[0].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    b[0].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    vkCmdPipelineBarrier2(cmd, &dep);
     copiedMask |= 1u << i;
     if (dynamicNow) {
-      beginPass(layerViews_[i], false, "dynamic", i);
-      split(w, box, layerRects);
+      beginCachedRendering(cmd, layerViews_[i], false, "dynamic", i);
+      bound = nullptr;
+      split(w, res, box, layerRects);
       for (const LayerRect& lr : layerRects) {
-        setRect(lr);
+        setLayerRect(cmd, lr, res);
         st.dynamicTriangles += drawRect(i, w, list, true, lr);
       }
-      endPass();
+      endLayer(cmd);
     }
     w.dynamicLast = dynamicNow;
   }
   invalidBoxes_.clear();
   if (cascadeHook_ && any) cascadeHook_(cmd, kCascadeHookEnd);
 
-  // Layers written this frame -> the sampled layout; the others stayed sampleable.
-  std::vector<VkImageMemoryBarrier2> toSampled;
-  for (std::uint32_t i = 0; i < layerCount_; ++i) {
-    if ((copiedMask & (1u << i)) == 0) continue;
-    auto b = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
-    b.srcStageMask = depthStages;
-    b.srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-    b.dstStageMask = options_.consumerStages;
-    b.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
-    b.oldLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    b.newLayout = sampledLayout();
-    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b.image = image_;
-    b.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, i, 1};
-    toSampled.push_back(b);
-  }
-  auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
-  dep.imageMemoryBarrierCount = static_cast<std::uint32_t>(toSampled.size());
-  dep.pImageMemoryBarriers = toSampled.data();
-  if (!toSampled.empty()) vkCmdPipelineBarrier2(cmd, &dep);
-  if (endLabel_) endLabel_(cmd);
+  recordCachedEnd(cmd, copiedMask);
   return {};
 }
 

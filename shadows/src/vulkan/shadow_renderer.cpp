@@ -83,6 +83,73 @@ std::string fmt(const char* format, auto... args) {
   return buf;
 }
 
+// What create() needs of the host: a device, a readable vertex layout, a frame count.
+Status checkCreateArgs(const DeviceInfo& device, const VertexLayout& layout) {
+  if (device.physicalDevice == VK_NULL_HANDLE || device.device == VK_NULL_HANDLE) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "DeviceInfo: physicalDevice and device are required");
+  }
+  if (layout.stride == 0 || layout.positionOffset + 12 > layout.stride ||
+      (layout.positionFormat != VK_FORMAT_R32G32B32_SFLOAT &&
+       layout.positionFormat != VK_FORMAT_R32G32B32A32_SFLOAT) ||
+      (layout.indexType != VK_INDEX_TYPE_UINT32 && layout.indexType != VK_INDEX_TYPE_UINT16)) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("VertexLayout: stride %u, positionOffset %u, format %d, index type %d is "
+                      "invalid: allowed a float3/float4 position inside the stride and a "
+                      "16/32-bit index type",
+                      layout.stride, layout.positionOffset, int(layout.positionFormat),
+                      int(layout.indexType)));
+  }
+  if (device.framesInFlight < 1 || device.framesInFlight > 16) {
+    return Status(
+        ErrorCode::kInvalidArgument,
+        fmt("DeviceInfo::framesInFlight = %u is invalid: allowed [1, 16]", device.framesInFlight));
+  }
+  return {};
+}
+
+// Every mesh index, LOD mesh, LOD error and visible index of a caster list in range.
+Status checkCasterList(const CascadeFrame& frame, const CasterList& casters,
+                       const CullResult* visible) {
+  const std::size_t instanceCount = casters.instances.size();
+  for (std::size_t i = 0; i < instanceCount; ++i) {
+    if (casters.instances[i].mesh >= casters.meshes.size()) {
+      return Status(ErrorCode::kIndexOutOfRange,
+                    fmt("casters.instances[%zu].mesh = %u is out of range: allowed [0, %zu)", i,
+                        casters.instances[i].mesh, casters.meshes.size()));
+    }
+    for (std::uint32_t k = 0; k + 1 < kMaxCasterLods; ++k) {
+      const std::uint32_t m = casters.instances[i].lodMeshes[k];
+      if (m != kNoMesh && m >= casters.meshes.size()) {
+        return Status(ErrorCode::kIndexOutOfRange,
+                      fmt("casters.instances[%zu].lodMeshes[%u] = %u is out of range: allowed "
+                          "[0, %zu) or kNoMesh",
+                          i, k, m, casters.meshes.size()));
+      }
+      const float e = casters.instances[i].lodErrorM[k];
+      if (!(e >= 0.0f)) {
+        return Status(ErrorCode::kInvalidArgument,
+                      fmt("casters.instances[%zu].lodErrorM[%u] = %g is invalid: allowed "
+                          "[0, +inf] metres (kUnknownLodError = not known)",
+                          i, k, double(e)));
+      }
+    }
+  }
+  if (visible) {
+    for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+      if (frame.cascades[c].empty) continue;
+      for (std::size_t k = 0; k < visible->visible[c].size(); ++k) {
+        if (visible->visible[c][k] >= instanceCount) {
+          return Status(ErrorCode::kIndexOutOfRange,
+                        fmt("visible[%u][%zu] = %u is out of range: allowed [0, %zu)", c, k,
+                            visible->visible[c][k], instanceCount));
+        }
+      }
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 std::string vkResultName(VkResult result) {
@@ -180,32 +247,27 @@ void ShadowRenderer::setName(std::uint64_t handle, VkObjectType type, const char
 }
 
 Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout) {
-  if (device.physicalDevice == VK_NULL_HANDLE || device.device == VK_NULL_HANDLE) {
-    return Status(ErrorCode::kInvalidArgument,
-                  "DeviceInfo: physicalDevice and device are required");
-  }
-  if (layout.stride == 0 || layout.positionOffset + 12 > layout.stride ||
-      (layout.positionFormat != VK_FORMAT_R32G32B32_SFLOAT &&
-       layout.positionFormat != VK_FORMAT_R32G32B32A32_SFLOAT) ||
-      (layout.indexType != VK_INDEX_TYPE_UINT32 && layout.indexType != VK_INDEX_TYPE_UINT16)) {
-    return Status(ErrorCode::kInvalidArgument,
-                  fmt("VertexLayout: stride %u, positionOffset %u, format %d, index type %d is "
-                      "invalid: allowed a float3/float4 position inside the stride and a "
-                      "16/32-bit index type",
-                      layout.stride, layout.positionOffset, int(layout.positionFormat),
-                      int(layout.indexType)));
-  }
-  if (device.framesInFlight < 1 || device.framesInFlight > 16) {
-    return Status(
-        ErrorCode::kInvalidArgument,
-        fmt("DeviceInfo::framesInFlight = %u is invalid: allowed [1, 16]", device.framesInFlight));
-  }
+  Status s = checkCreateArgs(device, layout);
+  if (!s.ok()) return s;
   device_ = device;
   layout_ = layout;
-  VkDevice dev = device.device;
   vkGetPhysicalDeviceProperties(device.physicalDevice, &properties_);
   vkGetPhysicalDeviceMemoryProperties(device.physicalDevice, &memory_);
-  if (device.debugUtilsEnabled) {
+  loadDebugUtils();
+  s = createSetLayouts();
+  if (s.ok()) s = createPipelineLayout();
+  if (s.ok()) s = createDepthSet();
+  if (s.ok()) s = createClearResources();
+  if (s.ok()) s = createSamplers();
+  if (s.ok()) s = createUniformBuffer();
+  if (s.ok()) s = createShaderModules();
+  return s;
+}
+
+// The debug-utils entry points (object names, pass labels) when the host enabled them.
+void ShadowRenderer::loadDebugUtils() {
+  VkDevice dev = device_.device;
+  if (device_.debugUtilsEnabled) {
     setObjectName_ = reinterpret_cast<PFN_vkSetDebugUtilsObjectNameEXT>(
         vkGetDeviceProcAddr(dev, "vkSetDebugUtilsObjectNameEXT"));
     beginLabel_ = reinterpret_cast<PFN_vkCmdBeginDebugUtilsLabelEXT>(
@@ -213,9 +275,12 @@ Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout
     endLabel_ = reinterpret_cast<PFN_vkCmdEndDebugUtilsLabelEXT>(
         vkGetDeviceProcAddr(dev, "vkCmdEndDebugUtilsLabelEXT"));
   }
+}
 
-  // Descriptor set layouts: the depth pass reads the uniform block; the lighting pass reads the
-  // block and the map through both samplers.
+// Descriptor set layouts: the depth pass reads the uniform block; the lighting pass reads the
+// block and the map through both samplers.
+Status ShadowRenderer::createSetLayouts() {
+  VkDevice dev = device_.device;
   {
     VkDescriptorSetLayoutBinding b{};
     b.binding = CSM_BINDING_UNIFORMS;
@@ -245,111 +310,133 @@ Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout
     setName(handleBits(lightingLayout_), VK_OBJECT_TYPE_DESCRIPTOR_SET_LAYOUT,
             "csm lighting set layout");
   }
-  {
-    VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE};
-    auto ci = vkInit<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
-    ci.setLayoutCount = 1;
-    ci.pSetLayouts = &depthSetLayout_;
-    ci.pushConstantRangeCount = 1;
-    ci.pPushConstantRanges = &range;
-    CSM_VK_TRY(vkCreatePipelineLayout(dev, &ci, nullptr, &pipelineLayout_));
-    setName(handleBits(pipelineLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT,
-            "csm depth pipeline layout");
-  }
-  {
-    // The depth pass's set never changes; the lighting set lives with each image (createImage).
-    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1};
-    auto ci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    ci.maxSets = 1;
-    ci.poolSizeCount = 1;
-    ci.pPoolSizes = &size;
-    CSM_VK_TRY(vkCreateDescriptorPool(dev, &ci, nullptr, &pool_));
-    setName(handleBits(pool_), VK_OBJECT_TYPE_DESCRIPTOR_POOL, "csm descriptor pool");
-    auto ai = vkInit<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
-    ai.descriptorPool = pool_;
-    ai.descriptorSetCount = 1;
-    ai.pSetLayouts = &depthSetLayout_;
-    CSM_VK_TRY(vkAllocateDescriptorSets(dev, &ai, &depthSet_));
-    setName(handleBits(depthSet_), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm depth set");
-  }
-  if (device.queue != VK_NULL_HANDLE) {
-    auto ci = vkInit<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
-    ci.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
-    ci.queueFamilyIndex = device.queueFamily;
-    CSM_VK_TRY(vkCreateCommandPool(dev, &ci, nullptr, &clearPool_));
-    setName(handleBits(clearPool_), VK_OBJECT_TYPE_COMMAND_POOL, "csm clear command pool");
-    auto fi = vkInit<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
-    CSM_VK_TRY(vkCreateFence(dev, &fi, nullptr, &clearFence_));
-    setName(handleBits(clearFence_), VK_OBJECT_TYPE_FENCE, "csm clear fence");
-  }
-  {
-    auto ci = vkInit<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
-    ci.magFilter = VK_FILTER_LINEAR;
-    ci.minFilter = VK_FILTER_LINEAR;
-    ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
-    ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
-    ci.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
-    ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    ci.compareEnable = VK_TRUE;
-    ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
-    ci.minLod = 0.0f;
-    ci.maxLod = 0.0f;
-    // Outside the map reads as the far plane: every receiver compares lit.
-    ci.borderColor = VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE;
-    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &compareSampler_));
-    setName(handleBits(compareSampler_), VK_OBJECT_TYPE_SAMPLER, "csm comparison sampler");
-    ci.magFilter = VK_FILTER_NEAREST;
-    ci.minFilter = VK_FILTER_NEAREST;
-    ci.compareEnable = VK_FALSE;
-    ci.compareOp = VK_COMPARE_OP_ALWAYS;
-    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &depthSampler_));
-    setName(handleBits(depthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler");
-    // Cached cascades: layers addressed toroidally; csm.glsl keeps outside-the-box = lit itself.
-    ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_REPEAT;
-    ci.addressModeV = VK_SAMPLER_ADDRESS_MODE_REPEAT;
-    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapDepthSampler_));
-    setName(handleBits(wrapDepthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler (wrap)");
-    ci.magFilter = VK_FILTER_LINEAR;
-    ci.minFilter = VK_FILTER_LINEAR;
-    ci.compareEnable = VK_TRUE;
-    ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
-    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapCompareSampler_));
-    setName(handleBits(wrapCompareSampler_), VK_OBJECT_TYPE_SAMPLER,
-            "csm comparison sampler (wrap)");
-  }
-  {
-    auto ci = vkInit<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
-    ci.size = sizeof(CsmUniforms);
-    ci.usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-    CSM_VK_TRY(vkCreateBuffer(dev, &ci, nullptr, &uniformBuffer_));
-    setName(handleBits(uniformBuffer_), VK_OBJECT_TYPE_BUFFER, "csm uniforms");
-    VkMemoryRequirements req{};
-    vkGetBufferMemoryRequirements(dev, uniformBuffer_, &req);
-    Status s = allocate(req, &uniformMemory_, "csm uniforms memory");
-    if (!s.ok()) return s;
-    CSM_VK_TRY(vkBindBufferMemory(dev, uniformBuffer_, uniformMemory_, 0));
-    VkDescriptorBufferInfo bi{uniformBuffer_, 0, sizeof(CsmUniforms)};
-    auto w = vkInit<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
-    w.dstSet = depthSet_;
-    w.dstBinding = CSM_BINDING_UNIFORMS;
-    w.descriptorCount = 1;
-    w.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-    w.pBufferInfo = &bi;
-    vkUpdateDescriptorSets(dev, 1, &w, 0, nullptr);
-  }
-  {
-    auto ci = vkInit<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
-    ci.codeSize = sizeof(csm_depth_vert_spv);
-    ci.pCode = csm_depth_vert_spv;
-    CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &vertexModule_));
-    setName(handleBits(vertexModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth.vert");
-    if (device.shaderOutputLayerEnabled) {
-      ci.codeSize = sizeof(csm_depth_layered_vert_spv);
-      ci.pCode = csm_depth_layered_vert_spv;
-      CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &layeredModule_));
-      setName(handleBits(layeredModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth_layered.vert");
-    }
+  return {};
+}
+
+// The depth pipelines' layout: the depth set and the push constants (DepthPush).
+Status ShadowRenderer::createPipelineLayout() {
+  VkDevice dev = device_.device;
+  VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE};
+  auto ci = vkInit<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+  ci.setLayoutCount = 1;
+  ci.pSetLayouts = &depthSetLayout_;
+  ci.pushConstantRangeCount = 1;
+  ci.pPushConstantRanges = &range;
+  CSM_VK_TRY(vkCreatePipelineLayout(dev, &ci, nullptr, &pipelineLayout_));
+  setName(handleBits(pipelineLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT, "csm depth pipeline layout");
+  return {};
+}
+
+Status ShadowRenderer::createDepthSet() {
+  VkDevice dev = device_.device;
+  // The depth pass's set never changes; the lighting set lives with each image (createImage).
+  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1};
+  auto ci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+  ci.maxSets = 1;
+  ci.poolSizeCount = 1;
+  ci.pPoolSizes = &size;
+  CSM_VK_TRY(vkCreateDescriptorPool(dev, &ci, nullptr, &pool_));
+  setName(handleBits(pool_), VK_OBJECT_TYPE_DESCRIPTOR_POOL, "csm descriptor pool");
+  auto ai = vkInit<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+  ai.descriptorPool = pool_;
+  ai.descriptorSetCount = 1;
+  ai.pSetLayouts = &depthSetLayout_;
+  CSM_VK_TRY(vkAllocateDescriptorSets(dev, &ai, &depthSet_));
+  setName(handleBits(depthSet_), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm depth set");
+  return {};
+}
+
+// The command pool and fence of the one-time clear update() submits (DeviceInfo::queue).
+Status ShadowRenderer::createClearResources() {
+  VkDevice dev = device_.device;
+  if (device_.queue == VK_NULL_HANDLE) return {};
+  auto ci = vkInit<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
+  ci.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+  ci.queueFamilyIndex = device_.queueFamily;
+  CSM_VK_TRY(vkCreateCommandPool(dev, &ci, nullptr, &clearPool_));
+  setName(handleBits(clearPool_), VK_OBJECT_TYPE_COMMAND_POOL, "csm clear command pool");
+  auto fi = vkInit<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
+  CSM_VK_TRY(vkCreateFence(dev, &fi, nullptr, &clearFence_));
+  setName(handleBits(clearFence_), VK_OBJECT_TYPE_FENCE, "csm clear fence");
+  return {};
+}
+
+// The comparison and raw-depth samplers, clamped (outside = lit) and wrapped (cached cascades).
+Status ShadowRenderer::createSamplers() {
+  VkDevice dev = device_.device;
+  auto ci = vkInit<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
+  ci.magFilter = VK_FILTER_LINEAR;
+  ci.minFilter = VK_FILTER_LINEAR;
+  ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
+  ci.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
+  ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  ci.compareEnable = VK_TRUE;
+  ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+  ci.minLod = 0.0f;
+  ci.maxLod = 0.0f;
+  // Outside the map reads as the far plane: every receiver compares lit.
+  ci.borderColor = VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE;
+  CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &compareSampler_));
+  setName(handleBits(compareSampler_), VK_OBJECT_TYPE_SAMPLER, "csm comparison sampler");
+  ci.magFilter = VK_FILTER_NEAREST;
+  ci.minFilter = VK_FILTER_NEAREST;
+  ci.compareEnable = VK_FALSE;
+  ci.compareOp = VK_COMPARE_OP_ALWAYS;
+  CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &depthSampler_));
+  setName(handleBits(depthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler");
+  // Cached cascades: layers addressed toroidally; csm.glsl keeps outside-the-box = lit itself.
+  ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+  ci.addressModeV = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+  CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapDepthSampler_));
+  setName(handleBits(wrapDepthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler (wrap)");
+  ci.magFilter = VK_FILTER_LINEAR;
+  ci.minFilter = VK_FILTER_LINEAR;
+  ci.compareEnable = VK_TRUE;
+  ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+  CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapCompareSampler_));
+  setName(handleBits(wrapCompareSampler_), VK_OBJECT_TYPE_SAMPLER, "csm comparison sampler (wrap)");
+  return {};
+}
+
+// The uniform block's buffer, written into the depth set (the lighting set gets it in createImage).
+Status ShadowRenderer::createUniformBuffer() {
+  VkDevice dev = device_.device;
+  auto ci = vkInit<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
+  ci.size = sizeof(CsmUniforms);
+  ci.usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  CSM_VK_TRY(vkCreateBuffer(dev, &ci, nullptr, &uniformBuffer_));
+  setName(handleBits(uniformBuffer_), VK_OBJECT_TYPE_BUFFER, "csm uniforms");
+  VkMemoryRequirements req{};
+  vkGetBufferMemoryRequirements(dev, uniformBuffer_, &req);
+  Status s = allocate(req, &uniformMemory_, "csm uniforms memory");
+  if (!s.ok()) return s;
+  CSM_VK_TRY(vkBindBufferMemory(dev, uniformBuffer_, uniformMemory_, 0));
+  VkDescriptorBufferInfo bi{uniformBuffer_, 0, sizeof(CsmUniforms)};
+  auto w = vkInit<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+  w.dstSet = depthSet_;
+  w.dstBinding = CSM_BINDING_UNIFORMS;
+  w.descriptorCount = 1;
+  w.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  w.pBufferInfo = &bi;
+  vkUpdateDescriptorSets(dev, 1, &w, 0, nullptr);
+  return {};
+}
+
+// The depth pass's vertex shaders (the layered one only with shaderOutputLayer).
+Status ShadowRenderer::createShaderModules() {
+  VkDevice dev = device_.device;
+  auto ci = vkInit<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
+  ci.codeSize = sizeof(csm_depth_vert_spv);
+  ci.pCode = csm_depth_vert_spv;
+  CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &vertexModule_));
+  setName(handleBits(vertexModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth.vert");
+  if (device_.shaderOutputLayerEnabled) {
+    ci.codeSize = sizeof(csm_depth_layered_vert_spv);
+    ci.pCode = csm_depth_layered_vert_spv;
+    CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &layeredModule_));
+    setName(handleBits(layeredModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth_layered.vert");
   }
   return {};
 }
@@ -477,7 +564,10 @@ Status ShadowRenderer::checkFormat(VkFormat format) const {
   return {};
 }
 
-Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOptions& options) {
+// update()'s checks of settings and options against each other and the device; fills the
+// render mode the renderer will use (kAuto resolved).
+Status ShadowRenderer::resolveOptions(const ShadowSettings& settings,
+                                      const RendererOptions& options, RenderMode* resolved) const {
   if (auto e = csm::validate(settings)) {
     return Status(ErrorCode::kInvalidArgument, e->message());
   }
@@ -560,6 +650,14 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
                     "options.cache = true needs options.renderMode = kPerLayer or kAuto");
     }
   }
+  *resolved = mode;
+  return {};
+}
+
+Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOptions& options) {
+  RenderMode mode = RenderMode::kPerLayer;
+  Status s = resolveOptions(settings, options, &mode);
+  if (!s.ok()) return s;
   const bool newImage = image_ == VK_NULL_HANDLE || settings.resolution != resolution_ ||
                         settings.cascadeCount != layerCount_ ||
                         options.depthFormat != options_.depthFormat ||
@@ -1080,43 +1178,9 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
   Status s = checkFrame(frame);
   if (!s.ok()) return s;
   if (cmd == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "cmd is VK_NULL_HANDLE");
+  s = checkCasterList(frame, casters, visible);
+  if (!s.ok()) return s;
   const std::size_t instanceCount = casters.instances.size();
-  for (std::size_t i = 0; i < instanceCount; ++i) {
-    if (casters.instances[i].mesh >= casters.meshes.size()) {
-      return Status(ErrorCode::kIndexOutOfRange,
-                    fmt("casters.instances[%zu].mesh = %u is out of range: allowed [0, %zu)", i,
-                        casters.instances[i].mesh, casters.meshes.size()));
-    }
-    for (std::uint32_t k = 0; k + 1 < kMaxCasterLods; ++k) {
-      const std::uint32_t m = casters.instances[i].lodMeshes[k];
-      if (m != kNoMesh && m >= casters.meshes.size()) {
-        return Status(ErrorCode::kIndexOutOfRange,
-                      fmt("casters.instances[%zu].lodMeshes[%u] = %u is out of range: allowed "
-                          "[0, %zu) or kNoMesh",
-                          i, k, m, casters.meshes.size()));
-      }
-      const float e = casters.instances[i].lodErrorM[k];
-      if (!(e >= 0.0f)) {
-        return Status(ErrorCode::kInvalidArgument,
-                      fmt("casters.instances[%zu].lodErrorM[%u] = %g is invalid: allowed "
-                          "[0, +inf] metres (kUnknownLodError = not known)",
-                          i, k, double(e)));
-      }
-    }
-  }
-  if (visible) {
-    for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
-      if (frame.cascades[c].empty) continue;
-      for (std::size_t k = 0; k < visible->visible[c].size(); ++k) {
-        if (visible->visible[c][k] >= instanceCount) {
-          return Status(ErrorCode::kIndexOutOfRange,
-                        fmt("visible[%u][%zu] = %u is out of range: allowed [0, %zu)", c, k,
-                            visible->visible[c][k], instanceCount));
-        }
-      }
-    }
-  }
-
   if (options_.cache) {
     if (visible == nullptr) {
       return Status(ErrorCode::kInvalidArgument,

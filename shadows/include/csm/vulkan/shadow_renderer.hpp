@@ -369,8 +369,21 @@ class ShadowRenderer {
  private:
   ShadowRenderer() = default;
   Status init(const DeviceInfo& device, const VertexLayout& layout);
+  // init()'s steps, in order: debug-utils entry points, the depth and lighting set layouts,
+  // the depth pipeline layout, the depth pass's descriptor set, the one-time clear's pool and
+  // fence, the samplers, the uniform buffer, the vertex shader modules.
+  void loadDebugUtils();
+  Status createSetLayouts();
+  Status createPipelineLayout();
+  Status createDepthSet();
+  Status createClearResources();
+  Status createSamplers();
+  Status createUniformBuffer();
+  Status createShaderModules();
   Status allocate(const VkMemoryRequirements& req, VkDeviceMemory* memory, const char* name) const;
   Status checkFormat(VkFormat format) const;
+  Status resolveOptions(const ShadowSettings& settings, const RendererOptions& options,
+                        RenderMode* resolved) const;
   Status createImage(const ShadowSettings& settings, VkFormat format);
   Status createPipelines(VkFormat format);
   void destroyImage() noexcept;
@@ -388,6 +401,13 @@ class ShadowRenderer {
   void retireStaticImage() noexcept;
   Status recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame, const CasterList& casters,
                           const CullResult& visible);
+  // recordCachedPass()'s steps (shadow_cache.cpp).
+  Status checkCacheWindows(const CascadeFrame& frame) const;
+  void recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined);
+  void beginCachedRendering(VkCommandBuffer cmd, VkImageView view, bool clear, const char* what,
+                            std::uint32_t cascade);
+  void recordStaticCopy(VkCommandBuffer cmd, std::uint32_t cascade);
+  void recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMask);
 
   DeviceInfo device_{};
   VertexLayout layout_{};
