@@ -22,29 +22,11 @@
 
 #include "csm/light_space.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
+#include "vk_util.hpp"
 
 namespace csm::vk {
 
 namespace {
-
-template <class T>
-T vkInit(VkStructureType type, void* next = nullptr) {
-  T value{};
-  value.sType = type;
-  value.pNext = next;
-  return value;
-}
-
-std::string fmt(const char* format, auto... args) {
-  char buf[512];
-  std::snprintf(buf, sizeof(buf), format, args...);
-  return buf;
-}
-
-struct DepthPush {
-  glm::mat4 model;
-  std::uint32_t cascadeOrMask;
-};
 
 /// A half-open rectangle of world texel indices.
 struct TexelRect {
@@ -105,15 +87,7 @@ glm::mat4 anchorTransform(const Window& w, std::int64_t res, const glm::dmat3& b
   const glm::dmat3 linear = basisT * glm::dmat3(inst.linearWs);
   // In light space about the anchor: subtract in double (both may be ~1e7 m).
   const glm::dvec3 t = basisT * inst.translationWs - anchorLs - glm::dvec3(0, 0, w.zNear);
-  glm::mat4 m(0.0f);
-  for (int col = 0; col < 3; ++col) {
-    for (int row = 0; row < 3; ++row) {
-      m[col][row] = static_cast<float>(linear[col][row] * scale[row]);
-    }
-  }
-  for (int row = 0; row < 3; ++row) m[3][row] = static_cast<float>(t[row] * scale[row]);
-  m[3][3] = 1.0f;
-  return m;
+  return scaledAffine(linear, t, scale);
 }
 
 // The layer rectangles (and their block shifts) of a world rectangle.
@@ -167,6 +141,11 @@ void exposedAndInvalidated(const Window& w, const TexelRect& box, std::int64_t r
     const TexelRect r = boxTexels(b, basisT, w.texel).intersect(box);
     if (!r.empty()) dirty.push_back(r);
   }
+}
+
+/// The debug label of a cascade's static or dynamic render pass.
+std::string cascadeLabel(std::uint32_t cascade, const char* what) {
+  return "csm cascade " + std::to_string(cascade) + " " + what;
 }
 
 }  // namespace
@@ -255,11 +234,10 @@ Status ShadowRenderer::createStaticImage(const ShadowSettings& settings, VkForma
   auto fail = [&](VkResult result, const char* what) {
     retireStaticImage();
     collectRetired(true);
-    return Status(ErrorCode::kVulkan,
-                  std::string(what) + " failed: VkResult " + std::to_string(result), result);
+    return vkError(result, what);
   };
   if (r != VK_SUCCESS) return fail(r, "vkCreateImage(csm static cache)");
-  setName(std::uint64_t(staticImage_), VK_OBJECT_TYPE_IMAGE, "csm static depth cache");
+  setName(handleBits(staticImage_), VK_OBJECT_TYPE_IMAGE, "csm static depth cache");
   VkMemoryRequirements req{};
   vkGetImageMemoryRequirements(dev, staticImage_, &req);
   Status s = allocate(req, &staticMemory_, "csm static depth cache memory");
@@ -280,7 +258,7 @@ Status ShadowRenderer::createStaticImage(const ShadowSettings& settings, VkForma
     r = vkCreateImageView(dev, &vi, nullptr, &staticViews_[i]);
     if (r != VK_SUCCESS) return fail(r, "vkCreateImageView(csm static cache layer)");
     const std::string name = "csm static depth cache layer " + std::to_string(i);
-    setName(std::uint64_t(staticViews_[i]), VK_OBJECT_TYPE_IMAGE_VIEW, name.c_str());
+    setName(handleBits(staticViews_[i]), VK_OBJECT_TYPE_IMAGE_VIEW, name.c_str());
   }
   staticInitialised_ = false;
   return {};
@@ -328,99 +306,36 @@ Status ShadowRenderer::checkCacheWindows(const CascadeFrame& frame) const {
 // The cached pass's start: its label, the uniform block (write after the previous frame's
 // reads), the static image after last frame's copies, and a new sampled image.
 void ShadowRenderer::recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined) {
-  if (beginLabel_) {
-    auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
-    label.pLabelName = "csm shadow pass (cached)";
-    label.color[2] = 0.8f;
-    label.color[3] = 1.0f;
-    beginLabel_(cmd, &label);
+  VkImageMemoryBarrier2 img[2] = {
+      vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
+      vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
+  // A new image not yet cleared: every layer is written below (new windows) or not sampled.
+  img[0].srcStageMask = options_.consumerStages;
+  img[0].dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  img[0].dstAccessMask = VK_ACCESS_2_NONE;
+  img[0].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  img[0].newLayout = sampledLayout();
+  img[0].srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  img[0].dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  img[0].image = image_;
+  img[0].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
+  // The static image (DEPTH_ATTACHMENT_OPTIMAL between frames) after last frame's copies.
+  img[1] = img[0];
+  img[1].srcStageMask = kDepthStages | VK_PIPELINE_STAGE_2_COPY_BIT;
+  img[1].srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  img[1].oldLayout =
+      staticInitialised_ ? VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
+  img[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  img[1].image = staticImage_;
+  img[1].dstStageMask = kDepthStages;
+  img[1].dstAccessMask = kDepthAccess;
+  if (!staticInitialised_) {
+    for (CacheWindow& w : windows_) w.staticValid = false;
   }
-
-  // Start: the uniform block (write after the previous frame's reads); the static image
-  // (DEPTH_ATTACHMENT_OPTIMAL between frames) after last frame's copies; a new sampled image.
-  const VkPipelineStageFlags2 readers =
-      options_.consumerStages | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT;
-  {
-    auto toWrite = vkInit<VkBufferMemoryBarrier2>(VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2);
-    toWrite.srcStageMask = readers;
-    toWrite.dstStageMask = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
-    toWrite.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    toWrite.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    toWrite.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    toWrite.buffer = uniformBuffer_;
-    toWrite.size = VK_WHOLE_SIZE;
-    VkImageMemoryBarrier2 img[2] = {
-        vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
-        vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
-    // A new image not yet cleared: every layer is written below (new windows) or not sampled.
-    img[0].srcStageMask = options_.consumerStages;
-    img[0].dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    img[0].dstAccessMask = VK_ACCESS_2_NONE;
-    img[0].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    img[0].newLayout = sampledLayout();
-    img[0].srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    img[0].dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    img[0].image = image_;
-    img[0].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
-    img[1] = img[0];
-    img[1].srcStageMask = kDepthStages | VK_PIPELINE_STAGE_2_COPY_BIT;
-    img[1].srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-    img[1].oldLayout =
-        staticInitialised_ ? VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
-    img[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    img[1].image = staticImage_;
-    img[1].dstStageMask = kDepthStages;
-    img[1].dstAccessMask = kDepthAccess;
-    if (!staticInitialised_) {
-      for (CacheWindow& w : windows_) w.staticValid = false;
-    }
-    staticInitialised_ = true;
-    auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
-    dep.bufferMemoryBarrierCount = 1;
-    dep.pBufferMemoryBarriers = &toWrite;
-    dep.imageMemoryBarrierCount = wasUndefined ? 2 : 1;
-    dep.pImageMemoryBarriers = wasUndefined ? img : img + 1;
-    vkCmdPipelineBarrier2(cmd, &dep);
-    vkCmdUpdateBuffer(cmd, uniformBuffer_, 0, sizeof(CsmUniforms), &uniforms_);
-    VkBufferMemoryBarrier2 toRead = toWrite;
-    toRead.srcStageMask = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
-    toRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    toRead.dstStageMask = readers;
-    toRead.dstAccessMask = VK_ACCESS_2_UNIFORM_READ_BIT;
-    auto dep2 = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
-    dep2.bufferMemoryBarrierCount = 1;
-    dep2.pBufferMemoryBarriers = &toRead;
-    vkCmdPipelineBarrier2(cmd, &dep2);
-  }
-}
-
-// Begins dynamic rendering into one layer view of the static or the sampled image.
-void ShadowRenderer::beginCachedRendering(VkCommandBuffer cmd, VkImageView view, bool clear,
-                                          const char* what, std::uint32_t cascade) {
-  // Both images are DEPTH_ATTACHMENT_OPTIMAL while drawn (see the barriers around the copy).
-  if (beginLabel_) {
-    const std::string name = std::string("csm cascade ") + std::to_string(cascade) + " " + what;
-    auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
-    label.pLabelName = name.c_str();
-    beginLabel_(cmd, &label);
-  }
-  auto depth = vkInit<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
-  depth.imageView = view;
-  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = clear ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
-  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  depth.clearValue.depthStencil = {1.0f, 0};
-  auto ri = vkInit<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
-  ri.renderArea = {{0, 0}, {resolution_, resolution_}};
-  ri.layerCount = 1;
-  ri.pDepthAttachment = &depth;
-  vkCmdBeginRendering(cmd, &ri);
-  vkCmdSetDepthBias(cmd, settings_.depthBiasConstant, 0.0f, settings_.depthBiasSlope);
-  vkCmdSetCullMode(cmd, options_.cullMode);
-  vkCmdSetFrontFace(cmd, options_.frontFace);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
-                          0, nullptr);
+  staticInitialised_ = true;
+  recordPassStart(cmd, "csm shadow pass (cached)",
+                  wasUndefined ? std::span<const VkImageMemoryBarrier2>(img, 2)
+                               : std::span<const VkImageMemoryBarrier2>(img + 1, 1));
 }
 
 // Static layer `i` -> the sampled layer `i` (whole), leaving both as depth attachments.
@@ -507,11 +422,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
   Status s = checkCacheWindows(frame);
   if (!s.ok()) return s;
 
-  ++records_;
-  collectRetired(false);
-  const bool wasUndefined = pendingClear_;
-  pendingClear_ = false;
-  uniformsCleared_ = true;
+  const bool wasUndefined = countRecord();
   uniforms_ = packUniforms(frame, settings_, uniformOptions_);
   uniforms_.counts.w = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
   std::array<TexelRect, kMaxCascades> boxes{};
@@ -546,15 +457,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
       const MeshDraw& mesh = casters.meshes[inst.meshForLod(
           casterLod(inst, schedule, w.texel, options_.lodMaxErrorTexels))];
       if (mesh.indexCount == 0) continue;
-      if (bound == nullptr || bound->vertexBuffer != mesh.vertexBuffer ||
-          bound->vertexBufferOffset != mesh.vertexBufferOffset) {
-        vkCmdBindVertexBuffers(cmd, 0, 1, &mesh.vertexBuffer, &mesh.vertexBufferOffset);
-      }
-      if (bound == nullptr || bound->indexBuffer != mesh.indexBuffer ||
-          bound->indexBufferOffset != mesh.indexBufferOffset) {
-        vkCmdBindIndexBuffer(cmd, mesh.indexBuffer, mesh.indexBufferOffset, layout_.indexType);
-      }
-      bound = &mesh;
+      bindMeshBuffers(cmd, mesh, bound, layout_.indexType);
       const DepthPush push{anchorTransform(w, res, basisT, inst), cascade};
       vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                          &push);
@@ -600,7 +503,8 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     any = true;
 
     if (!dirty.empty()) {
-      beginCachedRendering(cmd, staticViews_[i], full, "static", i);
+      // Both images are DEPTH_ATTACHMENT_OPTIMAL while drawn (see recordStaticCopy).
+      beginDepthRendering(cmd, staticViews_[i], 1, full, cascadeLabel(i, "static"), pipeline_);
       bound = nullptr;
       for (const TexelRect& r : dirty) {
         split(w, res, r, layerRects);
@@ -626,7 +530,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     st.copied = true;
     copiedMask |= 1u << i;
     if (dynamicNow) {
-      beginCachedRendering(cmd, layerViews_[i], false, "dynamic", i);
+      beginDepthRendering(cmd, layerViews_[i], 1, false, cascadeLabel(i, "dynamic"), pipeline_);
       bound = nullptr;
       split(w, res, box, layerRects);
       for (const LayerRect& lr : layerRects) {

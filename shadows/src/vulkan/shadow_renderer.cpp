@@ -9,42 +9,11 @@
 #include <csm_shaders/csm_depth.vert.spv.h>
 #include <csm_shaders/csm_depth_layered.vert.spv.h>
 
+#include "vk_util.hpp"
+
 namespace csm::vk {
 
 namespace {
-
-static_assert(CSM_DEPTH_PUSH_SIZE == sizeof(glm::mat4) + sizeof(std::uint32_t));
-
-/// The depth pass's push constants (csm_depth.vert, csm_depth_layered.vert).
-struct DepthPush {
-  glm::mat4 model;  // per-layer: model -> shadow clip; layered: model -> camera-relative world
-  std::uint32_t cascadeOrMask;
-};
-static_assert(offsetof(DepthPush, cascadeOrMask) == 64);
-
-/// A zeroed Vulkan struct with its sType (and pNext) set.
-template <class T>
-T vkInit(VkStructureType type, void* next = nullptr) {
-  T value{};
-  value.sType = type;
-  value.pNext = next;
-  return value;
-}
-
-template <class T>
-std::uint64_t handleBits(T handle) {
-  return (std::uint64_t)(handle);  // NOLINT: handles are pointers or 64-bit integers
-}
-
-Status vkError(VkResult r, const char* what) {
-  return Status(ErrorCode::kVulkan, std::string(what) + " failed with " + vkResultName(r), r);
-}
-
-#define CSM_VK_TRY(call)                                             \
-  do {                                                               \
-    const VkResult csmResult_ = (call);                              \
-    if (csmResult_ != VK_SUCCESS) return vkError(csmResult_, #call); \
-  } while (false)
 
 glm::mat4 modelCameraRelative(const glm::dvec3& translationWs, const glm::mat3& linearWs,
                               const glm::dvec3& cameraWs) {
@@ -66,21 +35,7 @@ glm::mat4 modelToShadowClip(const Cascade& c, const glm::dmat3& basisWs,
   const glm::dmat3 toLight = glm::transpose(basisWs);
   const glm::dmat3 linear = toLight * glm::dmat3(linearWs);
   const glm::dvec3 t = toLight * (translationWs - c.boxCenterWs) - glm::dvec3(0, 0, c.depthNearLs);
-  glm::mat4 m(0.0f);
-  for (int col = 0; col < 3; ++col) {
-    for (int row = 0; row < 3; ++row) {
-      m[col][row] = static_cast<float>(linear[col][row] * scale[row]);
-    }
-  }
-  for (int row = 0; row < 3; ++row) m[3][row] = static_cast<float>(t[row] * scale[row]);
-  m[3][3] = 1.0f;
-  return m;
-}
-
-std::string fmt(const char* format, auto... args) {
-  char buf[512];
-  std::snprintf(buf, sizeof(buf), format, args...);
-  return buf;
+  return scaledAffine(linear, t, scale);
 }
 
 // What create() needs of the host: a device, a readable vertex layout, a frame count.
@@ -237,13 +192,7 @@ std::unique_ptr<ShadowRenderer> ShadowRenderer::create(const DeviceInfo& device,
 }
 
 void ShadowRenderer::setName(std::uint64_t handle, VkObjectType type, const char* name) const {
-  if (!setObjectName_ || handle == 0) return;
-  auto info =
-      vkInit<VkDebugUtilsObjectNameInfoEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT);
-  info.objectType = type;
-  info.objectHandle = handle;
-  info.pObjectName = name;
-  (void)setObjectName_(device_.device, &info);  // naming is best effort; never fails a call
+  setObjectName(setObjectName_, device_.device, handle, type, name);
 }
 
 Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout) {
@@ -1051,29 +1000,34 @@ Status ShadowRenderer::checkFrame(const CascadeFrame& frame) const {
   return {};
 }
 
-void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame) {
-  // One more host frame: what was retired framesInFlight records ago is no longer in use.
+// The start every recorded pass shares (cached or not): one more host frame, so what was
+// retired framesInFlight records ago is no longer in use; the pass leaves every layer written
+// and sampleable. Returns whether the image was still waiting for its one-time clear.
+bool ShadowRenderer::countRecord() {
   ++records_;
   collectRetired(false);
-  pendingClear_ = false;  // the pass below leaves every layer written and sampleable
+  const bool wasPending = pendingClear_;
+  pendingClear_ = false;
   uniformsCleared_ = true;
-  UniformOptions uniformOptions = uniformOptions_;
-  uniformOptions.depthBits = options_.depthFormat == VK_FORMAT_D16_UNORM ? 16u : 32u;
-  uniforms_ = packUniforms(frame, settings_, uniformOptions);
+  return wasPending;
+}
+
+// Opens the pass's debug label and uploads uniforms_ between two barriers: earlier readers of
+// the block finish before it is overwritten (write after read), then the pass's and the host's
+// readers see the new block. `images` (the pass's first image transitions) join the first one.
+void ShadowRenderer::recordPassStart(VkCommandBuffer cmd, const char* label,
+                                     std::span<const VkImageMemoryBarrier2> images) {
   if (beginLabel_) {
-    auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
-    label.pLabelName = "csm shadow pass";
-    label.color[0] = 0.3f;
-    label.color[1] = 0.3f;
-    label.color[2] = 0.8f;
-    label.color[3] = 1.0f;
-    beginLabel_(cmd, &label);
+    auto info = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
+    info.pLabelName = label;
+    info.color[0] = 0.3f;
+    info.color[1] = 0.3f;
+    info.color[2] = 0.8f;
+    info.color[3] = 1.0f;
+    beginLabel_(cmd, &info);
   }
   const VkPipelineStageFlags2 readers =
       options_.consumerStages | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT;
-
-  // Earlier readers of the uniform block finish before it is overwritten (write after read);
-  // earlier samplers of the map finish before it is discarded and rendered again.
   auto toWrite = vkInit<VkBufferMemoryBarrier2>(VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2);
   toWrite.srcStageMask = readers;
   toWrite.srcAccessMask = VK_ACCESS_2_NONE;
@@ -1083,24 +1037,11 @@ void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame)
   toWrite.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
   toWrite.buffer = uniformBuffer_;
   toWrite.size = VK_WHOLE_SIZE;
-  auto toAttachment = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
-  toAttachment.srcStageMask = options_.consumerStages;
-  toAttachment.srcAccessMask = VK_ACCESS_2_NONE;
-  toAttachment.dstStageMask =
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-  toAttachment.dstAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
-                               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-  toAttachment.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;  // the previous frame's depth is not kept
-  toAttachment.newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  toAttachment.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  toAttachment.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  toAttachment.image = image_;
-  toAttachment.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
   auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
   dep.bufferMemoryBarrierCount = 1;
   dep.pBufferMemoryBarriers = &toWrite;
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &toAttachment;
+  dep.imageMemoryBarrierCount = static_cast<std::uint32_t>(images.size());
+  dep.pImageMemoryBarriers = images.data();
   vkCmdPipelineBarrier2(cmd, &dep);
 
   vkCmdUpdateBuffer(cmd, uniformBuffer_, 0, sizeof(CsmUniforms), &uniforms_);
@@ -1114,6 +1055,28 @@ void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame)
   dep2.bufferMemoryBarrierCount = 1;
   dep2.pBufferMemoryBarriers = &toRead;
   vkCmdPipelineBarrier2(cmd, &dep2);
+}
+
+void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame) {
+  countRecord();
+  UniformOptions uniformOptions = uniformOptions_;
+  uniformOptions.depthBits = options_.depthFormat == VK_FORMAT_D16_UNORM ? 16u : 32u;
+  uniforms_ = packUniforms(frame, settings_, uniformOptions);
+  // Earlier samplers of the map finish before it is discarded and rendered again.
+  auto toAttachment = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
+  toAttachment.srcStageMask = options_.consumerStages;
+  toAttachment.srcAccessMask = VK_ACCESS_2_NONE;
+  toAttachment.dstStageMask =
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+  toAttachment.dstAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+                               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  toAttachment.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;  // the previous frame's depth is not kept
+  toAttachment.newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  toAttachment.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toAttachment.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toAttachment.image = image_;
+  toAttachment.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
+  recordPassStart(cmd, "csm shadow pass", {&toAttachment, 1});
 }
 
 void ShadowRenderer::recordEnd(VkCommandBuffer cmd) {
@@ -1136,36 +1099,45 @@ void ShadowRenderer::recordEnd(VkCommandBuffer cmd) {
   if (endLabel_) endLabel_(cmd);
 }
 
-void ShadowRenderer::beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered) {
-  const std::uint32_t layerCount = layered ? layerCount_ : 1;
+// Begins dynamic rendering of the depth pass into `view` (`layers` layers, cleared to depth 1
+// or loaded; DEPTH_ATTACHMENT_OPTIMAL) under a debug label, with the pass's dynamic state,
+// `pipeline` and the depth set bound. Viewport and scissor are the caller's.
+void ShadowRenderer::beginDepthRendering(VkCommandBuffer cmd, VkImageView view,
+                                         std::uint32_t layers, bool clear, const std::string& label,
+                                         VkPipeline pipeline) {
   if (beginLabel_) {
-    const std::string name =
-        layered ? std::string("csm cascades (layered)") : "csm cascade " + std::to_string(cascade);
-    auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
-    label.pLabelName = name.c_str();
-    beginLabel_(cmd, &label);
+    auto info = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
+    info.pLabelName = label.c_str();
+    beginLabel_(cmd, &info);
   }
   auto depth = vkInit<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
-  depth.imageView = layered ? arrayView_ : layerViews_[cascade];
+  depth.imageView = view;
   depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depth.loadOp = clear ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
   depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   depth.clearValue.depthStencil = {1.0f, 0};
   auto ri = vkInit<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
   ri.renderArea = {{0, 0}, {resolution_, resolution_}};
-  ri.layerCount = layerCount;
+  ri.layerCount = layers;
   ri.pDepthAttachment = &depth;
   vkCmdBeginRendering(cmd, &ri);
+  vkCmdSetDepthBias(cmd, settings_.depthBiasConstant, 0.0f, settings_.depthBiasSlope);
+  vkCmdSetCullMode(cmd, options_.cullMode);
+  vkCmdSetFrontFace(cmd, options_.frontFace);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
+                          0, nullptr);
+}
+
+void ShadowRenderer::beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered) {
+  beginDepthRendering(
+      cmd, layered ? arrayView_ : layerViews_[cascade], layered ? layerCount_ : 1, true,
+      layered ? std::string("csm cascades (layered)") : "csm cascade " + std::to_string(cascade),
+      layered ? layeredPipeline_ : pipeline_);
   const VkViewport viewport{0.0f, 0.0f, float(resolution_), float(resolution_), 0.0f, 1.0f};
   const VkRect2D scissor{{0, 0}, {resolution_, resolution_}};
   vkCmdSetViewport(cmd, 0, 1, &viewport);
   vkCmdSetScissor(cmd, 0, 1, &scissor);
-  vkCmdSetDepthBias(cmd, settings_.depthBiasConstant, 0.0f, settings_.depthBiasSlope);
-  vkCmdSetCullMode(cmd, options_.cullMode);
-  vkCmdSetFrontFace(cmd, options_.frontFace);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layered ? layeredPipeline_ : pipeline_);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
-                          0, nullptr);
 }
 
 void ShadowRenderer::endLayer(VkCommandBuffer cmd) {
@@ -1210,15 +1182,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
     const CasterInstance& inst = casters.instances[index];
     const MeshDraw& mesh = casters.meshes[meshIndex];
     if (mesh.indexCount == 0) return;
-    if (bound == nullptr || bound->vertexBuffer != mesh.vertexBuffer ||
-        bound->vertexBufferOffset != mesh.vertexBufferOffset) {
-      vkCmdBindVertexBuffers(cmd, 0, 1, &mesh.vertexBuffer, &mesh.vertexBufferOffset);
-    }
-    if (bound == nullptr || bound->indexBuffer != mesh.indexBuffer ||
-        bound->indexBufferOffset != mesh.indexBufferOffset) {
-      vkCmdBindIndexBuffer(cmd, mesh.indexBuffer, mesh.indexBufferOffset, layout_.indexType);
-    }
-    bound = &mesh;
+    bindMeshBuffers(cmd, mesh, bound, layout_.indexType);
     // Per-layer: the exact, camera-independent transform. Layered: one draw serves several
     // cascades, so the shader applies each cascade's camera-relative matrix.
     const DepthPush push{resolvedMode_ == RenderMode::kLayered

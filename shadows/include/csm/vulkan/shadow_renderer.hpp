@@ -34,6 +34,7 @@
 #include <limits>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "csm/cascades.hpp"
@@ -392,8 +393,13 @@ class ShadowRenderer {
   Status submitClear();
   void recordClear(VkCommandBuffer cmd);
   void collectRetired(bool all) noexcept;
+  bool countRecord();
+  void recordPassStart(VkCommandBuffer cmd, const char* label,
+                       std::span<const VkImageMemoryBarrier2> images);
   void recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame);
   void recordEnd(VkCommandBuffer cmd);
+  void beginDepthRendering(VkCommandBuffer cmd, VkImageView view, std::uint32_t layers, bool clear,
+                           const std::string& label, VkPipeline pipeline);
   void beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered);
   void endLayer(VkCommandBuffer cmd);
   void setName(std::uint64_t handle, VkObjectType type, const char* name) const;
@@ -404,8 +410,6 @@ class ShadowRenderer {
   // recordCachedPass()'s steps (shadow_cache.cpp).
   Status checkCacheWindows(const CascadeFrame& frame) const;
   void recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined);
-  void beginCachedRendering(VkCommandBuffer cmd, VkImageView view, bool clear, const char* what,
-                            std::uint32_t cascade);
   void recordStaticCopy(VkCommandBuffer cmd, std::uint32_t cascade);
   void recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMask);
 
