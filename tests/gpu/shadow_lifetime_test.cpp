@@ -370,6 +370,25 @@ TEST(ShadowView, CascadesDrawTheLodTheirTexelErrorBudgetAllows) {
   EXPECT_EQ(validationMessages(), 0u);
 }
 
+// Cached and uncached passes pack the uniform block alike: with D16 the depth floor carries
+// D16's quantum in both (the cached pass once left UniformOptions::depthBits at 32).
+TEST(ShadowView, CachedAndUncachedPassesPackTheDepthFormatsQuantum) {
+  {
+    ShadowScene scene;
+    for (bool cache : {false, true}) {
+      SCOPED_TRACE(cache ? "cached" : "uncached");
+      csm::vk::RendererOptions options;
+      options.depthFormat = VK_FORMAT_D16_UNORM;
+      options.cache = cache;
+      CSM_ASSERT_OK(scene.update(testSettings(4, 512), options));
+      (void)scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+      EXPECT_EQ(scene.renderer().uniforms().biasParams.y, csm::depthQuantum(16));
+      EXPECT_EQ(scene.renderer().uniforms().counts.w, cache ? 1u : 0u);
+    }
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
 // Out-of-range enums and values are refused with a Status naming them, and a frame computed with
 // other settings than the renderer's is refused naming the differing field.
 TEST(ShadowView, OutOfRangeValuesAndMismatchedFramesAreRefusedByName) {

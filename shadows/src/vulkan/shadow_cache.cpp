@@ -423,7 +423,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
   if (!s.ok()) return s;
 
   const bool wasUndefined = countRecord();
-  uniforms_ = packUniforms(frame, settings_, uniformOptions_);
+  uniforms_ = packFrameUniforms(frame);
   uniforms_.counts.w = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
   std::array<TexelRect, kMaxCascades> boxes{};
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {

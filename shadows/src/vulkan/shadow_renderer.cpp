@@ -1057,11 +1057,17 @@ void ShadowRenderer::recordPassStart(VkCommandBuffer cmd, const char* label,
   vkCmdPipelineBarrier2(cmd, &dep2);
 }
 
-void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame) {
-  countRecord();
+// The uniform block of `frame` as every pass packs it: the host's options with the depth
+// format's bits (the depth floor's quantum).
+CsmUniforms ShadowRenderer::packFrameUniforms(const CascadeFrame& frame) const {
   UniformOptions uniformOptions = uniformOptions_;
   uniformOptions.depthBits = options_.depthFormat == VK_FORMAT_D16_UNORM ? 16u : 32u;
-  uniforms_ = packUniforms(frame, settings_, uniformOptions);
+  return packUniforms(frame, settings_, uniformOptions);
+}
+
+void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame) {
+  countRecord();
+  uniforms_ = packFrameUniforms(frame);
   // Earlier samplers of the map finish before it is discarded and rendered again.
   auto toAttachment = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
   toAttachment.srcStageMask = options_.consumerStages;

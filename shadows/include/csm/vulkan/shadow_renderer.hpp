@@ -394,6 +394,7 @@ class ShadowRenderer {
   void recordClear(VkCommandBuffer cmd);
   void collectRetired(bool all) noexcept;
   bool countRecord();
+  CsmUniforms packFrameUniforms(const CascadeFrame& frame) const;
   void recordPassStart(VkCommandBuffer cmd, const char* label,
                        std::span<const VkImageMemoryBarrier2> images);
   void recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame);
