@@ -12,6 +12,7 @@
 // bias.
 #include <csm/core.hpp>
 #include <csm/gpu_layout.hpp>
+#include <csm/names.hpp>
 #include <csm/vulkan/shadow_renderer.hpp>
 #include <csm/vulkan/shadow_view.hpp>
 #include <engine/camera.hpp>
@@ -307,9 +308,7 @@ int run(int argc, char** argv) {
   std::printf("\n|---|");
   for (size_t i = 0; i < counts.size(); ++i) std::printf("---:|");
   std::printf("\n");
-  for (csm::PcfKernel k :
-       {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
-        csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
+  for (csm::PcfKernel k : csm::kAllKernels) {
     std::printf("| %s |", csm::kernelName(k));
     for (uint32_t c : counts) {
       std::printf(" %.2f |", bench.measure(litRes, c, k, csm::vk::RenderMode::kPerLayer).second);

@@ -1,6 +1,7 @@
 // csm_tradeoff: the CSV, the Pareto front, the table, the plot and the advice.
 #include "tradeoff.hpp"
 
+#include <csm/names.hpp>
 #include <csm_measure/metrics.hpp>
 
 #include <algorithm>
@@ -35,16 +36,9 @@ std::vector<Row> readCsv(const std::string& path) {
     r.config.cascades = uint32_t(std::stoul(f[0]));
     r.config.resolution = uint32_t(std::stoul(f[1]));
     r.config.lambda = std::stod(f[2]);
-    bool known = false;
-    for (csm::PcfKernel k :
-         {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
-          csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
-      if (f[3] == csm::kernelName(k)) {
-        r.config.kernel = k;
-        known = true;
-      }
-    }
-    if (!known) throw std::runtime_error("--replot: unknown kernel " + f[3]);
+    const csm::Result<csm::PcfKernel> kernel = csm::parseKernel(f[3], "--replot: kernel");
+    if (!kernel) throw std::runtime_error(kernel.error().message() + " in " + path);
+    r.config.kernel = kernel.value();
     r.config.blendBand = std::stod(f[4]);
     r.config.format = f[5] == "D16" ? VK_FORMAT_D16_UNORM : VK_FORMAT_D32_SFLOAT;
     r.config.lods = f[6] == "1";
