@@ -179,8 +179,10 @@ void Harness::setScene(const Scene& scene) {
   }
   instances_ = scene.instances();
   casters_.clear();
-  for (const Instance& in : instances_)
+  for (const Instance& in : instances_) {
     casters_.push_back({in.mesh, in.translationWs, in.linearWs});
+    casters_.back().thin = in.thin;
+  }
   casterSet_ = scene.casterSet();
   const csm::AabbWs bounds = scene.boundsWs();
   meshRanges_ = std::move(ranges);
