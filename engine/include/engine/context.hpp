@@ -38,6 +38,7 @@ struct DeviceFeatures {
   bool shaderOutputLayer = false;  ///< VkPhysicalDeviceVulkan12Features::shaderOutputLayer
   bool timestamps = false;         ///< the queue has timestampValidBits > 0
   bool geometryShader = false;     ///< VkPhysicalDeviceFeatures::geometryShader
+  bool conservativeRasterization = false;  ///< VK_EXT_conservative_rasterization enabled
 };
 
 /// Owns the Vulkan instance and device. Throws NoDeviceError when there is no loader, no driver

@@ -2,9 +2,11 @@
 // geometry shader that widens each triangle by RendererOptions::thinCasterWidenTexels in the
 // map's plane (csm_depth_thin.geom), so that a cable or an antenna thinner than a texel keeps a
 // continuous shadow. This is the software route where VK_EXT_conservative_rasterization is not
-// exposed (lavapipe): overestimating conservative rasterisation would widen by about half a
-// texel too, without a geometry stage. Everything else is drawn as before, so non-thin casters'
-// depth is bit-identical with the option on or off.
+// exposed (lavapipe); where it is (DeviceInfo::conservativeRasterizationEnabled), overestimating
+// conservative rasterisation widens by about half a texel instead, without a geometry stage.
+// Everything else is drawn as before, so non-thin casters' depth is bit-identical with the option
+// on or off.
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <string>
@@ -54,7 +56,8 @@ void ShadowRenderer::destroyThinPipeline() noexcept {
 Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
                                           const RendererOptions& options) {
   const float widen = options.thinCasterWidenTexels;
-  const bool wanted = device_.geometryShaderEnabled && widen > 0.0f;
+  const bool conservative = device_.conservativeRasterizationEnabled;
+  const bool wanted = (conservative || device_.geometryShaderEnabled) && widen > 0.0f;
   const bool same = thinPipeline_ != VK_NULL_HANDLE && thinResolution_ == resolution &&
                     thinWidenTexels_ == widen && thinFormat_ == options.depthFormat;
   if (wanted && same) return {};
@@ -66,7 +69,7 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
     thinPipeline_ = VK_NULL_HANDLE;
   }
   if (!wanted) return {};
-  if (thinGeometryModule_ == VK_NULL_HANDLE) {
+  if (!conservative && thinGeometryModule_ == VK_NULL_HANDLE) {
     auto ci = vkInit<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
     ci.codeSize = sizeof(csm_depth_thin_geom_spv);
     ci.pCode = csm_depth_thin_geom_spv;
@@ -113,6 +116,25 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
   rs.polygonMode = VK_POLYGON_MODE_FILL;
   rs.depthBiasEnable = VK_TRUE;
   rs.lineWidth = 1.0f;
+  // Where the device has it: overestimating conservative rasterisation covers every texel a
+  // triangle touches, which against centre sampling widens it by half a texel (up to half the
+  // texel's diagonal), plus the extra overestimation asked for beyond that. This path is only
+  // exercised on devices that expose the extension (lavapipe does not; not tested here).
+  auto conservativeState = vkInit<VkPipelineRasterizationConservativeStateCreateInfoEXT>(
+      VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_CONSERVATIVE_STATE_CREATE_INFO_EXT);
+  if (conservative) {
+    auto props = vkInit<VkPhysicalDeviceConservativeRasterizationPropertiesEXT>(
+        VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_CONSERVATIVE_RASTERIZATION_PROPERTIES_EXT);
+    auto props2 =
+        vkInit<VkPhysicalDeviceProperties2>(VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2);
+    props2.pNext = &props;
+    vkGetPhysicalDeviceProperties2(device_.physicalDevice, &props2);
+    conservativeState.conservativeRasterizationMode =
+        VK_CONSERVATIVE_RASTERIZATION_MODE_OVERESTIMATE_EXT;
+    conservativeState.extraPrimitiveOverestimationSize =
+        std::clamp(widen - 0.5f, 0.0f, props.maxExtraPrimitiveOverestimationSize);
+    rs.pNext = &conservativeState;
+  }
   auto ms = vkInit<VkPipelineMultisampleStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
   ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
@@ -135,7 +157,7 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
   rendering.depthAttachmentFormat = options.depthFormat;
   auto ci = vkInit<VkGraphicsPipelineCreateInfo>(VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO);
   ci.pNext = &rendering;
-  ci.stageCount = 2;
+  ci.stageCount = conservative ? 1 : 2;
   ci.pStages = stages;
   ci.pVertexInputState = &vin;
   ci.pInputAssemblyState = &ia;

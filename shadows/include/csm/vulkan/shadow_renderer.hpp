@@ -69,9 +69,12 @@ struct DeviceInfo {
   /// VkPhysicalDeviceVulkan12Features::shaderOutputLayer enabled: allows RenderMode::kLayered.
   bool shaderOutputLayerEnabled = false;
   /// VkPhysicalDeviceFeatures::geometryShader enabled: casters flagged CasterInstance::thin are
-  /// widened in the depth pass (RendererOptions::thinCasterWidenTexels). Without it they are
-  /// drawn like any other caster.
+  /// widened in the depth pass (RendererOptions::thinCasterWidenTexels). Without it (and without
+  /// conservativeRasterizationEnabled) they are drawn like any other caster.
   bool geometryShaderEnabled = false;
+  /// VK_EXT_conservative_rasterization enabled on the device: thin casters are widened by
+  /// overestimating conservative rasterisation instead (no geometry stage; preferred).
+  bool conservativeRasterizationEnabled = false;
   /// VK_EXT_debug_utils is enabled on the instance: objects get names, the pass gets labels.
   bool debugUtilsEnabled = false;
   /// The host's own cap on the shadow-map side in texels (a memory budget, a console's limit);
@@ -186,7 +189,8 @@ struct CasterInstance {
   /// A caster thinner than a shadow texel (a cable, an antenna, a fence wire): drawn with its
   /// triangles widened by RendererOptions::thinCasterWidenTexels in light space, so that its
   /// shadow does not break up where it covers no texel centre. Needs
-  /// DeviceInfo::geometryShaderEnabled (else drawn as is); per-layer passes (RenderMode::kPerLayer,
+  /// DeviceInfo::conservativeRasterizationEnabled or geometryShaderEnabled (else drawn as is);
+  /// per-layer passes (RenderMode::kPerLayer,
   /// the cache's included) only. Flag what is under about a texel wide in the cascades it casts
   /// into (a cable's diameter against the texel size).
   bool thin = false;
