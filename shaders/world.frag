@@ -26,7 +26,10 @@ void main() {
   const vec3 toLight = -normalize(frame.lightDirection.xyz);
   const vec3 toEye = normalize(-inPositionCr);
   const bool receives = inColor.a > 0.5;
-  const float s = receives ? csmShadow(inPositionCr, n, gl_FragCoord.xy) : 1.0;
+  // The bias follows the facet the shadow map holds (coarse cones and canopies); lighting the
+  // smooth normal.
+  const vec3 ng = csmGeometricNormal(dFdx(inPositionCr), dFdy(inPositionCr), n);
+  const float s = receives ? csmShadow(inPositionCr, ng, gl_FragCoord.xy) : 1.0;
   const float lambert = max(dot(n, toLight), 0.0);
   const vec3 h = normalize(toLight + toEye);
   const float spec = lambert > 0.0 ? pow(max(dot(n, h), 0.0), 24.0) : 0.0;

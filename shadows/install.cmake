@@ -34,12 +34,14 @@ set(csm_shader_dest ${CMAKE_INSTALL_DATADIR}/csm/shaders)
 install(FILES ${CMAKE_CURRENT_SOURCE_DIR}/shaders/csm.glsl
               ${CMAKE_CURRENT_SOURCE_DIR}/shaders/csm_depth.vert
               ${CMAKE_CURRENT_SOURCE_DIR}/shaders/csm_depth_layered.vert
+              ${CMAKE_CURRENT_SOURCE_DIR}/shaders/csm_depth_thin.geom
         DESTINATION ${csm_shader_dest})
 install(FILES ${CMAKE_CURRENT_SOURCE_DIR}/include/csm/shared_constants.h
               ${CMAKE_CURRENT_SOURCE_DIR}/include/csm/gpu_shared.h
         DESTINATION ${csm_shader_dest}/csm)
 install(FILES ${CSM_SHADER_OUT}/csm_shaders/csm_depth.vert.spv
               ${CSM_SHADER_OUT}/csm_shaders/csm_depth_layered.vert.spv
+              ${CSM_SHADER_OUT}/csm_shaders/csm_depth_thin.geom.spv
         DESTINATION ${csm_shader_dest}/spirv)
 
 set(csm_cmake_dest ${CMAKE_INSTALL_LIBDIR}/cmake/csm)

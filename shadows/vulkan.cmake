@@ -7,7 +7,7 @@ target_sources(csm_core PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src/core/gpu_layout.
                                 ${CMAKE_CURRENT_SOURCE_DIR}/src/core/names.cpp)
 
 csm_compile_shaders(csm_depth_shaders SOURCE_DIR ${CMAKE_CURRENT_SOURCE_DIR}/shaders
-                    csm_depth.vert csm_depth_layered.vert)
+                    csm_depth.vert csm_depth_layered.vert csm_depth_thin.geom)
 
 # The depth-range reduction (receiver-driven splits) is compiled for SPIR-V 1.5 (Vulkan 1.2):
 # glslang's SPIR-V 1.6 output of a compute shader uses LocalSizeId, which needs maintenance4.
@@ -24,7 +24,8 @@ add_library(csm_vulkan STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_view.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/depth_range.cpp
-  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_cache.cpp)
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_cache.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/thin_casters.cpp)
 add_library(csm::vulkan ALIAS csm_vulkan)
 target_link_libraries(csm_vulkan PUBLIC csm::core Vulkan::Vulkan)
 # The embedded shaders are a build-time dependency only (no link or install interface).

@@ -308,11 +308,13 @@ void Context::createDevice(const ContextDesc& desc) {
   enabled.features.depthBiasClamp = supported.features.depthBiasClamp;
   enabled.features.fillModeNonSolid = supported.features.fillModeNonSolid;
   enabled.features.samplerAnisotropy = supported.features.samplerAnisotropy;
+  enabled.features.geometryShader = supported.features.geometryShader;
 
   features_.depthClamp = enabled.features.depthClamp;
   features_.depthBiasClamp = enabled.features.depthBiasClamp;
   features_.fillModeNonSolid = enabled.features.fillModeNonSolid;
   features_.samplerAnisotropy = enabled.features.samplerAnisotropy;
+  features_.geometryShader = enabled.features.geometryShader;
   features_.multiview = e11.multiview;
   features_.shaderOutputLayer = e12.shaderOutputLayer;
   features_.timestamps = timestampValidBits_ > 0;
@@ -326,6 +328,17 @@ void Context::createDevice(const ContextDesc& desc) {
 
   std::vector<const char*> extensions;
   if (desc.presentation) extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
+  {  // Conservative rasterisation, where the device has it (the shadow module's thin casters).
+    uint32_t count = 0;
+    vkEnumerateDeviceExtensionProperties(physicalDevice_, nullptr, &count, nullptr);
+    std::vector<VkExtensionProperties> available(count);
+    vkEnumerateDeviceExtensionProperties(physicalDevice_, nullptr, &count, available.data());
+    features_.conservativeRasterization =
+        hasExtension(available, VK_EXT_CONSERVATIVE_RASTERIZATION_EXTENSION_NAME);
+    if (features_.conservativeRasterization) {
+      extensions.push_back(VK_EXT_CONSERVATIVE_RASTERIZATION_EXTENSION_NAME);
+    }
+  }
 
   auto info = detail::vkStruct<VkDeviceCreateInfo>(VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO, &enabled);
   info.queueCreateInfoCount = 1;

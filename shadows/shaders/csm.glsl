@@ -7,7 +7,9 @@
 //   float s = csmShadow(posCr, normalWs, gl_FragCoord.xy);   // 1 lit, 0 in shadow
 //
 // Inputs are camera-relative world positions (posWs - cameraPositionWs, as float) and world
-// normals (unit length). Resources (set CSM_SET): the CsmUniforms block at CSM_BINDING_UNIFORMS
+// normals (unit length) of the surface the shadow map holds: in a fragment shader pass the
+// facet normal, csmGeometricNormal(dFdx(posCr), dFdy(posCr), n), and keep the smooth
+// normal n for lighting (it only differs on coarse curved meshes, where it matters). Resources (set CSM_SET): the CsmUniforms block at CSM_BINDING_UNIFORMS
 // (C++: csm/gpu_layout.hpp), the shadow map through a comparison sampler at
 // CSM_BINDING_SHADOW_MAP and through a plain nearest sampler at CSM_BINDING_SHADOW_DEPTH (debug
 // outputs and PCSS, whose taps compare texel by texel). Variants are specialization constants:
@@ -400,6 +402,25 @@ vec3 csmShadowCoord(int i, vec3 posCr, vec3 normalWs) {
   const float metresPerDepth = max(csmU.cascades[i].depthInfo.y, 1e-30);
   const float floorDepth = csmU.biasParams.x * st.z / metresPerDepth + csmU.biasParams.y;
   return vec3((clip.xy * 0.5 + 0.5) * csmU.params.z, clip.z - floorDepth);
+}
+
+/// The geometric (facet) normal of the triangle a receiver lies on, for the bias: what the shadow
+/// map holds is that facet, so the normal offset, the facing test and the PCSS receiver plane
+/// must use its normal. A smooth (interpolated) shading normal on a coarse mesh (a 10-sided tree
+/// cone whose rim normals average the base cap in) can be tilted by tens of degrees from it: near
+/// the light/dark boundary the bias then follows the wrong plane and the surface hatches itself.
+/// Pass the screen-space derivatives of the camera-relative position (in a fragment shader:
+/// dFdx(posCr), dFdy(posCr); exact on a triangle, the quad's helper lanes extrapolate the same
+/// plane). The result is turned to the side of `shadingNormal` (as the host shades it: flipped
+/// for back faces of open meshes, say); where the facet is seen nearly edge-on (the derivatives
+/// nearly parallel, so float rounding could turn the cross product) `shadingNormal` is returned.
+///   float s = csmShadow(posCr, csmGeometricNormal(dFdx(posCr), dFdy(posCr), n), px);
+vec3 csmGeometricNormal(vec3 dPdx, vec3 dPdy, vec3 shadingNormal) {
+  const vec3 c = cross(dPdx, dPdy);
+  const float len = length(c);
+  if (!(len > 1e-3 * length(dPdx) * length(dPdy))) return shadingNormal;
+  const vec3 ng = c / len;
+  return dot(ng, shadingNormal) < 0.0 ? -ng : ng;
 }
 
 /// Filtered shadow factor of cascade i at a receiver: 1 lit, 0 in shadow.

@@ -17,7 +17,8 @@ layout(location = 0) out vec4 outColor;
 
 void main() {
   const vec3 n = normalize(inNormalWs);
-  const float s = csmShadow(inPositionCr, n, gl_FragCoord.xy);
+  const vec3 ng = csmGeometricNormal(dFdx(inPositionCr), dFdy(inPositionCr), n);
+  const float s = csmShadow(inPositionCr, ng, gl_FragCoord.xy);
   const float lambert = max(dot(n, -normalize(csmU.lightDirection.xyz)), 0.0);
   outColor = vec4(pc.color.rgb * (0.15 + 0.85 * lambert * s), 1.0);
 }

@@ -4,7 +4,12 @@
 // the shadow is lost (shaded > 0.5 where the truth is 0), against the caster's width in texels.
 // Writes test_artefacts/stability/thin_casters.json.
 #include <cstdio>
+#include <cstring>
+#include <limits>
 #include <map>
+#include <span>
+
+#include <engine/memory.hpp>
 
 #include "stability_common.hpp"
 
@@ -17,7 +22,9 @@ struct ThinScene {
   std::vector<double> widthM;  // per receiver: the width of the caster whose shadow it samples
 };
 
-ThinScene makeThinScene(const glm::dvec3& toLight) {
+/// `flagThin`: the 1 and 3 cm cables and the antennas are flagged thin (widened in the depth
+/// pass), the 10 cm cables are not.
+ThinScene makeThinScene(const glm::dvec3& toLight, bool flagThin = false) {
   ThinScene t;
   const uint32_t ground = t.scene.addMesh(csm_measure::makeGroundMesh(false, 240.0, 8, 0.0, -40.0));
   const uint32_t cube = t.scene.addMesh(csm_measure::makeCubeMesh());
@@ -41,7 +48,8 @@ ThinScene makeThinScene(const glm::dvec3& toLight) {
                            glm::dvec3(-shift.x * h, h, z),
                            m,
                            {0.2f, 0.2f, 0.2f, 1.0f},
-                           csm_measure::InstanceKind::kPole});
+                           csm_measure::InstanceKind::kPole,
+                           flagThin && widths[w] < 0.05});
       // The cable's shadow centre line: x in [-5, 5] on the ground.
       for (double x = -5.0; x <= 5.0; x += 0.05) {
         t.receivers.push_back({glm::dvec3(x, 0.0, z + shift.z * h), glm::vec3(0, 1, 0),
@@ -60,7 +68,8 @@ ThinScene makeThinScene(const glm::dvec3& toLight) {
                          foot + glm::dvec3(0, 2.0, 0),
                          m,
                          {0.2f, 0.2f, 0.2f, 1.0f},
-                         csm_measure::InstanceKind::kPole});
+                         csm_measure::InstanceKind::kPole,
+                         flagThin});
     for (double y = 0.3; y <= 3.9; y += 0.05) {
       t.receivers.push_back({foot + glm::dvec3(shift.x * y, 0.0, shift.z * y), glm::vec3(0, 1, 0),
                              csm_measure::InstanceKind::kGround});
@@ -165,6 +174,199 @@ TEST(StabilityThinCasters, ThinCastersKeepTheirShadowWhereTheyCoverTwoTexels) {
       "Receivers on the centre lines of the true shadows of cables (1, 3, 10 cm) 3 m above flat "
       "ground and 3 cm antennas 4 m tall; lost = csm.glsl shades them > 0.5 (truth 0).";
   csm_measure::writeJson(artefactDir() + "/thin_casters.json", report);
+}
+
+/// Every texel of every non-empty cascade of the current map (D32: float bits).
+std::vector<uint32_t> readMap(csm_measure::Harness& h, const csm::CascadeFrame& frame,
+                              uint32_t res) {
+  std::vector<uint32_t> out;
+  for (uint32_t c = 0; c < frame.cascadeCount; ++c) {
+    if (frame.cascades[c].empty) continue;
+    const auto bytes =
+        engine::readbackImage(h.context(), h.renderer().image(), VK_FORMAT_D32_SFLOAT, {res, res},
+                              csm::vk::ShadowRenderer::sampledLayout(), c);
+    const size_t base = out.size();
+    out.resize(base + bytes.size() / 4);
+    std::memcpy(out.data() + base, bytes.data(), bytes.size());
+  }
+  return out;
+}
+
+// The remedy (RendererOptions::thinCasterWidenTexels on casters flagged CasterInstance::thin):
+// the lost fraction per caster and cascade with and without, the depth pass's cost (GPU
+// timestamps, interleaved), and what it must not touch: with no caster flagged the map is
+// bit-identical whatever the option, and with casters flagged every texel that changes only
+// gets nearer (the widened rim of a thin caster in front of what was there).
+TEST(StabilityThinCasters, WideningInTheDepthPassKeepsThinShadowsAndNothingElse) {
+  nlohmann::json report;
+  report["runs"] = nlohmann::json::array();
+  {
+    CSM_MAKE_HARNESS(harness);
+    if (!harness->context().features().geometryShader) {
+      GTEST_SKIP() << "no geometryShader: thin casters are drawn as is";
+    }
+    const csm::DirectionalLight light = testLight();
+    const glm::dvec3 toLight = -glm::normalize(light.directionWs);
+    const csm::Camera camera = baseCamera(glm::dvec3(0.0));
+
+    // Out of range: refused, naming the field.
+    for (float bad : {-0.5f, 4.5f, std::numeric_limits<float>::quiet_NaN()}) {
+      csm::vk::RendererOptions opt;
+      opt.thinCasterWidenTexels = bad;
+      const csm::vk::Status st = harness->configure(testSettings(true), opt);
+      EXPECT_EQ(st.code(), csm::vk::ErrorCode::kInvalidArgument) << st.message();
+      EXPECT_NE(st.message().find("options.thinCasterWidenTexels"), std::string::npos)
+          << st.message();
+    }
+
+    // No caster flagged: the option changes nothing, bit for bit.
+    {
+      ThinScene plain = makeThinScene(toLight, false);
+      harness->setScene(plain.scene);
+      std::vector<uint32_t> maps[2];
+      for (int on = 0; on < 2; ++on) {
+        csm::vk::RendererOptions opt;
+        opt.thinCasterWidenTexels = on ? 0.5f : 0.0f;
+        CSM_ASSERT_STATUS(harness->configure(testSettings(true), opt));
+        csm::CascadeHistory history;
+        const csm::CascadeFrame frame = harness->computeFrame(camera, light, history);
+        (void)harness->probe(frame, std::span(plain.receivers.data(), 1), csm::PcfKernel::k1Tap);
+        maps[on] = readMap(*harness, frame, 1024);
+      }
+      ASSERT_EQ(maps[0].size(), maps[1].size());
+      EXPECT_TRUE(maps[0] == maps[1]) << "no thin caster, yet the widening changed the map";
+    }
+
+    ThinScene ts = makeThinScene(toLight, true);
+    harness->setScene(ts.scene);
+    const csm_measure::RayTracer tracer(ts.scene);
+    std::vector<glm::dvec3> pos;
+    std::vector<glm::vec3> nrm;
+    for (const auto& r : ts.receivers) {
+      pos.push_back(r.posWs);
+      nrm.push_back(r.normalWs);
+    }
+    std::vector<float> vis(pos.size());
+    tracer.visibility(pos, nrm, light.directionWs, vis, 1e-3);
+    std::vector<csm_measure::Receiver> receivers;
+    std::vector<double> widths;
+    for (size_t i = 0; i < vis.size(); ++i) {
+      if (vis[i] < 0.5f) {
+        receivers.push_back(ts.receivers[i]);
+        widths.push_back(ts.widthM[i]);
+      }
+    }
+    for (uint32_t res : {1024u, 2048u}) {
+      for (csm::PcfKernel kernel : {csm::PcfKernel::kTent3, csm::PcfKernel::k1Tap}) {
+        std::map<std::pair<double, int>, Bucket> buckets[2];
+        // The 10 cm cables are not flagged: away from the antennas' shadows (which cross their
+        // line at x < 1) their receivers must read the same shadow, bit for bit.
+        std::vector<float> control[2];
+        std::vector<uint32_t> maps[2];
+        csm::CascadeFrame frame;
+        for (int on = 0; on < 2; ++on) {
+          csm::ShadowSettings s = testSettings(true);
+          s.resolution = res;
+          csm::vk::RendererOptions opt;
+          opt.thinCasterWidenTexels = on ? 0.5f : 0.0f;
+          CSM_ASSERT_STATUS(harness->configure(s, opt));
+          csm::CascadeHistory history;
+          frame = harness->computeFrame(camera, light, history);
+          const auto results = harness->probe(frame, receivers, kernel);
+          if (kernel == csm::PcfKernel::k1Tap) maps[on] = readMap(*harness, frame, res);
+          for (size_t i = 0; i < results.size(); ++i) {
+            if (widths[i] == 0.10 && receivers[i].posWs.x > 2.0) {
+              control[on].push_back(results[i].shadow);
+            }
+            const int c = results[i].cascade;
+            if (c < 0) continue;
+            Bucket& b = buckets[on][{widths[i], c}];
+            ++b.n;
+            b.lost += results[i].shadow > 0.5f ? 1 : 0;
+            b.sumS += results[i].shadow;
+            b.texelM = frame.cascades[size_t(c)].texelSizeM();
+          }
+        }
+        for (const auto& [key, off] : buckets[0]) {
+          const Bucket& on = buckets[1][key];
+          const bool antenna = key.first == 0.0301;
+          const double w = antenna ? 0.03 : key.first;
+          const double lostOff = double(off.lost) / double(off.n);
+          const double lostOn = on.n ? double(on.lost) / double(on.n) : 0.0;
+          std::printf(
+              "%4u %-7s %-7s %5.1f cm cascade %d (%5.2f texels wide): lost %6.2f%% -> %6.2f%% "
+              "widened (of %llu)\n",
+              res, csm::kernelName(kernel), antenna ? "antenna" : "cable", 100.0 * w, key.second,
+              w / off.texelM, 100.0 * lostOff, 100.0 * lostOn, (unsigned long long)off.n);
+          report["runs"].push_back({{"resolution", res},
+                                    {"kernel", csm::kernelName(kernel)},
+                                    {"caster", antenna ? "antenna" : "cable"},
+                                    {"width_m", w},
+                                    {"thin", w < 0.05},
+                                    {"cascade", key.second},
+                                    {"width_texels", w / off.texelM},
+                                    {"receivers", off.n},
+                                    {"lost_fraction", lostOff},
+                                    {"lost_fraction_widened", lostOn}});
+          ASSERT_EQ(on.n, off.n);
+          if (w < 0.05 && off.n >= 50) {
+            EXPECT_LE(lostOn, lostOff + 0.01) << w << " cascade " << key.second;
+            EXPECT_LE(on.sumS, off.sumS + 1e-3) << w << " cascade " << key.second;
+            // Where most of the shadow was lost, the widening brings a good part of it back.
+            if (lostOff > 0.5 && kernel == csm::PcfKernel::k1Tap) {
+              EXPECT_LT(lostOn, lostOff - 0.2) << w << " cascade " << key.second << " at " << res;
+            }
+          }
+        }
+        ASSERT_GT(control[0].size(), 500u);
+        EXPECT_TRUE(control[0] == control[1]) << "an unflagged caster's shadow changed";
+        if (kernel == csm::PcfKernel::k1Tap) {
+          ASSERT_EQ(maps[0].size(), maps[1].size());
+          uint64_t changed = 0, farther = 0;
+          for (size_t t = 0; t < maps[0].size(); ++t) {
+            if (maps[0][t] == maps[1][t]) continue;
+            ++changed;
+            float a, b;
+            std::memcpy(&a, &maps[0][t], 4);
+            std::memcpy(&b, &maps[1][t], 4);
+            farther += b > a ? 1 : 0;
+          }
+          std::printf("%4u: %llu texels changed by the widening, %llu of them farther\n", res,
+                      (unsigned long long)changed, (unsigned long long)farther);
+          EXPECT_GT(changed, 0u);
+          EXPECT_EQ(farther, 0u) << "the widening moved a texel away from the light";
+        }
+      }
+    }
+
+    // Cost: the depth pass with the option off and on, interleaved (GPU timestamps), 1024^2.
+    if (harness->context().features().timestamps) {
+      double ms[2] = {0.0, 0.0};
+      const int rounds = 12;
+      for (int r = 0; r < rounds; ++r) {
+        for (int on = 0; on < 2; ++on) {
+          csm::vk::RendererOptions opt;
+          opt.thinCasterWidenTexels = on ? 0.5f : 0.0f;
+          CSM_ASSERT_STATUS(harness->configure(testSettings(true), opt));
+          csm::CascadeHistory history;
+          const auto t =
+              harness->timeFrame(camera, light, history, {320, 180}, csm::PcfKernel::kTent3);
+          if (r > 0) ms[on] += t.shadowGpuMs;  // round 0 warms up
+        }
+      }
+      std::printf("depth pass: %.3f ms off, %.3f ms widened (ratio %.3f), %d rounds\n",
+                  ms[0] / (rounds - 1), ms[1] / (rounds - 1), ms[1] / ms[0], rounds - 1);
+      report["depth_pass_ms_off"] = ms[0] / (rounds - 1);
+      report["depth_pass_ms_widened"] = ms[1] / (rounds - 1);
+      report["depth_pass_ratio"] = ms[1] / ms[0];
+    }
+  }
+  EXPECT_EQ(engine::validationMessageCount(), 0u);
+  report["what"] =
+      "As thin_casters.json, with the 1 and 3 cm cables and the antennas flagged thin: lost "
+      "fraction without (lost_fraction) and with (lost_fraction_widened) half a texel of "
+      "widening in the depth pass; the 10 cm cables are not flagged (unchanged).";
+  csm_measure::writeJson(artefactDir() + "/thin_casters_widened.json", report);
 }
 
 }  // namespace

@@ -37,6 +37,8 @@ struct DeviceFeatures {
   bool multiview = false;          ///< VkPhysicalDeviceVulkan11Features::multiview
   bool shaderOutputLayer = false;  ///< VkPhysicalDeviceVulkan12Features::shaderOutputLayer
   bool timestamps = false;         ///< the queue has timestampValidBits > 0
+  bool geometryShader = false;     ///< VkPhysicalDeviceFeatures::geometryShader
+  bool conservativeRasterization = false;  ///< VK_EXT_conservative_rasterization enabled
 };
 
 /// Owns the Vulkan instance and device. Throws NoDeviceError when there is no loader, no driver

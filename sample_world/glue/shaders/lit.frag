@@ -28,7 +28,9 @@ void main() {
   const vec3 n = normalize(inNormalWs);
   const vec3 toLight = -normalize(frame.lightDirection.xyz);
   const vec3 toEye = normalize(-inPositionCr);  // the camera sits at the camera-relative origin
-  const float s = csmShadow(inPositionCr, n, gl_FragCoord.xy);
+  // The bias follows the facet the shadow map holds; lighting the smooth normal.
+  const vec3 ng = csmGeometricNormal(dFdx(inPositionCr), dFdy(inPositionCr), n);
+  const float s = csmShadow(inPositionCr, ng, gl_FragCoord.xy);
   const float lambert = max(dot(n, toLight), 0.0);
   const vec3 h = normalize(toLight + toEye);
   const float spec = lambert > 0.0 ? pow(max(dot(n, h), 0.0), frame.params.y) : 0.0;

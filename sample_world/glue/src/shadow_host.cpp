@@ -16,6 +16,8 @@ csm::vk::DeviceInfo shadowDeviceInfo(const engine::Context& ctx) {
   info.framesInFlight = engine::kFramesInFlight;
   info.depthClampEnabled = ctx.features().depthClamp;
   info.shaderOutputLayerEnabled = ctx.features().shaderOutputLayer;
+  info.geometryShaderEnabled = ctx.features().geometryShader;
+  info.conservativeRasterizationEnabled = ctx.features().conservativeRasterization;
   info.debugUtilsEnabled = ctx.debugUtilsEnabled();
   return info;
 }

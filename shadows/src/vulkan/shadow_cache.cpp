@@ -610,7 +610,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     const DepthPush push{anchorTransform(w, inst), cascade};
     vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                        &push);
-    vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, 0);
+    drawIndexedCaster(cmd, inst, mesh, 1);
     return std::uint64_t(mesh.indexCount / 3);
   };
   // Draws the casters of `list` with dynamic == `dynamic` that overlap `lr`; returns triangles.

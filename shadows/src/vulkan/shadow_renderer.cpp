@@ -484,6 +484,7 @@ void ShadowRenderer::destroyPipelines() noexcept {
   vkDestroyPipeline(device_.device, layeredPipeline_, nullptr);
   pipeline_ = VK_NULL_HANDLE;
   layeredPipeline_ = VK_NULL_HANDLE;
+  destroyThinPipeline();
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -580,6 +581,7 @@ Status ShadowRenderer::resolveOptions(const ShadowSettings& settings,
                   fmt("options.lodMaxErrorTexels = %g is invalid: allowed [0, 64] (0 = off)",
                       double(options.lodMaxErrorTexels)));
   }
+  if (s = checkThinOptions(options); !s.ok()) return s;
   if ((options.cullMode & ~VkCullModeFlags(VK_CULL_MODE_FRONT_AND_BACK)) != 0) {
     return Status(ErrorCode::kInvalidArgument,
                   fmt("options.cullMode = %u is invalid: allowed VK_CULL_MODE_* flags",
@@ -646,6 +648,7 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
        options.lodMaxErrorTexels != options_.lodMaxErrorTexels)) {
     invalidateAll();
   }
+  if (s = updateThinPipeline(settings.resolution, options); !s.ok()) return s;
   settings_ = settings;
   options_ = options;
   resolvedMode_ = mode;
@@ -1199,7 +1202,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
                          cascadeOrMask};
     vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                        &push);
-    vkCmdDrawIndexed(cmd, mesh.indexCount, copies, mesh.firstIndex, mesh.vertexOffset, 0);
+    drawIndexedCaster(cmd, inst, mesh, copies);
   };
 
   std::uint32_t nonEmpty = 0;

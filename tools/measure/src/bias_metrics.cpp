@@ -31,6 +31,22 @@ double pixelTexel(const PixelSample& p, const csm::CascadeFrame& frame) {
   return t;
 }
 
+// The normal of the triangle under the pixel (Embree's geometric normal, turned to the side of
+// the pixel's shading normal `n`), or `n` where no triangle is found within reach. On a coarse
+// curved mesh the interpolated normal can be tilted tens of degrees from the facet: its tangent
+// plane cuts into the mesh, whereas the facet's plane is a supporting plane of a convex mesh.
+glm::dvec3 facetNormal(const RayTracer& tracer, const glm::dvec3& posWs, const glm::dvec3& n,
+                       double reachM) {
+  glm::dvec3 hit;
+  glm::vec3 ng;
+  if (!tracer.intersect(posWs + reachM * n, -n, &hit, &ng) ||
+      glm::length(hit - posWs) > 2.0 * reachM || !std::isfinite(ng.x)) {
+    return n;
+  }
+  const glm::dvec3 g = glm::normalize(glm::dvec3(ng));
+  return glm::dot(g, n) < 0.0 ? -g : g;
+}
+
 }  // namespace
 
 BiasTruth computeBiasTruth(std::span<const PixelSample> pixels, uint32_t width, uint32_t height,
@@ -63,16 +79,24 @@ BiasTruth computeBiasTruth(std::span<const PixelSample> pixels, uint32_t width, 
   // Lit facing pixels: probe the truth over the disk of edgeRadius texels around them across the
   // light (a Vogel spiral of kDiskPoints: neighbours about 1.3 texels apart, so that thin shadows,
   // a pole's, cannot slip between them), each point moved along the light back onto the pixel's
-  // tangent plane (what a PCF tap compares against, with a perfect receiver-plane bias).
+  // tangent plane (what a PCF tap compares against, with a perfect receiver-plane bias): the
+  // plane of the triangle under the pixel, not of its interpolated normal.
   std::vector<glm::dvec3> ringPos;
   std::vector<glm::vec3> ringNrm;
   std::vector<size_t> ringOwner;
+  std::vector<uint8_t> nearEdge(idx.size(), 0);
   for (size_t k = 0; k < idx.size(); ++k) {
     const PixelSample& p = pixels[idx[k]];
-    const glm::dvec3 n = glm::normalize(glm::dvec3(p.normalWs));
+    const glm::dvec3 ns = glm::normalize(glm::dvec3(p.normalWs));
+    if (vis[k] < 0.5f || !(glm::dot(ns, toLight) > desc.minFacing)) continue;
+    const double texel = pixelTexel(p, frame);
+    const glm::dvec3 n = facetNormal(tracer, p.posWs, ns, std::min(0.01, 0.25 * texel));
     const double nl = glm::dot(n, toLight);
-    if (vis[k] < 0.5f || !(nl > desc.minFacing)) continue;
-    const double r = desc.edgeRadiusTexels * pixelTexel(p, frame);
+    if (!(nl > 1e-3)) {  // lit, yet its facet grazes the light: an edge, not counted as acne
+      nearEdge[k] = 1;
+      continue;
+    }
+    const double r = desc.edgeRadiusTexels * texel;
     for (int d = 0; d < kDiskPoints; ++d) {
       const double a = 2.399963229728653 * d;  // golden angle
       const double rd = r * std::sqrt((d + 0.5) / kDiskPoints);
@@ -85,7 +109,6 @@ BiasTruth computeBiasTruth(std::span<const PixelSample> pixels, uint32_t width, 
   }
   std::vector<float> ringVis(ringPos.size());
   tracer.visibility(ringPos, ringNrm, light.directionWs, ringVis);
-  std::vector<uint8_t> nearEdge(idx.size(), 0);
   for (size_t j = 0; j < ringPos.size(); ++j) {
     if (ringVis[j] < 0.5f) nearEdge[ringOwner[j]] = 1;
   }

@@ -34,6 +34,9 @@ T vkStruct(VkStructureType type) {
   return v;
 }
 
+// stability_accuracy.frag's constant_id: the bias uses the shading normal (1) or the facet's.
+constexpr uint32_t kSpecBiasFromShadingNormal = 16;
+
 // Push constants of stability_accuracy.vert (112 bytes, under the 128-byte minimum).
 struct AccuracyPush {
   glm::mat4 modelCr;
@@ -145,8 +148,10 @@ void Harness::setScene(const Scene& scene) {
   }
   instances_ = scene.instances();
   casters_.clear();
-  for (const Instance& in : instances_)
+  for (const Instance& in : instances_) {
     casters_.push_back({in.mesh, in.translationWs, in.linearWs});
+    casters_.back().thin = in.thin;
+  }
   casterSet_ = scene.casterSet();
   const csm::AabbWs bounds = scene.boundsWs();
   meshRanges_ = std::move(ranges);
@@ -321,7 +326,7 @@ void Harness::ensureAccuracyTargets(VkExtent2D extent) {
 }
 
 Harness::AccuracyPipeline& Harness::accuracyPipeline(csm::PcfKernel kernel, bool blend) {
-  auto& p = accuracyPipelines_[{uint32_t(kernel), blend}];
+  auto& p = accuracyPipelines_[{uint32_t(kernel) | (biasFromShadingNormal_ ? 0x100u : 0u), blend}];
   if (p) return *p;
   p = std::make_unique<AccuracyPipeline>();
   VkDevice dev = ctx_->device();
@@ -342,7 +347,9 @@ Harness::AccuracyPipeline& Harness::accuracyPipeline(csm::PcfKernel kernel, bool
       .descriptorSetLayout(accuracy_->layout)
       .descriptorSetLayout(view_->lightingSetLayout())
       .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_KERNEL, uint32_t(kernel))
-      .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, blend ? 1u : 0u);
+      .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, blend ? 1u : 0u)
+      .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, kSpecBiasFromShadingNormal,
+                      biasFromShadingNormal_ ? 1u : 0u);
   p->pipeline = builder.build(*ctx_, std::string("measure.accuracy.") + csm::kernelName(kernel) +
                                          (blend ? ".blend" : ".switch"));
   return *p;

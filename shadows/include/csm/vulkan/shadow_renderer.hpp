@@ -69,6 +69,13 @@ struct DeviceInfo {
   bool depthClampEnabled = false;
   /// VkPhysicalDeviceVulkan12Features::shaderOutputLayer enabled: allows RenderMode::kLayered.
   bool shaderOutputLayerEnabled = false;
+  /// VkPhysicalDeviceFeatures::geometryShader enabled: casters flagged CasterInstance::thin are
+  /// widened in the depth pass (RendererOptions::thinCasterWidenTexels). Without it (and without
+  /// conservativeRasterizationEnabled) they are drawn like any other caster.
+  bool geometryShaderEnabled = false;
+  /// VK_EXT_conservative_rasterization enabled on the device: thin casters are widened by
+  /// overestimating conservative rasterisation instead (no geometry stage; preferred).
+  bool conservativeRasterizationEnabled = false;
   /// VK_EXT_debug_utils is enabled on the instance: objects get names, the pass gets labels.
   bool debugUtilsEnabled = false;
   /// The host's own cap on the shadow-map side in texels (a memory budget, a console's limit);
@@ -169,6 +176,11 @@ struct RendererOptions {
   /// rectangles re-rendered this frame and those dynamic casters covered last frame) before the
   /// dynamic casters are drawn. See CacheRestore.
   CacheRestore cacheRestore = CacheRestore::kRedraw;
+  /// Casters flagged CasterInstance::thin are widened by this many texels on each side in the
+  /// depth pass (a geometry shader; see csm_depth_thin.geom); [0, 4], 0 = off. Half a texel
+  /// makes any caster at least one texel wide, so that it covers a texel centre wherever it
+  /// passes.
+  float thinCasterWidenTexels = 0.5f;
 };
 
 /// A range of an index buffer drawn as one caster mesh.
@@ -204,6 +216,14 @@ struct CasterInstance {
   /// (ShadowView::setCasters does it for instances whose index, mesh, transform or bounds
   /// changed; ShadowRenderer::invalidate for a world box).
   bool dynamic = false;
+  /// A caster thinner than a shadow texel (a cable, an antenna, a fence wire): drawn with its
+  /// triangles widened by RendererOptions::thinCasterWidenTexels in light space, so that its
+  /// shadow does not break up where it covers no texel centre. Needs
+  /// DeviceInfo::conservativeRasterizationEnabled or geometryShaderEnabled (else drawn as is);
+  /// per-layer passes (RenderMode::kPerLayer,
+  /// the cache's included) only. Flag what is under about a texel wide in the cascades it casts
+  /// into (a cable's diameter against the texel size).
+  bool thin = false;
 
   /// The mesh drawn for `lod`.
   [[nodiscard]] std::uint32_t meshForLod(std::uint32_t lod) const noexcept {
@@ -439,6 +459,12 @@ class ShadowRenderer {
                         RenderMode* resolved) const;
   Status createImage(const ShadowSettings& settings, VkFormat format);
   Status createPipelines(VkFormat format);
+  // Thin casters (thin_casters.cpp).
+  static Status checkThinOptions(const RendererOptions& options);
+  Status updateThinPipeline(std::uint32_t resolution, const RendererOptions& options);
+  void destroyThinPipeline() noexcept;
+  void drawIndexedCaster(VkCommandBuffer cmd, const CasterInstance& instance, const MeshDraw& mesh,
+                         std::uint32_t copies) const;
   void destroyImage() noexcept;
   void destroyPipelines() noexcept;
   Status checkFrame(const CascadeFrame& frame) const;
@@ -495,6 +521,11 @@ class ShadowRenderer {
   VkDeviceMemory uniformMemory_ = VK_NULL_HANDLE;
   VkShaderModule vertexModule_ = VK_NULL_HANDLE;
   VkShaderModule layeredModule_ = VK_NULL_HANDLE;
+  VkShaderModule thinGeometryModule_ = VK_NULL_HANDLE;  // csm_depth_thin.geom
+  VkPipeline thinPipeline_ = VK_NULL_HANDLE;            // per-layer, widening thin casters
+  std::uint32_t thinResolution_ = 0;
+  float thinWidenTexels_ = 0.0f;
+  VkFormat thinFormat_ = VK_FORMAT_UNDEFINED;
 
   // Lifetime: the one-time clear and what update() replaced, destroyed after framesInFlight
   // further records (afterRecord = records_ when retired).

@@ -119,6 +119,11 @@ class Harness {
                                  std::span<const Receiver> receivers, csm::PcfKernel kernel,
                                  bool blend = true);
 
+  /// Which normal renderAccuracy's bias uses: the facet normal (csmGeometricNormal, false: what
+  /// the hosts pass) or the interpolated shading normal (true: the bias before facet normals, to
+  /// compare with).
+  void setBiasFromShadingNormal(bool shading) { biasFromShadingNormal_ = shading; }
+
   /// Renders the shadow pass and an accuracy frame of `extent` pixels for `camera`; returns
   /// every pixel a surface covers. `shadowImage` (optional) receives the shadow factor as grey
   /// (background dark blue) for people to look at.
@@ -167,7 +172,9 @@ class Harness {
 
   std::unique_ptr<glue::ShadowProbe> probe_;
   std::unique_ptr<AccuracyTargets> accuracy_;
+  // Key: kernel | 0x100 when the bias uses the shading normal; blend.
   std::map<std::pair<uint32_t, bool>, std::unique_ptr<AccuracyPipeline>> accuracyPipelines_;
+  bool biasFromShadingNormal_ = false;
 
   std::unique_ptr<engine::HeadlessTarget> timingTarget_;
   std::unique_ptr<engine::GpuTimer> timer_;

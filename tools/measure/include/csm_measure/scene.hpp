@@ -29,6 +29,8 @@ struct Instance {
   glm::mat3 linearWs{1.0f};
   glm::vec4 color{0.8f, 0.8f, 0.8f, 1.0f};
   InstanceKind kind = InstanceKind::kGround;
+  /// Drawn as a thin caster (csm::vk::CasterInstance::thin: widened in the depth pass).
+  bool thin = false;
 };
 
 /// A fixed receiver point on a surface (on a triangle of the scene, exactly).
