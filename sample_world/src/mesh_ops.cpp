@@ -360,7 +360,7 @@ bool coveredWithin(const OutlineMask& a, const OutlineMask& b, int radius) {
   for (int y = 0; y < a.n; ++y) {
     for (int x = 0; x < a.n; ++x) {
       if (!a.on[static_cast<std::size_t>(y) * a.n + x]) continue;
-      bool near = false;
+      bool near = b.on[static_cast<std::size_t>(y) * b.n + x] != 0;  // most pixels: both cover it
       for (int dy = -radius; dy <= radius && !near; ++dy) {
         for (int dx = -radius; dx <= radius && !near; ++dx) {
           const int xx = x + dx, yy = y + dy;
