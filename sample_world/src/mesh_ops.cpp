@@ -2,6 +2,8 @@
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
 #include <OpenMesh/Tools/Decimater/DecimaterT.hh>
+#include <OpenMesh/Tools/Decimater/ModAspectRatioT.hh>
+#include <OpenMesh/Tools/Decimater/ModHausdorffT.hh>
 #include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
 #include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
 
@@ -114,6 +116,68 @@ MeshData decimate(const MeshData& in, double targetFraction) {
 
 namespace {
 
+// One error-bounded Decimater run: quadric error orders the collapses; a collapse is legal only
+// while every removed vertex stays within `toleranceM` of the new surface (ModHausdorffT), no
+// face normal turns by more than 60 degrees and no triangle gets thinner than 1:10.
+MeshData decimateWithin(const MeshData& in, double toleranceM) {
+  OmMesh mesh;
+  mesh.request_vertex_status();
+  mesh.request_edge_status();
+  mesh.request_halfedge_status();
+  mesh.request_face_status();
+  toOpenMesh(in.positions, in.indices, mesh);
+  for (const auto vh : mesh.vertices()) {
+    if (mesh.is_boundary(vh)) mesh.status(vh).set_locked(true);
+  }
+  mesh.request_face_normals();
+  mesh.update_face_normals();
+  using Decimater = OpenMesh::Decimater::DecimaterT<OmMesh>;
+  Decimater decimater(mesh);
+  OpenMesh::Decimater::ModQuadricT<OmMesh>::Handle quadric;
+  OpenMesh::Decimater::ModHausdorffT<OmMesh>::Handle hausdorff;
+  OpenMesh::Decimater::ModNormalFlippingT<OmMesh>::Handle flipping;
+  OpenMesh::Decimater::ModAspectRatioT<OmMesh>::Handle aspect;
+  decimater.add(quadric);
+  decimater.add(hausdorff);
+  decimater.add(flipping);
+  decimater.add(aspect);
+  decimater.module(quadric).unset_max_err();
+  decimater.module(hausdorff).set_tolerance(static_cast<float>(toleranceM));
+  decimater.module(flipping).set_max_normal_deviation(60.0);
+  decimater.module(aspect).set_aspect_ratio(10.0f);
+  decimater.module(aspect).set_binary(true);
+  if (!decimater.initialize()) return in;
+  decimater.decimate();
+  mesh.garbage_collection();
+  MeshData out = fromOpenMesh(mesh);
+  if (out.indices.empty()) return in;
+  return out;
+}
+
+}  // namespace
+
+MeshData decimateToError(const MeshData& in, double maxErrorM, double* errorM) {
+  if (errorM != nullptr) *errorM = 0.0;
+  if (!(maxErrorM > 0.0) || !std::isfinite(maxErrorM) || in.indices.empty()) return in;
+  // ModHausdorffT bounds only how far the removed vertices lie from the new surface; the
+  // measured symmetric distance (both directions, edges and faces sampled) and the shadow
+  // outlines along 48 directions decide (a pole flattened into a sheet is within its radius of
+  // the pole but casts no shadow edge-on), and a smaller tolerance is tried while they fail.
+  double tolerance = maxErrorM;
+  for (int attempt = 0; attempt < 8; ++attempt, tolerance *= 0.6) {
+    MeshData out = decimateWithin(in, tolerance);
+    if (out.indices.size() >= in.indices.size()) break;
+    const double e = simplificationErrorM(in, out, lodSampleSpacingM(maxErrorM));
+    if (e <= maxErrorM && shadowOutlinesWithin(in, out, maxErrorM)) {
+      if (errorM != nullptr) *errorM = e;
+      return out;
+    }
+  }
+  return in;
+}
+
+namespace {
+
 // Squared distance from p to triangle abc (closest point by Voronoi regions of the triangle).
 float pointTriangleDistance2(const glm::vec3& p, const glm::vec3& a, const glm::vec3& b,
                              const glm::vec3& c) {
@@ -142,43 +206,219 @@ float pointTriangleDistance2(const glm::vec3& p, const glm::vec3& a, const glm::
   return d2To(a + ab * (vb / denom) + ac * (vc / denom));
 }
 
-// Largest distance from `from`'s vertices and triangle centroids to the surface of `to`.
-double oneSidedDistance(const MeshData& from, const MeshData& to) {
-  struct Tri {
-    glm::vec3 a, b, c, lo, hi;
-  };
-  std::vector<Tri> tris;
-  tris.reserve(to.indices.size() / 3);
-  for (std::size_t t = 0; t + 2 < to.indices.size(); t += 3) {
-    const glm::vec3 a = to.positions[to.indices[t]], b = to.positions[to.indices[t + 1]],
-                    c = to.positions[to.indices[t + 2]];
-    tris.push_back({a, b, c, glm::min(a, glm::min(b, c)), glm::max(a, glm::max(b, c))});
+// Triangles of a mesh bucketed in a uniform grid for nearest-surface queries.
+class TriangleGrid {
+ public:
+  explicit TriangleGrid(const MeshData& m) {
+    for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+      const glm::vec3 a = m.positions[m.indices[t]], b = m.positions[m.indices[t + 1]],
+                      c = m.positions[m.indices[t + 2]];
+      tris_.push_back({a, b, c});
+      lo_ = glm::min(lo_, glm::min(a, glm::min(b, c)));
+      hi_ = glm::max(hi_, glm::max(a, glm::max(b, c)));
+    }
+    if (tris_.empty()) return;
+    const glm::vec3 extent = glm::max(hi_ - lo_, glm::vec3(1e-6f));
+    // About two triangles per cell, 64 cells per side at most.
+    const float cells = std::max(1.0f, static_cast<float>(tris_.size()) / 2.0f);
+    cell_ = std::max(std::cbrt(extent.x * extent.y * extent.z / cells),
+                     std::max({extent.x, extent.y, extent.z}) / 64.0f);
+    for (int k = 0; k < 3; ++k) n_[k] = std::max(1, static_cast<int>(std::ceil(extent[k] / cell_)));
+    cells_.resize(static_cast<std::size_t>(n_[0]) * n_[1] * n_[2]);
+    for (std::uint32_t t = 0; t < tris_.size(); ++t) {
+      const Tri& tri = tris_[t];
+      const glm::ivec3 c0 = cellOf(glm::min(tri.a, glm::min(tri.b, tri.c)));
+      const glm::ivec3 c1 = cellOf(glm::max(tri.a, glm::max(tri.b, tri.c)));
+      for (int z = c0.z; z <= c1.z; ++z) {
+        for (int y = c0.y; y <= c1.y; ++y) {
+          for (int x = c0.x; x <= c1.x; ++x) cells_[index({x, y, z})].push_back(t);
+        }
+      }
+    }
   }
-  if (tris.empty()) return from.positions.empty() ? 0.0 : std::numeric_limits<double>::infinity();
-  std::vector<glm::vec3> points = from.positions;
-  for (std::size_t t = 0; t + 2 < from.indices.size(); t += 3) {
-    points.push_back((from.positions[from.indices[t]] + from.positions[from.indices[t + 1]] +
-                      from.positions[from.indices[t + 2]]) /
-                     3.0f);
+  [[nodiscard]] bool empty() const { return tris_.empty(); }
+
+  // Squared distance from p to the surface, or any value <= stopBelow2 once it is known to be
+  // at most that (the caller only needs to know it does not raise its maximum).
+  [[nodiscard]] float distance2(const glm::vec3& p, float stopBelow2) const {
+    const glm::ivec3 c = cellOf(p);
+    const glm::vec3 gap = glm::max(glm::max(lo_ - p, p - hi_), glm::vec3(0.0f));
+    const float outside = glm::length(gap);
+    float best2 = std::numeric_limits<float>::max();
+    const int rings = std::max({n_.x, n_.y, n_.z});
+    for (int r = 0; r <= rings; ++r) {
+      // Cells at Chebyshev distance r from c: everything closer was seen in earlier rings.
+      for (int z = c.z - r; z <= c.z + r; ++z) {
+        for (int y = c.y - r; y <= c.y + r; ++y) {
+          for (int x = c.x - r; x <= c.x + r; ++x) {
+            if (std::max({std::abs(x - c.x), std::abs(y - c.y), std::abs(z - c.z)}) != r) continue;
+            if (x < 0 || y < 0 || z < 0 || x >= n_.x || y >= n_.y || z >= n_.z) continue;
+            for (std::uint32_t t : cells_[index({x, y, z})]) {
+              const Tri& tri = tris_[t];
+              best2 = std::min(best2, pointTriangleDistance2(p, tri.a, tri.b, tri.c));
+            }
+          }
+        }
+      }
+      // Unseen cells lie at least r cells (beyond the grid's edge for an outside point) away.
+      const float reach = outside + static_cast<float>(r) * cell_;
+      if (best2 <= reach * reach || best2 <= stopBelow2) break;
+    }
+    return best2;
+  }
+
+ private:
+  struct Tri {
+    glm::vec3 a, b, c;
+  };
+  [[nodiscard]] glm::ivec3 cellOf(const glm::vec3& p) const {
+    const glm::vec3 f = (p - lo_) / cell_;
+    return glm::clamp(glm::ivec3(glm::floor(f)), glm::ivec3(0), n_ - 1);
+  }
+  [[nodiscard]] std::size_t index(const glm::ivec3& c) const {
+    return (static_cast<std::size_t>(c.z) * n_.y + c.y) * n_.x + c.x;
+  }
+  std::vector<Tri> tris_;
+  glm::vec3 lo_{std::numeric_limits<float>::max()}, hi_{-std::numeric_limits<float>::max()};
+  float cell_ = 1.0f;
+  glm::ivec3 n_{1};
+  std::vector<std::vector<std::uint32_t>> cells_;
+};
+
+// Largest distance from sample points of `from` to the surface of `to`: its vertices, and per
+// triangle its centroid, edge midpoints, the points halfway between centroid and corners and,
+// with `spacingM` > 0, a barycentric grid with samples at most spacingM apart along each edge
+// (16 steps per edge at most).
+double oneSidedDistance(const MeshData& from, const MeshData& to, double spacingM) {
+  const TriangleGrid grid(to);
+  if (grid.empty()) {
+    return from.positions.empty() ? 0.0 : std::numeric_limits<double>::infinity();
   }
   float worst2 = 0.0f;
-  for (const glm::vec3& p : points) {
-    float best2 = std::numeric_limits<float>::max();
-    for (const Tri& tri : tris) {
-      const glm::vec3 gap = glm::max(glm::max(tri.lo - p, p - tri.hi), glm::vec3(0.0f));
-      if (glm::dot(gap, gap) >= best2) continue;
-      best2 = std::min(best2, pointTriangleDistance2(p, tri.a, tri.b, tri.c));
-      if (best2 <= worst2) break;  // cannot raise the maximum
+  auto visit = [&](const glm::vec3& p) { worst2 = std::max(worst2, grid.distance2(p, worst2)); };
+  for (const glm::vec3& p : from.positions) visit(p);
+  for (std::size_t t = 0; t + 2 < from.indices.size(); t += 3) {
+    const glm::vec3 a = from.positions[from.indices[t]], b = from.positions[from.indices[t + 1]],
+                    c = from.positions[from.indices[t + 2]];
+    const glm::vec3 g = (a + b + c) / 3.0f;
+    for (const glm::vec3& p : {g, (a + b) * 0.5f, (b + c) * 0.5f, (c + a) * 0.5f, (g + a) * 0.5f,
+                               (g + b) * 0.5f, (g + c) * 0.5f}) {
+      visit(p);
     }
-    worst2 = std::max(worst2, best2);
+    if (spacingM > 0.0) {
+      const double longest = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
+      const int steps = static_cast<int>(std::min(16.0, std::ceil(longest / spacingM)));
+      for (int i = 0; i <= steps; ++i) {
+        for (int j = 0; i + j <= steps; ++j) {
+          const float u = float(i) / float(steps), v = float(j) / float(steps);
+          visit(a + (b - a) * u + (c - a) * v);
+        }
+      }
+    }
   }
   return std::sqrt(static_cast<double>(worst2));
 }
 
+// The mesh's shadow outline along `dir` as a coverage mask (orthographic, pixel centres inside
+// any triangle, no culling: what a depth pass without culling covers).
+struct OutlineMask {
+  int n = 0;
+  std::vector<std::uint8_t> on;
+};
+
+OutlineMask outlineMask(const MeshData& m, const glm::vec3& u, const glm::vec3& v,
+                        const glm::vec2& origin, float pixel, int n) {
+  OutlineMask mask{n, std::vector<std::uint8_t>(static_cast<std::size_t>(n) * n, 0)};
+  for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+    glm::vec2 q[3];
+    for (int k = 0; k < 3; ++k) {
+      const glm::vec3 x = m.positions[m.indices[t + k]];
+      q[k] = (glm::vec2(glm::dot(x, u), glm::dot(x, v)) - origin) / pixel;
+    }
+    const float area =
+        (q[1].x - q[0].x) * (q[2].y - q[0].y) - (q[1].y - q[0].y) * (q[2].x - q[0].x);
+    if (!(std::abs(area) > 1e-12f)) continue;
+    const glm::vec2 bmin = glm::min(q[0], glm::min(q[1], q[2]));
+    const glm::vec2 bmax = glm::max(q[0], glm::max(q[1], q[2]));
+    for (int y = std::max(0, int(std::floor(bmin.y))); y <= std::min(n - 1, int(bmax.y)); ++y) {
+      for (int x = std::max(0, int(std::floor(bmin.x))); x <= std::min(n - 1, int(bmax.x)); ++x) {
+        const glm::vec2 c(float(x) + 0.5f, float(y) + 0.5f);
+        bool inside = true;
+        for (int k = 0; k < 3 && inside; ++k) {
+          const glm::vec2 a = q[k], b = q[(k + 1) % 3];
+          inside = ((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x)) / area >= 0.0f;
+        }
+        if (inside) mask.on[static_cast<std::size_t>(y) * n + x] = 1;
+      }
+    }
+  }
+  return mask;
+}
+
+// Whether every pixel of `a` has a pixel of `b` within `radius` pixels.
+bool coveredWithin(const OutlineMask& a, const OutlineMask& b, int radius) {
+  for (int y = 0; y < a.n; ++y) {
+    for (int x = 0; x < a.n; ++x) {
+      if (!a.on[static_cast<std::size_t>(y) * a.n + x]) continue;
+      bool near = b.on[static_cast<std::size_t>(y) * b.n + x] != 0;  // most pixels: both cover it
+      for (int dy = -radius; dy <= radius && !near; ++dy) {
+        for (int dx = -radius; dx <= radius && !near; ++dx) {
+          const int xx = x + dx, yy = y + dy;
+          if (dx * dx + dy * dy > radius * radius || xx < 0 || yy < 0 || xx >= b.n || yy >= b.n) {
+            continue;
+          }
+          near = b.on[static_cast<std::size_t>(yy) * b.n + xx] != 0;
+        }
+      }
+      if (!near) return false;
+    }
+  }
+  return true;
+}
+
 }  // namespace
 
-double simplificationErrorM(const MeshData& original, const MeshData& simplified) {
-  return std::max(oneSidedDistance(original, simplified), oneSidedDistance(simplified, original));
+bool shadowOutlinesWithin(const MeshData& original, const MeshData& simplified, double boundM) {
+  if (!(boundM > 0.0) || original.positions.empty()) return true;
+  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+  for (const glm::vec3& p : original.positions) {
+    lo = glm::min(lo, p);
+    hi = glm::max(hi, p);
+  }
+  const float size = glm::length(hi - lo);
+  // Pixels of a quarter of the bound (coarser for a mesh over 500 of them across: a part
+  // flattened into a sheet leaves gaps in a raster finer than its width); a pixel counts as
+  // covered when the other outline has one within the bound plus a pixel.
+  const float pixel = std::max(static_cast<float>(boundM) / 4.0f, size / 500.0f);
+  const int radius = static_cast<int>(std::ceil(boundM / pixel)) + 1;
+  const int n = static_cast<int>(std::ceil(size / pixel)) + 2 * radius + 2;
+  // 48 directions spread over a hemisphere (a Fibonacci spiral; d and -d cast the same outline):
+  // dense enough that a thin part flattened into a sheet is seen nearly edge-on, where its
+  // outline thins to gaps, from some of them.
+  constexpr int kDirections = 48;
+  for (int k = 0; k < kDirections; ++k) {
+    const float z = (static_cast<float>(k) + 0.5f) / kDirections;
+    const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+    const float phi = 2.39996323f * static_cast<float>(k);
+    const glm::vec3 w = glm::normalize(glm::vec3(r * std::cos(phi), z, r * std::sin(phi)));
+    const glm::vec3 u = glm::normalize(std::abs(w.y) > 0.9f ? glm::cross(glm::vec3(1, 0, 0), w)
+                                                            : glm::cross(glm::vec3(0, 1, 0), w));
+    const glm::vec3 v = glm::cross(w, u);
+    const glm::vec3 centre = 0.5f * (lo + hi);
+    const glm::vec2 origin =
+        glm::vec2(glm::dot(centre, u), glm::dot(centre, v)) - 0.5f * pixel * float(n);
+    const OutlineMask a = outlineMask(original, u, v, origin, pixel, n);
+    const OutlineMask b = outlineMask(simplified, u, v, origin, pixel, n);
+    if (!coveredWithin(a, b, radius) || !coveredWithin(b, a, radius)) return false;
+  }
+  return true;
+}
+
+double simplificationErrorM(const MeshData& original, const MeshData& simplified,
+                            double sampleSpacingM) {
+  const double s = std::isfinite(sampleSpacingM) && sampleSpacingM > 0.0 ? sampleSpacingM : 0.0;
+  return std::max(oneSidedDistance(original, simplified, s),
+                  oneSidedDistance(simplified, original, s));
 }
 
 namespace {

@@ -168,26 +168,46 @@ struct Shape {
   }
 };
 
-// Records each LOD's geometric error against LOD 0 (0 where the LOD is LOD 0's mesh).
+// Records each LOD's geometric error against LOD 0 (0 where the LOD is LOD 0's mesh), sampled
+// as densely as decimateToError measured it.
 void measureLodErrors(MeshAsset& asset) {
   asset.lodErrorM[0] = 0.0f;
   for (std::uint32_t l = 1; l < kLodCount; ++l) {
     const bool same = asset.lods[l].indices == asset.lods[0].indices &&
                       asset.lods[l].positions == asset.lods[0].positions;
+    const double spacing = lodSampleSpacingM(asset.lodBoundM[l]);
     asset.lodErrorM[l] =
         same ? 0.0f
-             : std::max(asset.lodErrorM[l - 1],
-                        static_cast<float>(simplificationErrorM(asset.lods[0], asset.lods[l])));
+             : std::max(asset.lodErrorM[l - 1], static_cast<float>(simplificationErrorM(
+                                                    asset.lods[0], asset.lods[l], spacing)));
   }
 }
 
-MeshAsset makeAsset(std::string name, const Shape& shape, double lod1, double lod2) {
+// The largest scales trees and rocks are placed with (their placement below draws 0.7 + 0.6 u
+// and 0.5 + 3.5 u^3): an asset's LOD bound in its own metres is the world rung over it.
+constexpr double kTreeMaxScale = 1.3;
+constexpr double kRockMaxScale = 4.0;
+
+// Fills LODs 1.. of an asset placed at most `maxScale` times its size (0: full detail at every
+// LOD), each simplified from LOD 0 within its rung of kLodErrorLadderM in world metres.
+void buildLods(MeshAsset& asset, double maxScale) {
+  for (std::uint32_t l = 1; l < kLodCount; ++l) {
+    asset.lodBoundM[l] = maxScale > 0.0 ? static_cast<float>(kLodErrorLadderM[l] / maxScale) : 0.0f;
+    asset.lods[l] =
+        maxScale > 0.0 ? decimateToError(asset.lods[0], asset.lodBoundM[l]) : asset.lods[0];
+    if (asset.lods[l].triangleCount() > asset.lods[l - 1].triangleCount()) {
+      asset.lods[l] = asset.lods[l - 1];
+    }
+  }
+  measureLodErrors(asset);
+}
+
+// `maxScale`: the largest uniform scale the asset is placed with (0: no simplified LODs).
+MeshAsset makeAsset(std::string name, const Shape& shape, double maxScale) {
   MeshAsset asset;
   asset.name = std::move(name);
   asset.lods[0] = finishMesh(shape.p, shape.i);
-  asset.lods[1] = lod1 < 1.0 ? decimate(asset.lods[0], lod1) : asset.lods[0];
-  asset.lods[2] = lod2 < 1.0 ? decimate(asset.lods[1], lod2 / lod1) : asset.lods[1];
-  measureLodErrors(asset);
+  buildLods(asset, maxScale);
   return asset;
 }
 
@@ -394,7 +414,7 @@ void WorldBuilder::terrain() {
     // of receiver pixels misclassified against the ray-traced truth (0.46% without). It is
     // a small share of the shadow pass's triangles (512 per chunk).
     w.meshes[c] =
-        makeAsset("terrain chunk " + std::to_string(cx) + "," + std::to_string(cz), s, 1.0, 1.0);
+        makeAsset("terrain chunk " + std::to_string(cx) + "," + std::to_string(cz), s, 0.0);
   };
   // Chunks are independent: build them on every core (results do not depend on the order).
   const unsigned threads = std::max(1u, std::min(4u, std::thread::hardware_concurrency()));
@@ -424,30 +444,30 @@ void WorldBuilder::prototypes() {
   conifer.cone(2.5f, 8.0f, 3.2f, 0.0f, 12);
   conifer.cone(6.0f, 11.5f, 2.4f, 0.0f, 12, 0.2f);
   conifer.cone(9.5f, 14.0f, 1.5f, 0.0f, 10, 0.4f);
-  trees.push_back(addAsset(makeAsset("conifer", conifer, 0.35, 0.06)));
+  trees.push_back(addAsset(makeAsset("conifer", conifer, kTreeMaxScale)));
   Shape broad;  // trunk + lumpy crown, ~11 m
   broad.cone(-0.5f, 4.5f, 0.45f, 0.3f, 8);
   Rng r(mix64(seed ^ 0xb10b));
   broad.blob({0.0f, 7.5f, 0.0f}, {4.0f, 3.6f, 4.0f}, [&](const glm::vec3& v) {
     return static_cast<float>(0.85 + 0.3 * valueNoise(seed, v.x * 2.0 + 5, v.z * 2.0 + v.y, 77));
   });
-  trees.push_back(addAsset(makeAsset("broadleaf", broad, 0.3, 0.06)));
+  trees.push_back(addAsset(makeAsset("broadleaf", broad, kTreeMaxScale)));
   Shape pine;  // tall thin pine, ~22 m
   pine.cone(-0.5f, 12.0f, 0.4f, 0.2f, 8);
   pine.cone(8.0f, 22.0f, 2.2f, 0.0f, 10);
-  trees.push_back(addAsset(makeAsset("pine", pine, 0.35, 0.08)));
+  trees.push_back(addAsset(makeAsset("pine", pine, kTreeMaxScale)));
   for (int k = 0; k < 4; ++k) {
     Shape rock;
     rock.blob({0.0f, 0.3f, 0.0f}, {1.0f, 0.7f, 1.1f}, [&](const glm::vec3& v) {
       return static_cast<float>(
           0.7 + 0.6 * valueNoise(seed, v.x * 2.5 + 10 * k, v.z * 2.5 + v.y * 1.7, 91));
     });
-    rocks.push_back(addAsset(makeAsset("rock " + std::to_string(k), rock, 0.3, 0.08)));
+    rocks.push_back(addAsset(makeAsset("rock " + std::to_string(k), rock, kRockMaxScale)));
   }
   const std::uint32_t unitBox = [&] {
     Shape b;
     b.box({-0.5f, 0.0f, -0.5f}, {0.5f, 1.0f, 0.5f});
-    return addAsset(makeAsset("box", b, 1.0, 1.0));
+    return addAsset(makeAsset("box", b, 0.0));
   }();
   (void)unitBox;
 }
@@ -466,7 +486,7 @@ void WorldBuilder::town() {
       side *= 0.88f;
     }
     tower.box({-0.4f, y, -0.4f}, {0.4f, y + 16.0f, 0.4f});  // antenna: a thin caster
-    const std::uint32_t towerMesh = addAsset(makeAsset("tower", tower, 1.0, 1.0));
+    const std::uint32_t towerMesh = addAsset(makeAsset("tower", tower, 0.0));
     const glm::dvec3 at(centre.x + 20.0, 0.0, centre.z - 30.0);
     place(towerMesh, Kind::kTower, {at.x, heightWs(at.x, at.z) - 0.5, at.z}, yawScale(0.3, 1.0),
           {0.75f, 0.72f, 0.68f});
@@ -495,7 +515,7 @@ void WorldBuilder::town() {
         const std::uint32_t b2 = b.vertex({wx / 2, hgt + rh, 0.0f});
         b.tri(b0, b1, b2);
       }
-      houseMeshes.push_back(addAsset(makeAsset("building " + std::to_string(k), b, 1.0, 1.0)));
+      houseMeshes.push_back(addAsset(makeAsset("building " + std::to_string(k), b, 0.0)));
     }
     std::uint32_t placed = 0;
     for (int gz = -7; gz <= 7 && placed < desc.buildingCount; ++gz) {
@@ -522,10 +542,10 @@ void WorldBuilder::thinCasters() {
   Shape pole;
   pole.cone(-1.0f, 12.0f, 0.18f, 0.14f, 8);
   pole.box({-1.6f, 11.0f, -0.1f}, {1.6f, 11.3f, 0.1f});  // cross arm
-  const std::uint32_t poleMesh = addAsset(makeAsset("pole", pole, 0.5, 0.3));
+  const std::uint32_t poleMesh = addAsset(makeAsset("pole", pole, 1.0));
   Shape cable;  // a unit-length cable along +x, 3 cm thick
   cable.box({0.0f, -0.015f, -0.015f}, {1.0f, 0.015f, 0.015f});
-  const std::uint32_t cableMesh = addAsset(makeAsset("cable", cable, 1.0, 1.0));
+  const std::uint32_t cableMesh = addAsset(makeAsset("cable", cable, 0.0));
   const double spacing = 45.0;
   glm::dvec3 prev{};
   for (int k = 0; k < 36; ++k) {
@@ -564,7 +584,7 @@ void WorldBuilder::thinCasters() {
   post.box({-0.06f, -0.5f, -0.06f}, {0.06f, 1.4f, 0.06f});
   post.box({-0.03f, 0.5f, 0.0f}, {0.03f, 0.6f, 3.0f});  // rails toward the next post
   post.box({-0.03f, 1.1f, 0.0f}, {0.03f, 1.2f, 3.0f});
-  const std::uint32_t postMesh = addAsset(makeAsset("fence segment", post, 1.0, 1.0));
+  const std::uint32_t postMesh = addAsset(makeAsset("fence segment", post, 0.0));
   for (int field = 0; field < 6; ++field) {
     const double fx = centre.x - 520.0 + 110.0 * (field % 3);
     const double fz = centre.z + 200.0 + 120.0 * (field / 3);
@@ -628,9 +648,7 @@ void WorldBuilder::placeUserMesh(std::optional<MeshData>& userMesh) {
   MeshAsset a;
   a.name = "user mesh";
   a.lods[0] = std::move(*userMesh);
-  a.lods[1] = decimate(a.lods[0], 0.3);
-  a.lods[2] = decimate(a.lods[1], 0.3);
-  measureLodErrors(a);
+  buildLods(a, 1.0);
   const std::uint32_t m = addAsset(std::move(a));
   const double x = centre.x - 60.0, z = centre.z - 80.0;
   place(m, Kind::kUser, {x, heightWs(x, z), z}, yawScale(0.0, 1.0), {0.85f, 0.55f, 0.3f});

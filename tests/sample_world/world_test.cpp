@@ -65,7 +65,7 @@ TEST(World, SameSeedGivesTheRecordedWorldInEveryBuild) {
   char hash[32];
   std::snprintf(hash, sizeof hash, "%016llx",
                 static_cast<unsigned long long>(world::worldHash(defaultWorld())));
-  EXPECT_STREQ(hash, "1218d89fa6be0054");
+  EXPECT_STREQ(hash, "b21307809c894788");
 }
 
 TEST(World, OtherSeedGivesOtherWorld) {
@@ -116,7 +116,8 @@ TEST(World, NormalsAreUnitAndLodsSimplify) {
       tris[l] += m.triangleCount();
     }
   }
-  EXPECT_LT(tris[1], tris[0] / 2);
+  // Error-bounded LODs (kLodErrorLadderM): fewer triangles at each step, not a fixed fraction.
+  EXPECT_LT(tris[1], tris[0]);
   EXPECT_LT(tris[2], tris[1]);
   // Terrain casters are never simplified: a simplified heightfield rises above the real one in
   // every hollow and shadows the ground it stands for.
@@ -172,7 +173,7 @@ TEST(World, LodErrorsAreRecorded) {
     }
     if (a.name == "conifer") {
       sawTree = true;
-      EXPECT_GT(a.lodErrorM[1], 0.01f);
+      EXPECT_GT(a.lodErrorM[2], 0.01f);
       std::printf("conifer LOD errors %.3f / %.3f m\n", a.lodErrorM[1], a.lodErrorM[2]);
     }
   }
@@ -183,7 +184,7 @@ TEST(World, LodErrorsAreRecorded) {
     } else {
       // Buildings are not simplified (error 0); vegetation is.
       if (c.name.rfind("vegetation", 0) == 0) {
-        EXPECT_GT(c.lodErrorM[1], 0.0f) << c.name;
+        EXPECT_GT(c.lodErrorM[2], 0.0f) << c.name;
       }
       EXPECT_LE(c.lodErrorM[1], c.lodErrorM[2]) << c.name;
       EXPECT_TRUE(std::isfinite(c.lodErrorM[2])) << c.name;

@@ -16,7 +16,8 @@
 
 namespace world {
 
-/// Levels of detail every mesh has: 0 full, 1 and 2 simplified by OpenMesh's Decimater.
+/// Levels of detail every mesh has: 0 full, 1 and 2 simplified by OpenMesh's Decimater within
+/// the error bounds of kLodErrorLadderM.
 inline constexpr std::uint32_t kLodCount = 3;
 
 /// An indexed triangle mesh in its own object space (positions and unit normals).
@@ -30,12 +31,23 @@ struct MeshData {
   }
 };
 
+/// World-space error bound of each LOD, metres (LOD 0 is the mesh itself): the rungs an asset's
+/// simplified LODs are built within, divided by the largest scale it is placed with. With the
+/// default 4 x 2048^2 over 400 m the last cascade's texel is about 0.5 m on the forest path, so
+/// at RendererOptions::lodMaxErrorTexels 0.5 it admits LOD 1 (0.2 m, margin for a ladder rung
+/// below), and LOD 2 (0.8 m) serves cascades of 1.6 m texels (the fly-through's 1500 m) or a
+/// budget of 2 texels. Finer rungs buy almost nothing on these meshes: a tree's 12-sided cones
+/// cannot lose a side within a few centimetres.
+inline constexpr std::array<double, kLodCount> kLodErrorLadderM = {0.0, 0.2, 0.8};
+
 /// A mesh with its levels of detail (lods[0] full; lods[1], lods[2] simplified).
 struct MeshAsset {
   std::string name;
   std::array<MeshData, kLodCount> lods;
   /// lodErrorM[l]: simplificationErrorM(lods[0], lods[l]) in the asset's metres (0 for LOD 0).
   std::array<float, kLodCount> lodErrorM{};
+  /// lodBoundM[l]: the error LOD l was built within, asset metres (0: not simplified).
+  std::array<float, kLodCount> lodBoundM{};
 };
 
 /// What kind of thing an object is (colour, report statistics).
@@ -142,11 +154,38 @@ struct WorldError {
 /// locked) toward `targetFraction` of its vertices; normals recomputed by OpenMesh.
 [[nodiscard]] MeshData decimate(const MeshData& mesh, double targetFraction);
 
+/// Simplifies `mesh` with OpenMesh's Decimater as far as it goes while the result stays within
+/// `maxErrorM` of it: collapses ordered by quadric error, each legal only while the removed
+/// vertices stay within the bound of the new surface (ModHausdorffT), no normal turning over 60
+/// degrees, no triangle thinner than 1:10, boundary locked. The result's simplificationErrorM
+/// (sampled at lodSampleSpacingM) is at most `maxErrorM` and its shadowOutlinesWithin the bound
+/// (the tolerance shrinks until both hold; the mesh itself when nothing fits); the error is
+/// written to `errorM`.
+[[nodiscard]] MeshData decimateToError(const MeshData& mesh, double maxErrorM,
+                                       double* errorM = nullptr);
+
 /// Geometric error of a simplified mesh, metres in the mesh's space: the larger of the largest
-/// distance from `original`'s vertices and triangle centroids to `simplified`'s surface and the
-/// reverse (a sampled symmetric Hausdorff distance). Bounds how far the simplified silhouette
-/// moves.
-[[nodiscard]] double simplificationErrorM(const MeshData& original, const MeshData& simplified);
+/// distance from `original`'s sample points to `simplified`'s surface and the reverse (a sampled
+/// symmetric Hausdorff distance). Samples: vertices, per triangle its centroid, edge midpoints
+/// and the points halfway between centroid and corners, and with `sampleSpacingM` > 0 a grid at
+/// most that far apart (64 steps per edge at most), so the true distance exceeds the result by
+/// at most about the spacing. Bounds how far the simplified silhouette (a shadow's outline)
+/// moves, for every light direction.
+[[nodiscard]] double simplificationErrorM(const MeshData& original, const MeshData& simplified,
+                                          double sampleSpacingM = 0.0);
+
+/// Whether the shadow outlines of `simplified` and `original` (orthographic projections along
+/// 48 directions spread over a hemisphere, rasterised at a quarter of the bound, 500 pixels
+/// across at most)
+/// cover each other within `boundM` plus a pixel: catches what the Hausdorff distance misses,
+/// e.g. a thin cylinder flattened into a sheet that casts nothing seen edge-on.
+[[nodiscard]] bool shadowOutlinesWithin(const MeshData& original, const MeshData& simplified,
+                                        double boundM);
+
+/// The sample spacing decimateToError measures a LOD built within `maxErrorM` with.
+[[nodiscard]] inline double lodSampleSpacingM(double maxErrorM) noexcept {
+  return maxErrorM / 4.0;
+}
 
 /// 64-bit FNV-1a hash of a mesh's positions, normals and indices (bit patterns).
 [[nodiscard]] std::uint64_t meshHash(const MeshData& mesh) noexcept;
