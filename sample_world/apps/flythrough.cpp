@@ -21,7 +21,9 @@
 #include <string>
 #include <vector>
 
+#include "csm/names.hpp"
 #include "engine/engine.hpp"
+#include "enum_combo.hpp"
 #include "imgui_layer.hpp"
 #include "sample_world/key_state.hpp"
 #include "sample_world/output_dir.hpp"
@@ -615,9 +617,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
                           "4096\0"
                           "8192\0");
   s.shadow.resolution = static_cast<std::uint32_t>(kRes[resIndex]);
-  int scheme = static_cast<int>(s.scheme);
-  changed |= ImGui::Combo("split scheme", &scheme, "practical\0uniform\0logarithmic\0");
-  s.scheme = static_cast<world::SplitScheme>(scheme);
+  changed |= world::enumCombo("split scheme", s.scheme, world::kAllSplitSchemes, world::schemeKey);
   float lambda = static_cast<float>(s.shadow.splitLambda);
   changed |= ImGui::SliderFloat("split lambda", &lambda, 0.0f, 1.0f);
   s.shadow.splitLambda = lambda;
@@ -627,10 +627,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   float blend = static_cast<float>(s.shadow.blendBand);
   changed |= ImGui::SliderFloat("blend band", &blend, 0.0f, 0.5f);
   s.shadow.blendBand = blend;
-  int kernel = static_cast<int>(s.kernel);
-  changed |= ImGui::Combo("PCF kernel", &kernel,
-                          "1 tap\0tent 3x3\0tent 5x5\0tent 7x7\0poisson 16\0PCSS\0");
-  s.kernel = static_cast<csm::PcfKernel>(kernel);
+  changed |= world::enumCombo("PCF kernel", s.kernel, csm::kAllKernels, csm::kernelName);
   float lightAngle = static_cast<float>(s.shadow.lightAngularDiameterDeg);
   changed |= ImGui::SliderFloat("light angle (PCSS)", &lightAngle, 0.0f, 20.0f, "%.2f deg");
   s.shadow.lightAngularDiameterDeg = lightAngle;
@@ -667,11 +664,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   }
   ImGui::EndDisabled();
   changed |= ImGui::SliderFloat("LOD max error", &s.lodMaxErrorTexels, 0.0f, 4.0f, "%.2f texels");
-  int debug = static_cast<int>(s.debug);
-  changed |= ImGui::Combo(
-      "debug output", &debug,
-      "none\0normal\0shadow factor\0light coords\0sampled depth\0depth diff\0cascade\0");
-  s.debug = static_cast<csm::DebugMode>(debug);
+  changed |= world::enumCombo("debug output", s.debug, csm::kAllDebugModes, csm::debugModeName);
   changed |= ImGui::Checkbox("overlay (F1)", &s.overlay);
   ImGui::SameLine();
   changed |= ImGui::Checkbox("tint", &s.overlayTint);

@@ -9,6 +9,8 @@
 #include <functional>
 #include <sstream>
 
+#include "csm/names.hpp"
+
 namespace world {
 
 namespace {
@@ -117,23 +119,22 @@ Entry choice(const char* key, const char* allowed,
           }};
 }
 
-constexpr std::array<std::pair<const char*, csm::PcfKernel>, 6> kKernels{{
-    {"1tap", csm::PcfKernel::k1Tap},
-    {"tent3", csm::PcfKernel::kTent3},
-    {"tent5", csm::PcfKernel::kTent5},
-    {"tent7", csm::PcfKernel::kTent7},
-    {"poisson16", csm::PcfKernel::kPoisson16},
-    {"pcss", csm::PcfKernel::kPcss},
-}};
-constexpr std::array<std::pair<const char*, csm::DebugMode>, 7> kDebugModes{{
-    {"none", csm::DebugMode::kNone},
-    {"normal", csm::DebugMode::kNormal},
-    {"shadow", csm::DebugMode::kShadowFactor},
-    {"lightcoords", csm::DebugMode::kLightCoords},
-    {"depth", csm::DebugMode::kSampledDepth},
-    {"depthdiff", csm::DebugMode::kDepthDifference},
-    {"cascade", csm::DebugMode::kCascadeTint},
-}};
+// A choice among the module's names (csm/names.hpp): parsed by csm's parser, written by its one
+// spelling.
+template <class Parse, class Name, class F>
+Entry named(const char* key, const char* allowed, Parse parse, Name name, F field) {
+  return {key, allowed,
+          [=](AppSettings& s, const std::string& v) -> std::optional<std::string> {
+            const auto r = parse(v, key);
+            if (!r) return bad(key, v, allowed);
+            field(s) = r.value();
+            return std::nullopt;
+          },
+          [=](const AppSettings& s) -> nlohmann::json {
+            return name(field(const_cast<AppSettings&>(s)));
+          }};
+}
+
 constexpr std::array<std::pair<const char*, SplitScheme>, 3> kSchemes{{
     {"practical", SplitScheme::kPractical},
     {"uniform", SplitScheme::kUniform},
@@ -145,6 +146,9 @@ constexpr std::array<std::pair<const char*, bool>, 2> kDepthFormats{
     {{"d32", false}, {"d16", true}}};
 
 const std::vector<Entry>& table() {
+  // Kernel names: csm's ("tent3x3"); parseKernel also takes the older "tent3", "tent5", "tent7".
+  static const std::string kKernelAllowed = "one of " + csm::kernelNames();
+  static const std::string kDebugAllowed = "one of " + csm::debugModeNames();
   static const std::vector<Entry> entries = {
       number<double>("light.azimuth", "a number of degrees in [0, 360]", 0, 360, false,
                      [](AppSettings& s) -> double& { return s.lightAzimuthDeg; }),
@@ -162,8 +166,8 @@ const std::vector<Entry>& table() {
                      [](AppSettings& s) -> double& { return s.shadow.shadowDistanceM; }),
       number<double>("shadow.blend", "a fraction in [0, 0.5]", 0, 0.5, false,
                      [](AppSettings& s) -> double& { return s.shadow.blendBand; }),
-      choice("shadow.kernel", "one of 1tap, tent3, tent5, tent7, poisson16, pcss", kKernels,
-             [](AppSettings& s) -> csm::PcfKernel& { return s.kernel; }),
+      named("shadow.kernel", kKernelAllowed.c_str(), csm::parseKernel, csm::kernelName,
+            [](AppSettings& s) -> csm::PcfKernel& { return s.kernel; }),
       number<double>("shadow.lightAngleDeg", "degrees in [0, 20] (the sun: 0.53)", 0, 20, false,
                      [](AppSettings& s) -> double& { return s.shadow.lightAngularDiameterDeg; }),
       number<double>("shadow.maxPenumbra", "metres in [0, 100]", 0, 100, false,
@@ -228,8 +232,8 @@ const std::vector<Entry>& table() {
                     0, 64, false, [](AppSettings& s) -> float& { return s.lodMaxErrorTexels; }),
       number<float>("ambient", "a number in [0, 1]", 0, 1, false,
                     [](AppSettings& s) -> float& { return s.ambient; }),
-      choice("debug", "one of none, normal, shadow, lightcoords, depth, depthdiff, cascade",
-             kDebugModes, [](AppSettings& s) -> csm::DebugMode& { return s.debug; }),
+      named("debug", kDebugAllowed.c_str(), csm::parseDebugMode, csm::debugModeName,
+            [](AppSettings& s) -> csm::DebugMode& { return s.debug; }),
       boolean("overlay", [](AppSettings& s) -> bool& { return s.overlay; }),
       boolean("overlay.tint", [](AppSettings& s) -> bool& { return s.overlayTint; }),
       boolean("overlay.checker", [](AppSettings& s) -> bool& { return s.overlayChecker; }),
@@ -406,16 +410,10 @@ csm::ShadowSettings effectiveShadow(const AppSettings& s) noexcept {
 }
 
 const char* kernelKey(csm::PcfKernel k) noexcept {
-  for (const auto& [name, v] : kKernels) {
-    if (v == k) return name;
-  }
-  return "?";
+  return csm::kernelName(k);
 }
 const char* debugKey(csm::DebugMode m) noexcept {
-  for (const auto& [name, v] : kDebugModes) {
-    if (v == m) return name;
-  }
-  return "?";
+  return csm::debugModeName(m);
 }
 const char* schemeKey(SplitScheme m) noexcept {
   for (const auto& [name, v] : kSchemes) {

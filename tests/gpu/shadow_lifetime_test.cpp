@@ -38,6 +38,47 @@ Difference compareImages(const ShadowScene& scene, const engine::CpuImage& unsha
   return d;
 }
 
+// The casters' world bounds in the order ShadowScene gives them to its view: the ground plane,
+// the spheres, the boxes.
+std::vector<csm::AabbWs> casterBounds(const ShadowScene& scene) {
+  std::vector<csm::AabbWs> bounds;
+  bounds.push_back({scene.planeCenterWs - glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM),
+                    scene.planeCenterWs + glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM)});
+  for (const SphereWs& sp : scene.spheres) {
+    bounds.push_back({sp.centerWs - glm::dvec3(sp.radiusM), sp.centerWs + glm::dvec3(sp.radiusM)});
+  }
+  for (const csm::AabbWs& b : scene.boxes) bounds.push_back(b);
+  return bounds;
+}
+
+// Appends a mesh with no triangles (an "empty LOD") and returns its index.
+std::uint32_t withEmptyMesh(std::vector<csm::vk::MeshDraw>& meshes) {
+  meshes.push_back(csm::vk::MeshDraw{});  // indexCount 0: draws nothing
+  return static_cast<std::uint32_t>(meshes.size() - 1);
+}
+
+// Plane pixels of the first three cascades, away from blend bands: how many are dark (< 128,
+// shadowed) in the rendered shadow factor and how many the analytic shadow says are shadowed.
+struct PerCascade {
+  std::array<uint64_t, 3> dark{};
+  std::array<uint64_t, 3> analytic{};
+};
+PerCascade shadowedPerCascade(const ShadowScene& scene, const Rendered& r) {
+  PerCascade c;
+  for (uint32_t y = 0; y < r.image.height; ++y) {
+    for (uint32_t x = 0; x < r.image.width; ++x) {
+      const ShadowScene::Hit hit = scene.trace(x, y);
+      if (!hit.hit || !hit.plane) continue;
+      const csm::CascadeSelection sel = csm::selectCascade(
+          r.frame, csm::viewDepthM(r.frame, hit.posWs), scene.settings().blendBand);
+      if (sel.index < 0 || sel.index >= 3 || sel.blendIndex >= 0) continue;
+      c.dark[sel.index] += r.image.at(x, y)[0] < 128 ? 1 : 0;
+      c.analytic[sel.index] += scene.shadowedAnalytic(hit.posWs) ? 1 : 0;
+    }
+  }
+  return c;
+}
+
 TEST(ShadowLifetime, LightingSetSampledBeforeTheFirstShadowPassReadsLit) {
   {
     ShadowScene scene;
@@ -200,17 +241,9 @@ TEST(ShadowView, CascadesDrawTheLodTheSettingsName) {
     std::vector<csm::vk::MeshDraw> meshes(view.meshes().begin(), view.meshes().end());
     std::vector<csm::vk::CasterInstance> instances(view.instances().begin(),
                                                    view.instances().end());
-    const std::uint32_t empty = static_cast<std::uint32_t>(meshes.size());
-    meshes.push_back(csm::vk::MeshDraw{});  // indexCount 0: draws nothing
+    const std::uint32_t empty = withEmptyMesh(meshes);
     for (std::size_t i = 1; i < instances.size(); ++i) instances[i].lodMeshes[0] = empty;
-    std::vector<csm::AabbWs> bounds;
-    bounds.push_back({scene.planeCenterWs - glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM),
-                      scene.planeCenterWs + glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM)});
-    for (const SphereWs& sp : scene.spheres) {
-      bounds.push_back(
-          {sp.centerWs - glm::dvec3(sp.radiusM), sp.centerWs + glm::dvec3(sp.radiusM)});
-    }
-    for (const csm::AabbWs& b : scene.boxes) bounds.push_back(b);
+    const std::vector<csm::AabbWs> bounds = casterBounds(scene);
     CSM_ASSERT_OK(view.setCasters(meshes, instances, bounds));
 
     std::vector<csm::vk::RenderMode> modes = {csm::vk::RenderMode::kPerLayer};
@@ -224,18 +257,7 @@ TEST(ShadowView, CascadesDrawTheLodTheSettingsName) {
       CSM_ASSERT_OK(scene.update(testSettings(3, 1024), options));
       const Rendered r = scene.render(csm::PcfKernel::k1Tap, csm::DebugMode::kShadowFactor);
       // Dark pixels (shadowed) by the cascade that shades them, away from blend bands.
-      std::array<uint64_t, 3> dark{}, analytic{};
-      for (uint32_t y = 0; y < r.image.height; ++y) {
-        for (uint32_t x = 0; x < r.image.width; ++x) {
-          const ShadowScene::Hit hit = scene.trace(x, y);
-          if (!hit.hit || !hit.plane) continue;
-          const csm::CascadeSelection sel = csm::selectCascade(
-              r.frame, csm::viewDepthM(r.frame, hit.posWs), scene.settings().blendBand);
-          if (sel.index < 0 || sel.blendIndex >= 0) continue;
-          dark[sel.index] += r.image.at(x, y)[0] < 128 ? 1 : 0;
-          analytic[sel.index] += scene.shadowedAnalytic(hit.posWs) ? 1 : 0;
-        }
-      }
+      const auto [dark, analytic] = shadowedPerCascade(scene, r);
       std::printf(
           "cascade LODs {1, 0, 1}: shadowed pixels per cascade %llu, %llu, %llu "
           "(analytic %llu, %llu, %llu)\n",
@@ -295,20 +317,12 @@ TEST(ShadowView, CascadesDrawTheLodTheirTexelErrorBudgetAllows) {
     std::vector<csm::vk::MeshDraw> meshes(view.meshes().begin(), view.meshes().end());
     std::vector<csm::vk::CasterInstance> instances(view.instances().begin(),
                                                    view.instances().end());
-    const std::uint32_t empty = static_cast<std::uint32_t>(meshes.size());
-    meshes.push_back(csm::vk::MeshDraw{});  // indexCount 0: draws nothing
+    const std::uint32_t empty = withEmptyMesh(meshes);
     for (std::size_t i = 1; i < instances.size(); ++i) {
       instances[i].lodMeshes[0] = empty;
       instances[i].lodErrorM[0] = errorM;
     }
-    std::vector<csm::AabbWs> bounds;
-    bounds.push_back({scene.planeCenterWs - glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM),
-                      scene.planeCenterWs + glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM)});
-    for (const SphereWs& sp : scene.spheres) {
-      bounds.push_back(
-          {sp.centerWs - glm::dvec3(sp.radiusM), sp.centerWs + glm::dvec3(sp.radiusM)});
-    }
-    for (const csm::AabbWs& b : scene.boxes) bounds.push_back(b);
+    const std::vector<csm::AabbWs> bounds = casterBounds(scene);
     CSM_ASSERT_OK(view.setCasters(meshes, instances, bounds));
 
     std::vector<csm::vk::RenderMode> modes = {csm::vk::RenderMode::kPerLayer};
@@ -323,18 +337,7 @@ TEST(ShadowView, CascadesDrawTheLodTheirTexelErrorBudgetAllows) {
         options.lodMaxErrorTexels = budget;
         CSM_ASSERT_OK(scene.update(testSettings(3, 1024), options));
         const Rendered r = scene.render(csm::PcfKernel::k1Tap, csm::DebugMode::kShadowFactor);
-        std::array<uint64_t, 3> dark{}, analytic{};
-        for (uint32_t y = 0; y < r.image.height; ++y) {
-          for (uint32_t x = 0; x < r.image.width; ++x) {
-            const ShadowScene::Hit hit = scene.trace(x, y);
-            if (!hit.hit || !hit.plane) continue;
-            const csm::CascadeSelection sel = csm::selectCascade(
-                r.frame, csm::viewDepthM(r.frame, hit.posWs), scene.settings().blendBand);
-            if (sel.index < 0 || sel.blendIndex >= 0) continue;
-            dark[sel.index] += r.image.at(x, y)[0] < 128 ? 1 : 0;
-            analytic[sel.index] += scene.shadowedAnalytic(hit.posWs) ? 1 : 0;
-          }
-        }
+        const auto [dark, analytic] = shadowedPerCascade(scene, r);
         std::printf(
             "lodMaxErrorTexels %.1f: shadowed pixels per cascade %llu, %llu, %llu (analytic "
             "%llu, %llu, %llu)\n",
@@ -363,6 +366,25 @@ TEST(ShadowView, CascadesDrawTheLodTheirTexelErrorBudgetAllows) {
     }
     instances[1].lodErrorM[0] = -1.0f;
     expectRefused(view.setCasters(meshes, instances, bounds), "instances[1].lodErrorM[0]");
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+// Cached and uncached passes pack the uniform block alike: with D16 the depth floor carries
+// D16's quantum in both (the cached pass once left UniformOptions::depthBits at 32).
+TEST(ShadowView, CachedAndUncachedPassesPackTheDepthFormatsQuantum) {
+  {
+    ShadowScene scene;
+    for (bool cache : {false, true}) {
+      SCOPED_TRACE(cache ? "cached" : "uncached");
+      csm::vk::RendererOptions options;
+      options.depthFormat = VK_FORMAT_D16_UNORM;
+      options.cache = cache;
+      CSM_ASSERT_OK(scene.update(testSettings(4, 512), options));
+      (void)scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+      EXPECT_EQ(scene.renderer().uniforms().biasParams.y, csm::depthQuantum(16));
+      EXPECT_EQ(scene.renderer().uniforms().counts.w, cache ? 1u : 0u);
+    }
   }
   EXPECT_EQ(validationMessages(), 0u);
 }

@@ -11,6 +11,7 @@
 // and as a ratio to tent 3x3: a comparison that the machine's drift cannot bias.
 #include <csm/core.hpp>
 #include <csm/gpu_layout.hpp>
+#include <csm/names.hpp>
 #include <csm/vulkan/shadow_renderer.hpp>
 #include <csm/vulkan/shadow_view.hpp>
 #include <engine/camera.hpp>
@@ -234,16 +235,12 @@ class Bench {
 
 // Lit pass of the wide kernels against PCSS, interleaved (see the file comment).
 int kernelCost(Bench& bench, int rounds) {
-  const std::vector<std::pair<const char*, csm::PcfKernel>> kernels = {
-      {"tent3x3", csm::PcfKernel::kTent3},
-      {"tent5x5", csm::PcfKernel::kTent5},
-      {"tent7x7", csm::PcfKernel::kTent7},
-      {"pcss", csm::PcfKernel::kPcss}};
+  const std::vector<csm::PcfKernel> kernels = {csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
+                                               csm::PcfKernel::kTent7, csm::PcfKernel::kPcss};
   std::vector<std::vector<double>> ms(kernels.size());
   for (int r = 0; r < rounds; ++r) {
     for (size_t k = 0; k < kernels.size(); ++k) {
-      ms[k].push_back(
-          bench.measure(2048, 4, kernels[k].second, csm::vk::RenderMode::kPerLayer).second);
+      ms[k].push_back(bench.measure(2048, 4, kernels[k], csm::vk::RenderMode::kPerLayer).second);
     }
   }
   auto median = [](std::vector<double> v) {
@@ -256,7 +253,8 @@ int kernelCost(Bench& bench, int rounds) {
   for (size_t k = 0; k < kernels.size(); ++k) {
     std::vector<double> ratio;
     for (int r = 0; r < rounds; ++r) ratio.push_back(ms[k][size_t(r)] / ms[0][size_t(r)]);
-    std::printf("| %s | %.2f | %.2f |\n", kernels[k].first, median(ms[k]), median(ratio));
+    std::printf("| %s | %.2f | %.2f |\n", csm::kernelName(kernels[k]), median(ms[k]),
+                median(ratio));
   }
   return 0;
 }
@@ -330,9 +328,7 @@ int run(int argc, char** argv) {
   std::printf("\n|---|");
   for (size_t i = 0; i < counts.size(); ++i) std::printf("---:|");
   std::printf("\n");
-  for (csm::PcfKernel k :
-       {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
-        csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
+  for (csm::PcfKernel k : csm::kAllKernels) {
     std::printf("| %s |", csm::kernelName(k));
     for (uint32_t c : counts) {
       std::printf(" %.2f |", bench.measure(litRes, c, k, csm::vk::RenderMode::kPerLayer).second);

@@ -20,6 +20,7 @@
 // Usage: csm_tradeoff [--quick] [--path NAME] [--out DIR] [--budget-ms X]... [--replot]
 //                     [--width W --height H]
 // --replot re-draws the table, plot and recommendations from DIR/tradeoff.csv without measuring.
+#include <csm/names.hpp>
 #include <csm_measure/harness.hpp>
 #include <csm_measure/metrics.hpp>
 #include <csm_measure/raytracer.hpp>
@@ -195,16 +196,9 @@ std::vector<Row> readCsv(const std::string& path) {
     r.config.cascades = uint32_t(std::stoul(f[0]));
     r.config.resolution = uint32_t(std::stoul(f[1]));
     r.config.lambda = std::stod(f[2]);
-    bool known = false;
-    for (csm::PcfKernel k :
-         {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
-          csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
-      if (f[3] == csm::kernelName(k)) {
-        r.config.kernel = k;
-        known = true;
-      }
-    }
-    if (!known) throw std::runtime_error("--replot: unknown kernel " + f[3]);
+    const csm::Result<csm::PcfKernel> kernel = csm::parseKernel(f[3], "--replot: kernel");
+    if (!kernel) throw std::runtime_error(kernel.error().message() + " in " + path);
+    r.config.kernel = kernel.value();
     r.config.blendBand = std::stod(f[4]);
     r.config.format = f[5] == "D16" ? VK_FORMAT_D16_UNORM : VK_FORMAT_D32_SFLOAT;
     r.config.lods = f[6] == "1";

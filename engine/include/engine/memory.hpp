@@ -32,14 +32,15 @@ struct Allocation {
   void* mapped = nullptr;  ///< host pointer to `offset` when host-visible, else null
   uint32_t memoryType = 0;
   uint32_t block = 0;      ///< index of the block inside its memory type (internal)
-  bool dedicated = false;  ///< a VkDeviceMemory of its own (larger than a block)
+  bool dedicated = false;  ///< a VkDeviceMemory of its own (larger than half a block)
   explicit operator bool() const { return memory != VK_NULL_HANDLE; }
 };
 
 /// Sub-allocates a few large VkDeviceMemory blocks (64 MiB by default) per memory type,
 /// first-fit with a coalescing free list. Optimal-tiling images are padded to
 /// bufferImageGranularity on both ends so they never share a page with a linear resource.
-/// Thread-safe. Requests larger than a block get a dedicated VkDeviceMemory.
+/// Thread-safe. Requests larger than half a block (the block: blockSize, or an eighth of the
+/// heap when that is smaller, at least 1 MiB) get a dedicated VkDeviceMemory.
 class Allocator {
  public:
   /// Reads the memory properties of the context's device; `blockSize` is the default block size.

@@ -20,6 +20,9 @@ namespace world {
 
 /// How the split distances are chosen: lambda 0 (uniform), 1 (logarithmic) or the user's.
 enum class SplitScheme : std::uint32_t { kPractical, kUniform, kLogarithmic };
+/// Every split scheme (for menus: iterate this, name each with schemeKey()).
+inline constexpr std::array<SplitScheme, 3> kAllSplitSchemes{
+    SplitScheme::kPractical, SplitScheme::kUniform, SplitScheme::kLogarithmic};
 
 struct AppSettings {
   csm::ShadowSettings shadow{};

@@ -2,6 +2,7 @@
 // clamping it: every refusal names the field, the value it had and the range it must lie in.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <utility>
 #include <variant>
@@ -14,8 +15,12 @@ struct ValidationError {
   std::string field;
   double value = 0.0;
   std::string allowed;
+  /// The offending value as written, for inputs that are names, not numbers (a kernel's name):
+  /// message() quotes it instead of `value`.
+  std::optional<std::string> text{};
 
-  /// "settings.resolution = 300 is invalid: allowed a power of two in [256, 16384]".
+  /// "settings.resolution = 300 is invalid: allowed a power of two in [256, 16384]", or with
+  /// `text`: "kernel = 'tent4' is invalid: allowed one of 1tap, tent3x3, ...".
   [[nodiscard]] std::string message() const;
 };
 

@@ -37,7 +37,8 @@ enum class PcfKernel : std::uint32_t {
   kPcss = CSM_KERNEL_PCSS,
 };
 
-/// Human-readable kernel name ("tent5x5"), for reports and test names.
+/// The one spelling of a kernel ("tent5x5") in code, CLI, JSON, reports and UI; parse it with
+/// parseKernel() (csm/names.hpp, with the list of every kernel). "unknown" outside PcfKernel.
 [[nodiscard]] const char* kernelName(PcfKernel kernel) noexcept;
 
 /// How far (in texels of the kernel's own cascade, before kernelScale) a kernel reads from its

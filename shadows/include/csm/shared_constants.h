@@ -7,8 +7,10 @@
 // the uniform block (8 x mat4 + params) well under the 16 KiB minimum maxUniformBufferRange.
 #define CSM_MAX_CASCADES 8
 
-// Descriptor set the module's lighting resources live in when a host uses csm.glsl's default
-// bindings; a host may override these before including csm.glsl.
+// The module's lighting resources. A host picks the descriptor set (CSM_SET before including
+// csm.glsl; CSM_DEFAULT_SET is a suggestion); the bindings are fixed: the renderer's
+// lightingSetLayout() and writeLightingSet() are built from these same values, so a shader that
+// used others would not match the set it is given.
 #define CSM_DEFAULT_SET 1
 #define CSM_BINDING_UNIFORMS 0    // CsmUniforms block
 #define CSM_BINDING_SHADOW_MAP 1  // sampler2DArrayShadow (comparison sampler + 2D-array view)

@@ -24,24 +24,6 @@ static_assert(sizeof(CsmUniforms) <= 16384, "must fit the minimum maxUniformBuff
 static_assert(sizeof(CsmUniforms) % 4 == 0, "vkCmdUpdateBuffer needs a multiple of 4 bytes");
 static_assert(CSM_MAX_CASCADES <= 32, "the non-empty mask is one 32-bit word");
 
-const char* kernelName(PcfKernel kernel) noexcept {
-  switch (kernel) {
-    case PcfKernel::k1Tap:
-      return "1tap";
-    case PcfKernel::kTent3:
-      return "tent3x3";
-    case PcfKernel::kTent5:
-      return "tent5x5";
-    case PcfKernel::kTent7:
-      return "tent7x7";
-    case PcfKernel::kPoisson16:
-      return "poisson16";
-    case PcfKernel::kPcss:
-      return "pcss";
-  }
-  return "unknown";
-}
-
 float kernelRadiusTexels(PcfKernel kernel) noexcept {
   switch (kernel) {
     case PcfKernel::k1Tap:

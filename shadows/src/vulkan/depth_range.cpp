@@ -7,6 +7,8 @@
 
 #include <csm_shaders/csm_depth_range.comp.spv.h>
 
+#include "vk_util.hpp"
+
 namespace csm::vk {
 namespace {
 
@@ -21,23 +23,6 @@ struct PushConstants {
   std::uint32_t slot;
 };
 static_assert(sizeof(PushConstants) == 24);
-
-template <class T>
-std::uint64_t handleBits(T h) {
-  return reinterpret_cast<std::uint64_t>(h);
-}
-
-Status vkError(VkResult r, const char* what) {
-  return Status(
-      ErrorCode::kVulkan,
-      std::string("DepthRangeReducer: ") + what + " failed (" + std::to_string(int(r)) + ")", r);
-}
-
-#define CSM_DR_TRY(call)                                             \
-  do {                                                               \
-    const VkResult csmResult_ = (call);                              \
-    if (csmResult_ != VK_SUCCESS) return vkError(csmResult_, #call); \
-  } while (false)
 
 bool readableLayout(VkImageLayout l) {
   return l == VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL ||
@@ -57,13 +42,7 @@ std::unique_ptr<DepthRangeReducer> DepthRangeReducer::create(const DeviceInfo& d
 }
 
 void DepthRangeReducer::setName(std::uint64_t handle, VkObjectType type, const char* name) const {
-  if (!setObjectName_ || handle == 0) return;
-  VkDebugUtilsObjectNameInfoEXT info{};
-  info.sType = VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT;
-  info.objectType = type;
-  info.objectHandle = handle;
-  info.pObjectName = name;
-  (void)setObjectName_(device_, &info);  // best effort
+  setObjectName(setObjectName_, device_, handle, type, name);
 }
 
 Status DepthRangeReducer::init(const DeviceInfo& device, std::uint32_t slots) {
@@ -78,129 +57,150 @@ Status DepthRangeReducer::init(const DeviceInfo& device, std::uint32_t slots) {
   }
   device_ = device.device;
   slots_ = slots;
-  const VkDevice dev = device_;
   if (device.debugUtilsEnabled) {
     setObjectName_ = reinterpret_cast<PFN_vkSetDebugUtilsObjectNameEXT>(
-        vkGetDeviceProcAddr(dev, "vkSetDebugUtilsObjectNameEXT"));
+        vkGetDeviceProcAddr(device_, "vkSetDebugUtilsObjectNameEXT"));
   }
 
-  // Set layout: the depth buffer (combined image sampler) and the result slots.
-  {
-    VkDescriptorSetLayoutBinding b[2]{};
-    b[0].binding = 0;
-    b[0].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-    b[0].descriptorCount = 1;
-    b[0].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
-    b[1].binding = 1;
-    b[1].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    b[1].descriptorCount = 1;
-    b[1].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
-    VkDescriptorSetLayoutCreateInfo ci{};
-    ci.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
-    ci.bindingCount = 2;
-    ci.pBindings = b;
-    CSM_DR_TRY(vkCreateDescriptorSetLayout(dev, &ci, nullptr, &setLayout_));
-    setName(handleBits(setLayout_), VK_OBJECT_TYPE_DESCRIPTOR_SET_LAYOUT,
-            "csm depth range set layout");
-  }
-  {
-    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(PushConstants)};
-    VkPipelineLayoutCreateInfo ci{};
-    ci.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
-    ci.setLayoutCount = 1;
-    ci.pSetLayouts = &setLayout_;
-    ci.pushConstantRangeCount = 1;
-    ci.pPushConstantRanges = &range;
-    CSM_DR_TRY(vkCreatePipelineLayout(dev, &ci, nullptr, &pipelineLayout_));
-    setName(handleBits(pipelineLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT,
-            "csm depth range pipeline layout");
-  }
-  {
-    VkShaderModuleCreateInfo ci{};
-    ci.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
-    ci.codeSize = sizeof(csm_depth_range_comp_spv);
-    ci.pCode = csm_depth_range_comp_spv;
-    CSM_DR_TRY(vkCreateShaderModule(dev, &ci, nullptr, &module_));
-    setName(handleBits(module_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth_range.comp");
-    VkComputePipelineCreateInfo pci{};
-    pci.sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO;
-    pci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
-    pci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    pci.stage.module = module_;
-    pci.stage.pName = "main";
-    pci.layout = pipelineLayout_;
-    CSM_DR_TRY(vkCreateComputePipelines(dev, device.pipelineCache, 1, &pci, nullptr, &pipeline_));
-    setName(handleBits(pipeline_), VK_OBJECT_TYPE_PIPELINE, "csm depth range pipeline");
-  }
-  {
-    VkSamplerCreateInfo ci{};
-    ci.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
-    ci.magFilter = VK_FILTER_NEAREST;
-    ci.minFilter = VK_FILTER_NEAREST;
-    ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
-    ci.addressModeU = ci.addressModeV = ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    ci.maxLod = 0.0f;
-    CSM_DR_TRY(vkCreateSampler(dev, &ci, nullptr, &sampler_));
-    setName(handleBits(sampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth range sampler");
-  }
-  // The result buffer: one uvec4 per slot, host-visible and coherent (read back by the CPU).
-  {
-    VkBufferCreateInfo ci{};
-    ci.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
-    ci.size = VkDeviceSize(16) * slots;
-    ci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-    CSM_DR_TRY(vkCreateBuffer(dev, &ci, nullptr, &buffer_));
-    setName(handleBits(buffer_), VK_OBJECT_TYPE_BUFFER, "csm depth range results");
-    VkMemoryRequirements req{};
-    vkGetBufferMemoryRequirements(dev, buffer_, &req);
-    VkPhysicalDeviceMemoryProperties mem{};
-    vkGetPhysicalDeviceMemoryProperties(device.physicalDevice, &mem);
-    const VkMemoryPropertyFlags want =
-        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-    std::uint32_t type = UINT32_MAX;
-    for (std::uint32_t i = 0; i < mem.memoryTypeCount; ++i) {
-      if ((req.memoryTypeBits & (1u << i)) && (mem.memoryTypes[i].propertyFlags & want) == want) {
-        type = i;
-        break;
-      }
+  Status s = createSetLayout();
+  if (s.ok()) s = createPipelineLayout();
+  if (s.ok()) s = createPipeline(device.pipelineCache);
+  if (s.ok()) s = createSampler();
+  if (s.ok()) s = createResultBuffer(device.physicalDevice);
+  if (s.ok()) s = createSets();
+  return s;
+}
+
+// Set layout: the depth buffer (combined image sampler) and the result slots.
+Status DepthRangeReducer::createSetLayout() {
+  const VkDevice dev = device_;
+  VkDescriptorSetLayoutBinding b[2]{};
+  b[0].binding = 0;
+  b[0].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  b[0].descriptorCount = 1;
+  b[0].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+  b[1].binding = 1;
+  b[1].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  b[1].descriptorCount = 1;
+  b[1].stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+  auto ci =
+      vkInit<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+  ci.bindingCount = 2;
+  ci.pBindings = b;
+  CSM_VK_TRY(vkCreateDescriptorSetLayout(dev, &ci, nullptr, &setLayout_));
+  setName(handleBits(setLayout_), VK_OBJECT_TYPE_DESCRIPTOR_SET_LAYOUT,
+          "csm depth range set layout");
+  return {};
+}
+
+// The pipeline layout: the set and the push constants.
+Status DepthRangeReducer::createPipelineLayout() {
+  const VkDevice dev = device_;
+  VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(PushConstants)};
+  auto ci = vkInit<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+  ci.setLayoutCount = 1;
+  ci.pSetLayouts = &setLayout_;
+  ci.pushConstantRangeCount = 1;
+  ci.pPushConstantRanges = &range;
+  CSM_VK_TRY(vkCreatePipelineLayout(dev, &ci, nullptr, &pipelineLayout_));
+  setName(handleBits(pipelineLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT,
+          "csm depth range pipeline layout");
+  return {};
+}
+
+// The compute pipeline of csm_depth_range.comp.
+Status DepthRangeReducer::createPipeline(VkPipelineCache cache) {
+  const VkDevice dev = device_;
+  auto ci = vkInit<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
+  ci.codeSize = sizeof(csm_depth_range_comp_spv);
+  ci.pCode = csm_depth_range_comp_spv;
+  CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &module_));
+  setName(handleBits(module_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth_range.comp");
+  auto pci = vkInit<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
+  pci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+  pci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  pci.stage.module = module_;
+  pci.stage.pName = "main";
+  pci.layout = pipelineLayout_;
+  CSM_VK_TRY(vkCreateComputePipelines(dev, cache, 1, &pci, nullptr, &pipeline_));
+  setName(handleBits(pipeline_), VK_OBJECT_TYPE_PIPELINE, "csm depth range pipeline");
+  return {};
+}
+
+// The nearest, clamped sampler the shader reads depth through.
+Status DepthRangeReducer::createSampler() {
+  const VkDevice dev = device_;
+  auto ci = vkInit<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
+  ci.magFilter = VK_FILTER_NEAREST;
+  ci.minFilter = VK_FILTER_NEAREST;
+  ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  ci.addressModeU = ci.addressModeV = ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  ci.maxLod = 0.0f;
+  CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &sampler_));
+  setName(handleBits(sampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth range sampler");
+  return {};
+}
+
+// The result buffer: one uvec4 per slot, host-visible and coherent (read back by the CPU).
+Status DepthRangeReducer::createResultBuffer(VkPhysicalDevice physicalDevice) {
+  const VkDevice dev = device_;
+  const std::uint32_t slots = slots_;
+  auto ci = vkInit<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
+  ci.size = VkDeviceSize(16) * slots;
+  ci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  CSM_VK_TRY(vkCreateBuffer(dev, &ci, nullptr, &buffer_));
+  setName(handleBits(buffer_), VK_OBJECT_TYPE_BUFFER, "csm depth range results");
+  VkMemoryRequirements req{};
+  vkGetBufferMemoryRequirements(dev, buffer_, &req);
+  VkPhysicalDeviceMemoryProperties mem{};
+  vkGetPhysicalDeviceMemoryProperties(physicalDevice, &mem);
+  const VkMemoryPropertyFlags want =
+      VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  std::uint32_t type = UINT32_MAX;
+  for (std::uint32_t i = 0; i < mem.memoryTypeCount; ++i) {
+    if ((req.memoryTypeBits & (1u << i)) && (mem.memoryTypes[i].propertyFlags & want) == want) {
+      type = i;
+      break;
     }
-    if (type == UINT32_MAX) {
-      return Status(ErrorCode::kDeviceLimit,
-                    "DepthRangeReducer: no host-visible coherent memory for the results");
-    }
-    VkMemoryAllocateInfo ai{};
-    ai.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
-    ai.allocationSize = req.size;
-    ai.memoryTypeIndex = type;
-    CSM_DR_TRY(vkAllocateMemory(dev, &ai, nullptr, &memory_));
-    setName(handleBits(memory_), VK_OBJECT_TYPE_DEVICE_MEMORY, "csm depth range results memory");
-    CSM_DR_TRY(vkBindBufferMemory(dev, buffer_, memory_, 0));
-    CSM_DR_TRY(vkMapMemory(dev, memory_, 0, VK_WHOLE_SIZE, 0, &mapped_));
-    std::memset(mapped_, 0, std::size_t(16) * slots);
   }
-  {
-    VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, slots},
-                                     {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, slots}};
-    VkDescriptorPoolCreateInfo ci{};
-    ci.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-    ci.maxSets = slots;
-    ci.poolSizeCount = 2;
-    ci.pPoolSizes = sizes;
-    CSM_DR_TRY(vkCreateDescriptorPool(dev, &ci, nullptr, &pool_));
-    setName(handleBits(pool_), VK_OBJECT_TYPE_DESCRIPTOR_POOL, "csm depth range pool");
-    VkDescriptorSetLayout layouts[kMaxSlots];
-    for (std::uint32_t i = 0; i < slots; ++i) layouts[i] = setLayout_;
-    VkDescriptorSetAllocateInfo ai{};
-    ai.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-    ai.descriptorPool = pool_;
-    ai.descriptorSetCount = slots;
-    ai.pSetLayouts = layouts;
-    CSM_DR_TRY(vkAllocateDescriptorSets(dev, &ai, sets_));
-    for (std::uint32_t i = 0; i < slots; ++i) {
-      const std::string name = "csm depth range set " + std::to_string(i);
-      setName(handleBits(sets_[i]), VK_OBJECT_TYPE_DESCRIPTOR_SET, name.c_str());
-    }
+  if (type == UINT32_MAX) {
+    return Status(ErrorCode::kDeviceLimit,
+                  "DepthRangeReducer: no host-visible coherent memory for the results");
+  }
+  auto ai = vkInit<VkMemoryAllocateInfo>(VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO);
+  ai.allocationSize = req.size;
+  ai.memoryTypeIndex = type;
+  CSM_VK_TRY(vkAllocateMemory(dev, &ai, nullptr, &memory_));
+  setName(handleBits(memory_), VK_OBJECT_TYPE_DEVICE_MEMORY, "csm depth range results memory");
+  CSM_VK_TRY(vkBindBufferMemory(dev, buffer_, memory_, 0));
+  CSM_VK_TRY(vkMapMemory(dev, memory_, 0, VK_WHOLE_SIZE, 0, &mapped_));
+  std::memset(mapped_, 0, std::size_t(16) * slots);
+  return {};
+}
+
+// The descriptor pool and one set per slot.
+Status DepthRangeReducer::createSets() {
+  const VkDevice dev = device_;
+  const std::uint32_t slots = slots_;
+  VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, slots},
+                                   {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, slots}};
+  auto ci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+  ci.maxSets = slots;
+  ci.poolSizeCount = 2;
+  ci.pPoolSizes = sizes;
+  CSM_VK_TRY(vkCreateDescriptorPool(dev, &ci, nullptr, &pool_));
+  setName(handleBits(pool_), VK_OBJECT_TYPE_DESCRIPTOR_POOL, "csm depth range pool");
+  VkDescriptorSetLayout layouts[kMaxSlots];
+  for (std::uint32_t i = 0; i < slots; ++i) layouts[i] = setLayout_;
+  auto ai = vkInit<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+  ai.descriptorPool = pool_;
+  ai.descriptorSetCount = slots;
+  ai.pSetLayouts = layouts;
+  CSM_VK_TRY(vkAllocateDescriptorSets(dev, &ai, sets_));
+  for (std::uint32_t i = 0; i < slots; ++i) {
+    const std::string name = "csm depth range set " + std::to_string(i);
+    setName(handleBits(sets_[i]), VK_OBJECT_TYPE_DESCRIPTOR_SET, name.c_str());
   }
   return {};
 }
@@ -259,15 +259,13 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
   const VkDeviceSize offset = VkDeviceSize(16) * slot;
   vkCmdFillBuffer(cmd, buffer_, offset, 4, kFltMaxBits);
   vkCmdFillBuffer(cmd, buffer_, offset + 4, 12, 0u);
-  VkMemoryBarrier2 toCompute{};
-  toCompute.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2;
+  auto toCompute = vkInit<VkMemoryBarrier2>(VK_STRUCTURE_TYPE_MEMORY_BARRIER_2);
   toCompute.srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT | VK_PIPELINE_STAGE_2_COPY_BIT;
   toCompute.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
   toCompute.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   toCompute.dstAccessMask =
       VK_ACCESS_2_SHADER_STORAGE_READ_BIT | VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-  VkDependencyInfo dep{};
-  dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
   dep.memoryBarrierCount = 1;
   dep.pMemoryBarriers = &toCompute;
   vkCmdPipelineBarrier2(cmd, &dep);
@@ -281,8 +279,7 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
   vkCmdDispatch(cmd, (extent.width + kGroup - 1) / kGroup, (extent.height + kGroup - 1) / kGroup,
                 1);
 
-  VkMemoryBarrier2 toHost{};
-  toHost.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER_2;
+  auto toHost = vkInit<VkMemoryBarrier2>(VK_STRUCTURE_TYPE_MEMORY_BARRIER_2);
   toHost.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   toHost.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
   toHost.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;

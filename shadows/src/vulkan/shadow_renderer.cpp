@@ -9,42 +9,11 @@
 #include <csm_shaders/csm_depth.vert.spv.h>
 #include <csm_shaders/csm_depth_layered.vert.spv.h>
 
+#include "vk_util.hpp"
+
 namespace csm::vk {
 
 namespace {
-
-static_assert(CSM_DEPTH_PUSH_SIZE == sizeof(glm::mat4) + sizeof(std::uint32_t));
-
-/// The depth pass's push constants (csm_depth.vert, csm_depth_layered.vert).
-struct DepthPush {
-  glm::mat4 model;  // per-layer: model -> shadow clip; layered: model -> camera-relative world
-  std::uint32_t cascadeOrMask;
-};
-static_assert(offsetof(DepthPush, cascadeOrMask) == 64);
-
-/// A zeroed Vulkan struct with its sType (and pNext) set.
-template <class T>
-T vkInit(VkStructureType type, void* next = nullptr) {
-  T value{};
-  value.sType = type;
-  value.pNext = next;
-  return value;
-}
-
-template <class T>
-std::uint64_t handleBits(T handle) {
-  return (std::uint64_t)(handle);  // NOLINT: handles are pointers or 64-bit integers
-}
-
-Status vkError(VkResult r, const char* what) {
-  return Status(ErrorCode::kVulkan, std::string(what) + " failed with " + vkResultName(r), r);
-}
-
-#define CSM_VK_TRY(call)                                             \
-  do {                                                               \
-    const VkResult csmResult_ = (call);                              \
-    if (csmResult_ != VK_SUCCESS) return vkError(csmResult_, #call); \
-  } while (false)
 
 glm::mat4 modelCameraRelative(const glm::dvec3& translationWs, const glm::mat3& linearWs,
                               const glm::dvec3& cameraWs) {
@@ -66,21 +35,74 @@ glm::mat4 modelToShadowClip(const Cascade& c, const glm::dmat3& basisWs,
   const glm::dmat3 toLight = glm::transpose(basisWs);
   const glm::dmat3 linear = toLight * glm::dmat3(linearWs);
   const glm::dvec3 t = toLight * (translationWs - c.boxCenterWs) - glm::dvec3(0, 0, c.depthNearLs);
-  glm::mat4 m(0.0f);
-  for (int col = 0; col < 3; ++col) {
-    for (int row = 0; row < 3; ++row) {
-      m[col][row] = static_cast<float>(linear[col][row] * scale[row]);
-    }
-  }
-  for (int row = 0; row < 3; ++row) m[3][row] = static_cast<float>(t[row] * scale[row]);
-  m[3][3] = 1.0f;
-  return m;
+  return scaledAffine(linear, t, scale);
 }
 
-std::string fmt(const char* format, auto... args) {
-  char buf[512];
-  std::snprintf(buf, sizeof(buf), format, args...);
-  return buf;
+// What create() needs of the host: a device, a readable vertex layout, a frame count.
+Status checkCreateArgs(const DeviceInfo& device, const VertexLayout& layout) {
+  if (device.physicalDevice == VK_NULL_HANDLE || device.device == VK_NULL_HANDLE) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "DeviceInfo: physicalDevice and device are required");
+  }
+  if (layout.stride == 0 || layout.positionOffset + 12 > layout.stride ||
+      (layout.positionFormat != VK_FORMAT_R32G32B32_SFLOAT &&
+       layout.positionFormat != VK_FORMAT_R32G32B32A32_SFLOAT) ||
+      (layout.indexType != VK_INDEX_TYPE_UINT32 && layout.indexType != VK_INDEX_TYPE_UINT16)) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("VertexLayout: stride %u, positionOffset %u, format %d, index type %d is "
+                      "invalid: allowed a float3/float4 position inside the stride and a "
+                      "16/32-bit index type",
+                      layout.stride, layout.positionOffset, int(layout.positionFormat),
+                      int(layout.indexType)));
+  }
+  if (device.framesInFlight < 1 || device.framesInFlight > 16) {
+    return Status(
+        ErrorCode::kInvalidArgument,
+        fmt("DeviceInfo::framesInFlight = %u is invalid: allowed [1, 16]", device.framesInFlight));
+  }
+  return {};
+}
+
+// Every mesh index, LOD mesh, LOD error and visible index of a caster list in range.
+Status checkCasterList(const CascadeFrame& frame, const CasterList& casters,
+                       const CullResult* visible) {
+  const std::size_t instanceCount = casters.instances.size();
+  for (std::size_t i = 0; i < instanceCount; ++i) {
+    if (casters.instances[i].mesh >= casters.meshes.size()) {
+      return Status(ErrorCode::kIndexOutOfRange,
+                    fmt("casters.instances[%zu].mesh = %u is out of range: allowed [0, %zu)", i,
+                        casters.instances[i].mesh, casters.meshes.size()));
+    }
+    for (std::uint32_t k = 0; k + 1 < kMaxCasterLods; ++k) {
+      const std::uint32_t m = casters.instances[i].lodMeshes[k];
+      if (m != kNoMesh && m >= casters.meshes.size()) {
+        return Status(ErrorCode::kIndexOutOfRange,
+                      fmt("casters.instances[%zu].lodMeshes[%u] = %u is out of range: allowed "
+                          "[0, %zu) or kNoMesh",
+                          i, k, m, casters.meshes.size()));
+      }
+      const float e = casters.instances[i].lodErrorM[k];
+      if (!(e >= 0.0f)) {
+        return Status(ErrorCode::kInvalidArgument,
+                      fmt("casters.instances[%zu].lodErrorM[%u] = %g is invalid: allowed "
+                          "[0, +inf] metres (kUnknownLodError = not known)",
+                          i, k, double(e)));
+      }
+    }
+  }
+  if (visible) {
+    for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+      if (frame.cascades[c].empty) continue;
+      for (std::size_t k = 0; k < visible->visible[c].size(); ++k) {
+        if (visible->visible[c][k] >= instanceCount) {
+          return Status(ErrorCode::kIndexOutOfRange,
+                        fmt("visible[%u][%zu] = %u is out of range: allowed [0, %zu)", c, k,
+                            visible->visible[c][k], instanceCount));
+        }
+      }
+    }
+  }
+  return {};
 }
 
 }  // namespace
@@ -170,42 +192,31 @@ std::unique_ptr<ShadowRenderer> ShadowRenderer::create(const DeviceInfo& device,
 }
 
 void ShadowRenderer::setName(std::uint64_t handle, VkObjectType type, const char* name) const {
-  if (!setObjectName_ || handle == 0) return;
-  auto info =
-      vkInit<VkDebugUtilsObjectNameInfoEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT);
-  info.objectType = type;
-  info.objectHandle = handle;
-  info.pObjectName = name;
-  (void)setObjectName_(device_.device, &info);  // naming is best effort; never fails a call
+  setObjectName(setObjectName_, device_.device, handle, type, name);
 }
 
 Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout) {
-  if (device.physicalDevice == VK_NULL_HANDLE || device.device == VK_NULL_HANDLE) {
-    return Status(ErrorCode::kInvalidArgument,
-                  "DeviceInfo: physicalDevice and device are required");
-  }
-  if (layout.stride == 0 || layout.positionOffset + 12 > layout.stride ||
-      (layout.positionFormat != VK_FORMAT_R32G32B32_SFLOAT &&
-       layout.positionFormat != VK_FORMAT_R32G32B32A32_SFLOAT) ||
-      (layout.indexType != VK_INDEX_TYPE_UINT32 && layout.indexType != VK_INDEX_TYPE_UINT16)) {
-    return Status(ErrorCode::kInvalidArgument,
-                  fmt("VertexLayout: stride %u, positionOffset %u, format %d, index type %d is "
-                      "invalid: allowed a float3/float4 position inside the stride and a "
-                      "16/32-bit index type",
-                      layout.stride, layout.positionOffset, int(layout.positionFormat),
-                      int(layout.indexType)));
-  }
-  if (device.framesInFlight < 1 || device.framesInFlight > 16) {
-    return Status(
-        ErrorCode::kInvalidArgument,
-        fmt("DeviceInfo::framesInFlight = %u is invalid: allowed [1, 16]", device.framesInFlight));
-  }
+  Status s = checkCreateArgs(device, layout);
+  if (!s.ok()) return s;
   device_ = device;
   layout_ = layout;
-  VkDevice dev = device.device;
   vkGetPhysicalDeviceProperties(device.physicalDevice, &properties_);
   vkGetPhysicalDeviceMemoryProperties(device.physicalDevice, &memory_);
-  if (device.debugUtilsEnabled) {
+  loadDebugUtils();
+  s = createSetLayouts();
+  if (s.ok()) s = createPipelineLayout();
+  if (s.ok()) s = createDepthSet();
+  if (s.ok()) s = createClearResources();
+  if (s.ok()) s = createSamplers();
+  if (s.ok()) s = createUniformBuffer();
+  if (s.ok()) s = createShaderModules();
+  return s;
+}
+
+// The debug-utils entry points (object names, pass labels) when the host enabled them.
+void ShadowRenderer::loadDebugUtils() {
+  VkDevice dev = device_.device;
+  if (device_.debugUtilsEnabled) {
     setObjectName_ = reinterpret_cast<PFN_vkSetDebugUtilsObjectNameEXT>(
         vkGetDeviceProcAddr(dev, "vkSetDebugUtilsObjectNameEXT"));
     beginLabel_ = reinterpret_cast<PFN_vkCmdBeginDebugUtilsLabelEXT>(
@@ -213,9 +224,12 @@ Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout
     endLabel_ = reinterpret_cast<PFN_vkCmdEndDebugUtilsLabelEXT>(
         vkGetDeviceProcAddr(dev, "vkCmdEndDebugUtilsLabelEXT"));
   }
+}
 
-  // Descriptor set layouts: the depth pass reads the uniform block; the lighting pass reads the
-  // block and the map through both samplers.
+// Descriptor set layouts: the depth pass reads the uniform block; the lighting pass reads the
+// block and the map through both samplers.
+Status ShadowRenderer::createSetLayouts() {
+  VkDevice dev = device_.device;
   {
     VkDescriptorSetLayoutBinding b{};
     b.binding = CSM_BINDING_UNIFORMS;
@@ -245,111 +259,133 @@ Status ShadowRenderer::init(const DeviceInfo& device, const VertexLayout& layout
     setName(handleBits(lightingLayout_), VK_OBJECT_TYPE_DESCRIPTOR_SET_LAYOUT,
             "csm lighting set layout");
   }
-  {
-    VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE};
-    auto ci = vkInit<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
-    ci.setLayoutCount = 1;
-    ci.pSetLayouts = &depthSetLayout_;
-    ci.pushConstantRangeCount = 1;
-    ci.pPushConstantRanges = &range;
-    CSM_VK_TRY(vkCreatePipelineLayout(dev, &ci, nullptr, &pipelineLayout_));
-    setName(handleBits(pipelineLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT,
-            "csm depth pipeline layout");
-  }
-  {
-    // The depth pass's set never changes; the lighting set lives with each image (createImage).
-    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1};
-    auto ci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    ci.maxSets = 1;
-    ci.poolSizeCount = 1;
-    ci.pPoolSizes = &size;
-    CSM_VK_TRY(vkCreateDescriptorPool(dev, &ci, nullptr, &pool_));
-    setName(handleBits(pool_), VK_OBJECT_TYPE_DESCRIPTOR_POOL, "csm descriptor pool");
-    auto ai = vkInit<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
-    ai.descriptorPool = pool_;
-    ai.descriptorSetCount = 1;
-    ai.pSetLayouts = &depthSetLayout_;
-    CSM_VK_TRY(vkAllocateDescriptorSets(dev, &ai, &depthSet_));
-    setName(handleBits(depthSet_), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm depth set");
-  }
-  if (device.queue != VK_NULL_HANDLE) {
-    auto ci = vkInit<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
-    ci.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
-    ci.queueFamilyIndex = device.queueFamily;
-    CSM_VK_TRY(vkCreateCommandPool(dev, &ci, nullptr, &clearPool_));
-    setName(handleBits(clearPool_), VK_OBJECT_TYPE_COMMAND_POOL, "csm clear command pool");
-    auto fi = vkInit<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
-    CSM_VK_TRY(vkCreateFence(dev, &fi, nullptr, &clearFence_));
-    setName(handleBits(clearFence_), VK_OBJECT_TYPE_FENCE, "csm clear fence");
-  }
-  {
-    auto ci = vkInit<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
-    ci.magFilter = VK_FILTER_LINEAR;
-    ci.minFilter = VK_FILTER_LINEAR;
-    ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
-    ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
-    ci.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
-    ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
-    ci.compareEnable = VK_TRUE;
-    ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
-    ci.minLod = 0.0f;
-    ci.maxLod = 0.0f;
-    // Outside the map reads as the far plane: every receiver compares lit.
-    ci.borderColor = VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE;
-    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &compareSampler_));
-    setName(handleBits(compareSampler_), VK_OBJECT_TYPE_SAMPLER, "csm comparison sampler");
-    ci.magFilter = VK_FILTER_NEAREST;
-    ci.minFilter = VK_FILTER_NEAREST;
-    ci.compareEnable = VK_FALSE;
-    ci.compareOp = VK_COMPARE_OP_ALWAYS;
-    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &depthSampler_));
-    setName(handleBits(depthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler");
-    // Cached cascades: layers addressed toroidally; csm.glsl keeps outside-the-box = lit itself.
-    ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_REPEAT;
-    ci.addressModeV = VK_SAMPLER_ADDRESS_MODE_REPEAT;
-    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapDepthSampler_));
-    setName(handleBits(wrapDepthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler (wrap)");
-    ci.magFilter = VK_FILTER_LINEAR;
-    ci.minFilter = VK_FILTER_LINEAR;
-    ci.compareEnable = VK_TRUE;
-    ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
-    CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapCompareSampler_));
-    setName(handleBits(wrapCompareSampler_), VK_OBJECT_TYPE_SAMPLER,
-            "csm comparison sampler (wrap)");
-  }
-  {
-    auto ci = vkInit<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
-    ci.size = sizeof(CsmUniforms);
-    ci.usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-    CSM_VK_TRY(vkCreateBuffer(dev, &ci, nullptr, &uniformBuffer_));
-    setName(handleBits(uniformBuffer_), VK_OBJECT_TYPE_BUFFER, "csm uniforms");
-    VkMemoryRequirements req{};
-    vkGetBufferMemoryRequirements(dev, uniformBuffer_, &req);
-    Status s = allocate(req, &uniformMemory_, "csm uniforms memory");
-    if (!s.ok()) return s;
-    CSM_VK_TRY(vkBindBufferMemory(dev, uniformBuffer_, uniformMemory_, 0));
-    VkDescriptorBufferInfo bi{uniformBuffer_, 0, sizeof(CsmUniforms)};
-    auto w = vkInit<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
-    w.dstSet = depthSet_;
-    w.dstBinding = CSM_BINDING_UNIFORMS;
-    w.descriptorCount = 1;
-    w.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
-    w.pBufferInfo = &bi;
-    vkUpdateDescriptorSets(dev, 1, &w, 0, nullptr);
-  }
-  {
-    auto ci = vkInit<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
-    ci.codeSize = sizeof(csm_depth_vert_spv);
-    ci.pCode = csm_depth_vert_spv;
-    CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &vertexModule_));
-    setName(handleBits(vertexModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth.vert");
-    if (device.shaderOutputLayerEnabled) {
-      ci.codeSize = sizeof(csm_depth_layered_vert_spv);
-      ci.pCode = csm_depth_layered_vert_spv;
-      CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &layeredModule_));
-      setName(handleBits(layeredModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth_layered.vert");
-    }
+  return {};
+}
+
+// The depth pipelines' layout: the depth set and the push constants (DepthPush).
+Status ShadowRenderer::createPipelineLayout() {
+  VkDevice dev = device_.device;
+  VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE};
+  auto ci = vkInit<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
+  ci.setLayoutCount = 1;
+  ci.pSetLayouts = &depthSetLayout_;
+  ci.pushConstantRangeCount = 1;
+  ci.pPushConstantRanges = &range;
+  CSM_VK_TRY(vkCreatePipelineLayout(dev, &ci, nullptr, &pipelineLayout_));
+  setName(handleBits(pipelineLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT, "csm depth pipeline layout");
+  return {};
+}
+
+Status ShadowRenderer::createDepthSet() {
+  VkDevice dev = device_.device;
+  // The depth pass's set never changes; the lighting set lives with each image (createImage).
+  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1};
+  auto ci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+  ci.maxSets = 1;
+  ci.poolSizeCount = 1;
+  ci.pPoolSizes = &size;
+  CSM_VK_TRY(vkCreateDescriptorPool(dev, &ci, nullptr, &pool_));
+  setName(handleBits(pool_), VK_OBJECT_TYPE_DESCRIPTOR_POOL, "csm descriptor pool");
+  auto ai = vkInit<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+  ai.descriptorPool = pool_;
+  ai.descriptorSetCount = 1;
+  ai.pSetLayouts = &depthSetLayout_;
+  CSM_VK_TRY(vkAllocateDescriptorSets(dev, &ai, &depthSet_));
+  setName(handleBits(depthSet_), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm depth set");
+  return {};
+}
+
+// The command pool and fence of the one-time clear update() submits (DeviceInfo::queue).
+Status ShadowRenderer::createClearResources() {
+  VkDevice dev = device_.device;
+  if (device_.queue == VK_NULL_HANDLE) return {};
+  auto ci = vkInit<VkCommandPoolCreateInfo>(VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO);
+  ci.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
+  ci.queueFamilyIndex = device_.queueFamily;
+  CSM_VK_TRY(vkCreateCommandPool(dev, &ci, nullptr, &clearPool_));
+  setName(handleBits(clearPool_), VK_OBJECT_TYPE_COMMAND_POOL, "csm clear command pool");
+  auto fi = vkInit<VkFenceCreateInfo>(VK_STRUCTURE_TYPE_FENCE_CREATE_INFO);
+  CSM_VK_TRY(vkCreateFence(dev, &fi, nullptr, &clearFence_));
+  setName(handleBits(clearFence_), VK_OBJECT_TYPE_FENCE, "csm clear fence");
+  return {};
+}
+
+// The comparison and raw-depth samplers, clamped (outside = lit) and wrapped (cached cascades).
+Status ShadowRenderer::createSamplers() {
+  VkDevice dev = device_.device;
+  auto ci = vkInit<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
+  ci.magFilter = VK_FILTER_LINEAR;
+  ci.minFilter = VK_FILTER_LINEAR;
+  ci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
+  ci.addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
+  ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  ci.compareEnable = VK_TRUE;
+  ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+  ci.minLod = 0.0f;
+  ci.maxLod = 0.0f;
+  // Outside the map reads as the far plane: every receiver compares lit.
+  ci.borderColor = VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE;
+  CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &compareSampler_));
+  setName(handleBits(compareSampler_), VK_OBJECT_TYPE_SAMPLER, "csm comparison sampler");
+  ci.magFilter = VK_FILTER_NEAREST;
+  ci.minFilter = VK_FILTER_NEAREST;
+  ci.compareEnable = VK_FALSE;
+  ci.compareOp = VK_COMPARE_OP_ALWAYS;
+  CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &depthSampler_));
+  setName(handleBits(depthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler");
+  // Cached cascades: layers addressed toroidally; csm.glsl keeps outside-the-box = lit itself.
+  ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+  ci.addressModeV = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+  CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapDepthSampler_));
+  setName(handleBits(wrapDepthSampler_), VK_OBJECT_TYPE_SAMPLER, "csm depth sampler (wrap)");
+  ci.magFilter = VK_FILTER_LINEAR;
+  ci.minFilter = VK_FILTER_LINEAR;
+  ci.compareEnable = VK_TRUE;
+  ci.compareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+  CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &wrapCompareSampler_));
+  setName(handleBits(wrapCompareSampler_), VK_OBJECT_TYPE_SAMPLER, "csm comparison sampler (wrap)");
+  return {};
+}
+
+// The uniform block's buffer, written into the depth set (the lighting set gets it in createImage).
+Status ShadowRenderer::createUniformBuffer() {
+  VkDevice dev = device_.device;
+  auto ci = vkInit<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
+  ci.size = sizeof(CsmUniforms);
+  ci.usage = VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+  ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  CSM_VK_TRY(vkCreateBuffer(dev, &ci, nullptr, &uniformBuffer_));
+  setName(handleBits(uniformBuffer_), VK_OBJECT_TYPE_BUFFER, "csm uniforms");
+  VkMemoryRequirements req{};
+  vkGetBufferMemoryRequirements(dev, uniformBuffer_, &req);
+  Status s = allocate(req, &uniformMemory_, "csm uniforms memory");
+  if (!s.ok()) return s;
+  CSM_VK_TRY(vkBindBufferMemory(dev, uniformBuffer_, uniformMemory_, 0));
+  VkDescriptorBufferInfo bi{uniformBuffer_, 0, sizeof(CsmUniforms)};
+  auto w = vkInit<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+  w.dstSet = depthSet_;
+  w.dstBinding = CSM_BINDING_UNIFORMS;
+  w.descriptorCount = 1;
+  w.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  w.pBufferInfo = &bi;
+  vkUpdateDescriptorSets(dev, 1, &w, 0, nullptr);
+  return {};
+}
+
+// The depth pass's vertex shaders (the layered one only with shaderOutputLayer).
+Status ShadowRenderer::createShaderModules() {
+  VkDevice dev = device_.device;
+  auto ci = vkInit<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
+  ci.codeSize = sizeof(csm_depth_vert_spv);
+  ci.pCode = csm_depth_vert_spv;
+  CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &vertexModule_));
+  setName(handleBits(vertexModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth.vert");
+  if (device_.shaderOutputLayerEnabled) {
+    ci.codeSize = sizeof(csm_depth_layered_vert_spv);
+    ci.pCode = csm_depth_layered_vert_spv;
+    CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &layeredModule_));
+    setName(handleBits(layeredModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth_layered.vert");
   }
   return {};
 }
@@ -477,7 +513,10 @@ Status ShadowRenderer::checkFormat(VkFormat format) const {
   return {};
 }
 
-Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOptions& options) {
+// update()'s checks of settings and options against each other and the device; fills the
+// render mode the renderer will use (kAuto resolved).
+Status ShadowRenderer::resolveOptions(const ShadowSettings& settings,
+                                      const RendererOptions& options, RenderMode* resolved) const {
   if (auto e = csm::validate(settings)) {
     return Status(ErrorCode::kInvalidArgument, e->message());
   }
@@ -561,6 +600,14 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
                     "options.cache = true needs options.renderMode = kPerLayer or kAuto");
     }
   }
+  *resolved = mode;
+  return {};
+}
+
+Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOptions& options) {
+  RenderMode mode = RenderMode::kPerLayer;
+  Status s = resolveOptions(settings, options, &mode);
+  if (!s.ok()) return s;
   const bool newImage = image_ == VK_NULL_HANDLE || settings.resolution != resolution_ ||
                         settings.cascadeCount != layerCount_ ||
                         options.depthFormat != options_.depthFormat ||
@@ -954,29 +1001,34 @@ Status ShadowRenderer::checkFrame(const CascadeFrame& frame) const {
   return {};
 }
 
-void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame) {
-  // One more host frame: what was retired framesInFlight records ago is no longer in use.
+// The start every recorded pass shares (cached or not): one more host frame, so what was
+// retired framesInFlight records ago is no longer in use; the pass leaves every layer written
+// and sampleable. Returns whether the image was still waiting for its one-time clear.
+bool ShadowRenderer::countRecord() {
   ++records_;
   collectRetired(false);
-  pendingClear_ = false;  // the pass below leaves every layer written and sampleable
+  const bool wasPending = pendingClear_;
+  pendingClear_ = false;
   uniformsCleared_ = true;
-  UniformOptions uniformOptions = uniformOptions_;
-  uniformOptions.depthBits = options_.depthFormat == VK_FORMAT_D16_UNORM ? 16u : 32u;
-  uniforms_ = packUniforms(frame, settings_, uniformOptions);
+  return wasPending;
+}
+
+// Opens the pass's debug label and uploads uniforms_ between two barriers: earlier readers of
+// the block finish before it is overwritten (write after read), then the pass's and the host's
+// readers see the new block. `images` (the pass's first image transitions) join the first one.
+void ShadowRenderer::recordPassStart(VkCommandBuffer cmd, const char* label,
+                                     std::span<const VkImageMemoryBarrier2> images) {
   if (beginLabel_) {
-    auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
-    label.pLabelName = "csm shadow pass";
-    label.color[0] = 0.3f;
-    label.color[1] = 0.3f;
-    label.color[2] = 0.8f;
-    label.color[3] = 1.0f;
-    beginLabel_(cmd, &label);
+    auto info = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
+    info.pLabelName = label;
+    info.color[0] = 0.3f;
+    info.color[1] = 0.3f;
+    info.color[2] = 0.8f;
+    info.color[3] = 1.0f;
+    beginLabel_(cmd, &info);
   }
   const VkPipelineStageFlags2 readers =
       options_.consumerStages | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT;
-
-  // Earlier readers of the uniform block finish before it is overwritten (write after read);
-  // earlier samplers of the map finish before it is discarded and rendered again.
   auto toWrite = vkInit<VkBufferMemoryBarrier2>(VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2);
   toWrite.srcStageMask = readers;
   toWrite.srcAccessMask = VK_ACCESS_2_NONE;
@@ -986,24 +1038,11 @@ void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame)
   toWrite.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
   toWrite.buffer = uniformBuffer_;
   toWrite.size = VK_WHOLE_SIZE;
-  auto toAttachment = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
-  toAttachment.srcStageMask = options_.consumerStages;
-  toAttachment.srcAccessMask = VK_ACCESS_2_NONE;
-  toAttachment.dstStageMask =
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-  toAttachment.dstAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
-                               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-  toAttachment.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;  // the previous frame's depth is not kept
-  toAttachment.newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  toAttachment.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  toAttachment.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  toAttachment.image = image_;
-  toAttachment.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
   auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
   dep.bufferMemoryBarrierCount = 1;
   dep.pBufferMemoryBarriers = &toWrite;
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &toAttachment;
+  dep.imageMemoryBarrierCount = static_cast<std::uint32_t>(images.size());
+  dep.pImageMemoryBarriers = images.data();
   vkCmdPipelineBarrier2(cmd, &dep);
 
   vkCmdUpdateBuffer(cmd, uniformBuffer_, 0, sizeof(CsmUniforms), &uniforms_);
@@ -1017,6 +1056,34 @@ void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame)
   dep2.bufferMemoryBarrierCount = 1;
   dep2.pBufferMemoryBarriers = &toRead;
   vkCmdPipelineBarrier2(cmd, &dep2);
+}
+
+// The uniform block of `frame` as every pass packs it: the host's options with the depth
+// format's bits (the depth floor's quantum).
+CsmUniforms ShadowRenderer::packFrameUniforms(const CascadeFrame& frame) const {
+  UniformOptions uniformOptions = uniformOptions_;
+  uniformOptions.depthBits = options_.depthFormat == VK_FORMAT_D16_UNORM ? 16u : 32u;
+  return packUniforms(frame, settings_, uniformOptions);
+}
+
+void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame) {
+  countRecord();
+  uniforms_ = packFrameUniforms(frame);
+  // Earlier samplers of the map finish before it is discarded and rendered again.
+  auto toAttachment = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
+  toAttachment.srcStageMask = options_.consumerStages;
+  toAttachment.srcAccessMask = VK_ACCESS_2_NONE;
+  toAttachment.dstStageMask =
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+  toAttachment.dstAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+                               VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  toAttachment.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;  // the previous frame's depth is not kept
+  toAttachment.newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  toAttachment.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toAttachment.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  toAttachment.image = image_;
+  toAttachment.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
+  recordPassStart(cmd, "csm shadow pass", {&toAttachment, 1});
 }
 
 void ShadowRenderer::recordEnd(VkCommandBuffer cmd) {
@@ -1039,36 +1106,45 @@ void ShadowRenderer::recordEnd(VkCommandBuffer cmd) {
   if (endLabel_) endLabel_(cmd);
 }
 
-void ShadowRenderer::beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered) {
-  const std::uint32_t layerCount = layered ? layerCount_ : 1;
+// Begins dynamic rendering of the depth pass into `view` (`layers` layers, cleared to depth 1
+// or loaded; DEPTH_ATTACHMENT_OPTIMAL) under a debug label, with the pass's dynamic state,
+// `pipeline` and the depth set bound. Viewport and scissor are the caller's.
+void ShadowRenderer::beginDepthRendering(VkCommandBuffer cmd, VkImageView view,
+                                         std::uint32_t layers, bool clear, const std::string& label,
+                                         VkPipeline pipeline) {
   if (beginLabel_) {
-    const std::string name =
-        layered ? std::string("csm cascades (layered)") : "csm cascade " + std::to_string(cascade);
-    auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
-    label.pLabelName = name.c_str();
-    beginLabel_(cmd, &label);
+    auto info = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
+    info.pLabelName = label.c_str();
+    beginLabel_(cmd, &info);
   }
   auto depth = vkInit<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
-  depth.imageView = layered ? arrayView_ : layerViews_[cascade];
+  depth.imageView = view;
   depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depth.loadOp = clear ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
   depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
   depth.clearValue.depthStencil = {1.0f, 0};
   auto ri = vkInit<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
   ri.renderArea = {{0, 0}, {resolution_, resolution_}};
-  ri.layerCount = layerCount;
+  ri.layerCount = layers;
   ri.pDepthAttachment = &depth;
   vkCmdBeginRendering(cmd, &ri);
+  vkCmdSetDepthBias(cmd, settings_.depthBiasConstant, 0.0f, settings_.depthBiasSlope);
+  vkCmdSetCullMode(cmd, options_.cullMode);
+  vkCmdSetFrontFace(cmd, options_.frontFace);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
+                          0, nullptr);
+}
+
+void ShadowRenderer::beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered) {
+  beginDepthRendering(
+      cmd, layered ? arrayView_ : layerViews_[cascade], layered ? layerCount_ : 1, true,
+      layered ? std::string("csm cascades (layered)") : "csm cascade " + std::to_string(cascade),
+      layered ? layeredPipeline_ : pipeline_);
   const VkViewport viewport{0.0f, 0.0f, float(resolution_), float(resolution_), 0.0f, 1.0f};
   const VkRect2D scissor{{0, 0}, {resolution_, resolution_}};
   vkCmdSetViewport(cmd, 0, 1, &viewport);
   vkCmdSetScissor(cmd, 0, 1, &scissor);
-  vkCmdSetDepthBias(cmd, settings_.depthBiasConstant, 0.0f, settings_.depthBiasSlope);
-  vkCmdSetCullMode(cmd, options_.cullMode);
-  vkCmdSetFrontFace(cmd, options_.frontFace);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layered ? layeredPipeline_ : pipeline_);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
-                          0, nullptr);
 }
 
 void ShadowRenderer::endLayer(VkCommandBuffer cmd) {
@@ -1081,43 +1157,9 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
   Status s = checkFrame(frame);
   if (!s.ok()) return s;
   if (cmd == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "cmd is VK_NULL_HANDLE");
+  s = checkCasterList(frame, casters, visible);
+  if (!s.ok()) return s;
   const std::size_t instanceCount = casters.instances.size();
-  for (std::size_t i = 0; i < instanceCount; ++i) {
-    if (casters.instances[i].mesh >= casters.meshes.size()) {
-      return Status(ErrorCode::kIndexOutOfRange,
-                    fmt("casters.instances[%zu].mesh = %u is out of range: allowed [0, %zu)", i,
-                        casters.instances[i].mesh, casters.meshes.size()));
-    }
-    for (std::uint32_t k = 0; k + 1 < kMaxCasterLods; ++k) {
-      const std::uint32_t m = casters.instances[i].lodMeshes[k];
-      if (m != kNoMesh && m >= casters.meshes.size()) {
-        return Status(ErrorCode::kIndexOutOfRange,
-                      fmt("casters.instances[%zu].lodMeshes[%u] = %u is out of range: allowed "
-                          "[0, %zu) or kNoMesh",
-                          i, k, m, casters.meshes.size()));
-      }
-      const float e = casters.instances[i].lodErrorM[k];
-      if (!(e >= 0.0f)) {
-        return Status(ErrorCode::kInvalidArgument,
-                      fmt("casters.instances[%zu].lodErrorM[%u] = %g is invalid: allowed "
-                          "[0, +inf] metres (kUnknownLodError = not known)",
-                          i, k, double(e)));
-      }
-    }
-  }
-  if (visible) {
-    for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
-      if (frame.cascades[c].empty) continue;
-      for (std::size_t k = 0; k < visible->visible[c].size(); ++k) {
-        if (visible->visible[c][k] >= instanceCount) {
-          return Status(ErrorCode::kIndexOutOfRange,
-                        fmt("visible[%u][%zu] = %u is out of range: allowed [0, %zu)", c, k,
-                            visible->visible[c][k], instanceCount));
-        }
-      }
-    }
-  }
-
   if (options_.cache) {
     if (visible == nullptr) {
       return Status(ErrorCode::kInvalidArgument,
@@ -1147,15 +1189,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
     const CasterInstance& inst = casters.instances[index];
     const MeshDraw& mesh = casters.meshes[meshIndex];
     if (mesh.indexCount == 0) return;
-    if (bound == nullptr || bound->vertexBuffer != mesh.vertexBuffer ||
-        bound->vertexBufferOffset != mesh.vertexBufferOffset) {
-      vkCmdBindVertexBuffers(cmd, 0, 1, &mesh.vertexBuffer, &mesh.vertexBufferOffset);
-    }
-    if (bound == nullptr || bound->indexBuffer != mesh.indexBuffer ||
-        bound->indexBufferOffset != mesh.indexBufferOffset) {
-      vkCmdBindIndexBuffer(cmd, mesh.indexBuffer, mesh.indexBufferOffset, layout_.indexType);
-    }
-    bound = &mesh;
+    bindMeshBuffers(cmd, mesh, bound, layout_.indexType);
     // Per-layer: the exact, camera-independent transform. Layered: one draw serves several
     // cascades, so the shader applies each cascade's camera-relative matrix.
     const DepthPush push{resolvedMode_ == RenderMode::kLayered

@@ -68,6 +68,13 @@ class DepthRangeReducer {
  private:
   DepthRangeReducer() = default;
   Status init(const DeviceInfo& device, std::uint32_t slots);
+  // init()'s steps, in order.
+  Status createSetLayout();
+  Status createPipelineLayout();
+  Status createPipeline(VkPipelineCache cache);
+  Status createSampler();
+  Status createResultBuffer(VkPhysicalDevice physicalDevice);
+  Status createSets();
   void setName(std::uint64_t handle, VkObjectType type, const char* name) const;
 
   VkDevice device_ = VK_NULL_HANDLE;

@@ -34,6 +34,7 @@
 #include <limits>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "csm/cascades.hpp"
@@ -421,8 +422,21 @@ class ShadowRenderer {
  private:
   ShadowRenderer() = default;
   Status init(const DeviceInfo& device, const VertexLayout& layout);
+  // init()'s steps, in order: debug-utils entry points, the depth and lighting set layouts,
+  // the depth pipeline layout, the depth pass's descriptor set, the one-time clear's pool and
+  // fence, the samplers, the uniform buffer, the vertex shader modules.
+  void loadDebugUtils();
+  Status createSetLayouts();
+  Status createPipelineLayout();
+  Status createDepthSet();
+  Status createClearResources();
+  Status createSamplers();
+  Status createUniformBuffer();
+  Status createShaderModules();
   Status allocate(const VkMemoryRequirements& req, VkDeviceMemory* memory, const char* name) const;
   Status checkFormat(VkFormat format) const;
+  Status resolveOptions(const ShadowSettings& settings, const RendererOptions& options,
+                        RenderMode* resolved) const;
   Status createImage(const ShadowSettings& settings, VkFormat format);
   Status createPipelines(VkFormat format);
   void destroyImage() noexcept;
@@ -431,8 +445,14 @@ class ShadowRenderer {
   Status submitClear();
   void recordClear(VkCommandBuffer cmd);
   void collectRetired(bool all) noexcept;
+  bool countRecord();
+  CsmUniforms packFrameUniforms(const CascadeFrame& frame) const;
+  void recordPassStart(VkCommandBuffer cmd, const char* label,
+                       std::span<const VkImageMemoryBarrier2> images);
   void recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame);
   void recordEnd(VkCommandBuffer cmd);
+  void beginDepthRendering(VkCommandBuffer cmd, VkImageView view, std::uint32_t layers, bool clear,
+                           const std::string& label, VkPipeline pipeline);
   void beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered);
   void endLayer(VkCommandBuffer cmd);
   void setName(std::uint64_t handle, VkObjectType type, const char* name) const;
@@ -440,6 +460,26 @@ class ShadowRenderer {
   void retireStaticImage() noexcept;
   Status recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame, const CasterList& casters,
                           const CullResult& visible);
+  // applyCacheWindows()'s steps (shadow_cache.cpp).
+  bool shownCovers(std::uint32_t cascade, const Cascade& c, const glm::dmat3& basis) const;
+  void applyCacheBudget(CascadeFrame& frame, const std::array<bool, kMaxCascades>& covered);
+  // recordCachedPass()'s steps (shadow_cache.cpp). CachedPass: the pass's drawing state.
+  struct CachedPass;
+  Status checkCacheWindows(const CascadeFrame& frame) const;
+  void packCachedUniforms(const CascadeFrame& frame, CachedPass& pass);
+  void recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined);
+  bool recordCachedCascade(CachedPass& pass, std::uint32_t cascade,
+                           const std::vector<std::uint32_t>& list);
+  void recordStaticRects(CachedPass& pass, std::uint32_t cascade,
+                         const std::vector<std::uint32_t>& list, bool full);
+  bool planRestore(CachedPass& pass, std::uint32_t cascade, bool full);
+  void rememberDynamicRects(CachedPass& pass, std::uint32_t cascade,
+                            const std::vector<std::uint32_t>& list);
+  void recordStaticCopy(VkCommandBuffer cmd, std::uint32_t cascade,
+                        std::span<const VkImageCopy> regions, bool whole);
+  void recordDynamicPass(CachedPass& pass, std::uint32_t cascade,
+                         const std::vector<std::uint32_t>& list);
+  void recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMask);
 
   DeviceInfo device_{};
   VertexLayout layout_{};

@@ -1,0 +1,106 @@
+// Small Vulkan helpers the module's Vulkan sources share (private to shadows/src/vulkan: not
+// installed, not part of the API).
+#pragma once
+
+#include <vulkan/vulkan.h>
+
+#include <glm/glm.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+
+#include "csm/vulkan/shadow_renderer.hpp"
+#include "csm/vulkan/status.hpp"
+
+namespace csm::vk {
+
+/// A zeroed Vulkan struct with its sType (and pNext) set.
+template <class T>
+T vkInit(VkStructureType type, void* next = nullptr) {
+  T value{};
+  value.sType = type;
+  value.pNext = next;
+  return value;
+}
+
+/// A handle as the 64-bit integer VkDebugUtilsObjectNameInfoEXT wants.
+template <class T>
+std::uint64_t handleBits(T handle) {
+  return (std::uint64_t)(handle);  // NOLINT: handles are pointers or 64-bit integers
+}
+
+/// kVulkan naming the call that failed and its VkResult.
+inline Status vkError(VkResult r, const char* what) {
+  return Status(ErrorCode::kVulkan, std::string(what) + " failed with " + vkResultName(r), r);
+}
+
+/// printf into a std::string (messages of at most 511 characters).
+template <class... Args>
+std::string fmt(const char* format, Args... args) {
+  char buf[512];
+  std::snprintf(buf, sizeof(buf), format, args...);
+  return buf;
+}
+
+/// Names a Vulkan object through VK_EXT_debug_utils when `setObjectName` was loaded; naming is
+/// best effort and never fails a call.
+inline void setObjectName(PFN_vkSetDebugUtilsObjectNameEXT setObjectName, VkDevice device,
+                          std::uint64_t handle, VkObjectType type, const char* name) {
+  if (!setObjectName || handle == 0) return;
+  auto info =
+      vkInit<VkDebugUtilsObjectNameInfoEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_OBJECT_NAME_INFO_EXT);
+  info.objectType = type;
+  info.objectHandle = handle;
+  info.pObjectName = name;
+  (void)setObjectName(device, &info);
+}
+
+/// Binds `mesh`'s vertex and index buffers unless `bound` (the mesh drawn last in this render
+/// pass, or nullptr) already bound the same ones; then `bound` is `mesh`.
+inline void bindMeshBuffers(VkCommandBuffer cmd, const MeshDraw& mesh, const MeshDraw*& bound,
+                            VkIndexType indexType) {
+  if (bound == nullptr || bound->vertexBuffer != mesh.vertexBuffer ||
+      bound->vertexBufferOffset != mesh.vertexBufferOffset) {
+    vkCmdBindVertexBuffers(cmd, 0, 1, &mesh.vertexBuffer, &mesh.vertexBufferOffset);
+  }
+  if (bound == nullptr || bound->indexBuffer != mesh.indexBuffer ||
+      bound->indexBufferOffset != mesh.indexBufferOffset) {
+    vkCmdBindIndexBuffer(cmd, mesh.indexBuffer, mesh.indexBufferOffset, indexType);
+  }
+  bound = &mesh;
+}
+
+/// The depth pass's float matrix p -> scale * (linear p + t), composed in double (each row of
+/// `linear` and `t` scaled before the one rounding to float).
+inline glm::mat4 scaledAffine(const glm::dmat3& linear, const glm::dvec3& t,
+                              const glm::dvec3& scale) {
+  glm::mat4 m(0.0f);
+  for (int col = 0; col < 3; ++col) {
+    for (int row = 0; row < 3; ++row) {
+      m[col][row] = static_cast<float>(linear[col][row] * scale[row]);
+    }
+  }
+  for (int row = 0; row < 3; ++row) m[3][row] = static_cast<float>(t[row] * scale[row]);
+  m[3][3] = 1.0f;
+  return m;
+}
+
+static_assert(CSM_DEPTH_PUSH_SIZE == sizeof(glm::mat4) + sizeof(std::uint32_t));
+
+/// The depth pass's push constants (csm_depth.vert, csm_depth_layered.vert).
+struct DepthPush {
+  glm::mat4 model;  // per-layer: model -> shadow clip; layered: model -> camera-relative world
+  std::uint32_t cascadeOrMask;
+};
+static_assert(offsetof(DepthPush, cascadeOrMask) == 64);
+
+}  // namespace csm::vk
+
+/// Returns vkError(result, "call") from the enclosing function when `call` does not succeed.
+#define CSM_VK_TRY(call)                                             \
+  do {                                                               \
+    const VkResult csmResult_ = (call);                              \
+    if (csmResult_ != VK_SUCCESS) return vkError(csmResult_, #call); \
+  } while (false)

@@ -1,0 +1,65 @@
+// One spelling per kernel and debug mode (csm/names.hpp): every value's name parses back to it,
+// the names are distinct, the older kernel spellings are still accepted, and anything else is
+// refused with a message naming the field, the value and every allowed name.
+#include <gtest/gtest.h>
+
+#include <set>
+#include <string>
+
+#include "csm/names.hpp"
+
+namespace {
+
+TEST(Names, EveryKernelRoundTripsThroughItsName) {
+  std::set<std::string> seen;
+  for (csm::PcfKernel k : csm::kAllKernels) {
+    const std::string name = csm::kernelName(k);
+    EXPECT_TRUE(seen.insert(name).second) << name;
+    const csm::Result<csm::PcfKernel> parsed = csm::parseKernel(name);
+    ASSERT_TRUE(parsed.ok()) << name;
+    EXPECT_EQ(parsed.value(), k) << name;
+  }
+  EXPECT_EQ(seen.size(), std::size_t(CSM_KERNEL_COUNT));
+  // The README's names (without the space) and the order of CSM_KERNEL_*.
+  EXPECT_EQ(csm::kernelNames(), "1tap, tent3x3, tent5x5, tent7x7, poisson16, pcss");
+  for (std::size_t i = 0; i < csm::kAllKernels.size(); ++i) {
+    EXPECT_EQ(static_cast<std::uint32_t>(csm::kAllKernels[i]), i);
+  }
+  EXPECT_STREQ(csm::kernelName(static_cast<csm::PcfKernel>(99)), "unknown");
+}
+
+TEST(Names, OlderKernelSpellingsAreAccepted) {
+  EXPECT_EQ(csm::parseKernel("tent3").value(), csm::PcfKernel::kTent3);
+  EXPECT_EQ(csm::parseKernel("tent5").value(), csm::PcfKernel::kTent5);
+  EXPECT_EQ(csm::parseKernel("tent7").value(), csm::PcfKernel::kTent7);
+}
+
+TEST(Names, UnknownKernelIsRefusedNamingFieldValueAndNames) {
+  for (const char* bad : {"", "TENT3", "tent 3x3", "tent4", "pcss ", "1"}) {
+    const csm::Result<csm::PcfKernel> r = csm::parseKernel(bad, "shadow.kernel");
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_EQ(r.error().message(), std::string("shadow.kernel = '") + bad +
+                                       "' is invalid: allowed one of 1tap, tent3x3, tent5x5, "
+                                       "tent7x7, poisson16, pcss");
+  }
+}
+
+TEST(Names, EveryDebugModeRoundTripsThroughItsName) {
+  std::set<std::string> seen;
+  for (csm::DebugMode m : csm::kAllDebugModes) {
+    const std::string name = csm::debugModeName(m);
+    EXPECT_TRUE(seen.insert(name).second) << name;
+    const csm::Result<csm::DebugMode> parsed = csm::parseDebugMode(name);
+    ASSERT_TRUE(parsed.ok()) << name;
+    EXPECT_EQ(parsed.value(), m) << name;
+  }
+  EXPECT_EQ(seen.size(), std::size_t(CSM_DEBUG_COUNT));
+  const csm::Result<csm::DebugMode> r = csm::parseDebugMode("shadow factor", "debug");
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().message(),
+            "debug = 'shadow factor' is invalid: allowed one of none, normal, shadow, "
+            "lightcoords, depth, depthdiff, cascade");
+  EXPECT_STREQ(csm::debugModeName(static_cast<csm::DebugMode>(99)), "unknown");
+}
+
+}  // namespace
