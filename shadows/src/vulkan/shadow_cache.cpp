@@ -22,29 +22,11 @@
 
 #include "csm/light_space.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
+#include "vk_util.hpp"
 
 namespace csm::vk {
 
 namespace {
-
-template <class T>
-T vkInit(VkStructureType type, void* next = nullptr) {
-  T value{};
-  value.sType = type;
-  value.pNext = next;
-  return value;
-}
-
-std::string fmt(const char* format, auto... args) {
-  char buf[512];
-  std::snprintf(buf, sizeof(buf), format, args...);
-  return buf;
-}
-
-struct DepthPush {
-  glm::mat4 model;
-  std::uint32_t cascadeOrMask;
-};
 
 /// A half-open rectangle of world texel indices.
 struct TexelRect {
@@ -84,6 +66,78 @@ TexelRect boxTexels(const AabbWs& box, const glm::dmat3& basisT, double texel) n
     return static_cast<std::int64_t>(std::clamp(std::floor(v / texel), -4e18, 4e18));
   };
   return {toIndex(lo[0]) - 1, toIndex(lo[1]) - 1, toIndex(hi[0]) + 2, toIndex(hi[1]) + 2};
+}
+
+/// The stages and accesses of a depth attachment (the depth pass's reads and writes).
+constexpr VkPipelineStageFlags2 kDepthStages =
+    VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
+constexpr VkAccessFlags2 kDepthAccess =
+    VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+
+// Model -> a cached window's clip space (`Window`: ShadowRenderer::CacheWindow, a private type
+// deduced here), drawn about the window's anchor: layer pixel x = world texel index - anchorX
+// (before the block shift).
+template <class Window>
+glm::mat4 anchorTransform(const Window& w, std::int64_t res, const glm::dmat3& basisT,
+                          const CasterInstance& inst) {
+  const double half = 0.5 * double(res) * w.texel;
+  const glm::dvec3 anchorLs(double(w.anchorX) * w.texel + half, double(w.anchorY) * w.texel + half,
+                            0.0);
+  const glm::dvec3 scale(1.0 / half, 1.0 / half, 1.0 / (w.zFar - w.zNear));
+  const glm::dmat3 linear = basisT * glm::dmat3(inst.linearWs);
+  // In light space about the anchor: subtract in double (both may be ~1e7 m).
+  const glm::dvec3 t = basisT * inst.translationWs - anchorLs - glm::dvec3(0, 0, w.zNear);
+  return scaledAffine(linear, t, scale);
+}
+
+// The layer rectangles (and their block shifts) of a world rectangle.
+struct LayerRect {
+  TexelRect world;
+  std::int64_t mx, my;
+  VkRect2D scissor;
+};
+
+// The layer rectangles of world rectangle `r` in a cached window (`Window`: CacheWindow).
+template <class Window>
+void split(const Window& w, std::int64_t res, const TexelRect& r, std::vector<LayerRect>& out) {
+  out.clear();
+  if (r.empty()) return;
+  for (std::int64_t mx = floorDiv(r.x0 - w.anchorX, res); mx <= floorDiv(r.x1 - 1 - w.anchorX, res);
+       ++mx) {
+    for (std::int64_t my = floorDiv(r.y0 - w.anchorY, res);
+         my <= floorDiv(r.y1 - 1 - w.anchorY, res); ++my) {
+      const TexelRect block{w.anchorX + mx * res, w.anchorY + my * res, w.anchorX + (mx + 1) * res,
+                            w.anchorY + (my + 1) * res};
+      const TexelRect part = r.intersect(block);
+      if (part.empty()) continue;
+      LayerRect lr{part, mx, my, {}};
+      lr.scissor.offset = {std::int32_t(part.x0 - block.x0), std::int32_t(part.y0 - block.y0)};
+      lr.scissor.extent = {std::uint32_t(part.x1 - part.x0), std::uint32_t(part.y1 - part.y0)};
+      out.push_back(lr);
+    }
+  }
+}
+
+/// Viewport and scissor of one layer rectangle: the viewport shifted by its block.
+void setLayerRect(VkCommandBuffer cmd, const LayerRect& lr, std::int64_t res) {
+  const VkViewport vp{-float(lr.mx * res), -float(lr.my * res), float(res), float(res), 0.0f, 1.0f};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &lr.scissor);
+}
+
+/// A layer rectangle's texels in the layer ([0, R)^2).
+TexelRect layerTexels(const LayerRect& lr) noexcept {
+  return TexelRect{lr.scissor.offset.x, lr.scissor.offset.y,
+                   lr.scissor.offset.x + std::int64_t(lr.scissor.extent.width),
+                   lr.scissor.offset.y + std::int64_t(lr.scissor.extent.height)};
+}
+
+/// Clears a rectangle of the bound depth attachment to the far plane.
+void clearRect(VkCommandBuffer cmd, const VkRect2D& rect) {
+  VkClearAttachment ca{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
+  ca.clearValue.depthStencil = {1.0f, 0};
+  const VkClearRect cr{rect, 0, 1};
+  vkCmdClearAttachments(cmd, 1, &ca, 1, &cr);
 }
 
 /// The stale parts of a static layer that holds box `old` (when `valid`) for box `box`: the
@@ -140,6 +194,18 @@ std::uint64_t totalArea(const std::vector<TexelRect>& rects) noexcept {
   std::uint64_t sum = 0;
   for (const TexelRect& r : rects) sum += r.area();
   return sum;
+}
+
+/// One caster's part of one stale rectangle (CachedPass::drawPieces).
+struct PieceHit {
+  std::size_t piece;
+  TexelRect part;
+  bool done;
+};
+
+/// The debug label of a cascade's static or dynamic render pass.
+std::string cascadeLabel(std::uint32_t cascade, const char* what) {
+  return "csm cascade " + std::to_string(cascade) + " " + what;
 }
 
 }  // namespace
@@ -209,35 +275,45 @@ void ShadowRenderer::applyCacheWindows(CascadeFrame& frame) {
       w.zNear = std::floor(needNear / q) * q - q;
       w.zFar = std::ceil(needFar / q) * q + q;
     }
-    // What the layer shows covers this frame's slice: its box holds the box the slice needs
-    // (the sphere, across a change of light), its depth window the sphere.
-    CacheShown& sh = shown_[i];
-    if (sh.valid) {
-      const glm::dmat3 shownT = glm::transpose(sh.basis);
-      const glm::dvec3 shownCenter = shownT * sh.cascade.boxCenterWs;
-      const glm::dvec3 sphere = shownT * c.sphereCenterWs;
-      const bool sameLight = sh.basis == basis;
-      const glm::dvec3 needCenter = sameLight ? centerLs : sphere;
-      const double needHalf = sameLight && c.neededHalfExtentM > 0.0
-                                  ? std::min(c.neededHalfExtentM, c.halfExtentLs.x)
-                                  : (sameLight ? c.halfExtentLs.x : c.sphereRadiusM);
-      const double half = sh.cascade.halfExtentLs.x;
-      covered[i] = std::abs(needCenter.x - shownCenter.x) + needHalf <= half &&
-                   std::abs(needCenter.y - shownCenter.y) + needHalf <= half &&
-                   sphere.z - c.sphereRadiusM >= sh.window.zNear &&
-                   sphere.z + c.sphereRadiusM <= sh.window.zFar;
-    }
+    covered[i] = shownCovers(i, c, basis);
     c.depthNearLs = w.zNear - centerLs.z;
     c.depthFarLs = w.zFar - centerLs.z;
     c.viewProjCr = cameraRelativeViewProj(basis, frame.cameraPositionWs, c);
     staleRects(w.staticValid, {w.boxX, w.boxY, w.boxX + res, w.boxY + res},
                {boxX, boxY, boxX + res, boxY + res}, w.pending, basisT, texel, stale);
-    sh.wanted = totalArea(stale);
+    shown_[i].wanted = totalArea(stale);
   }
+  applyCacheBudget(frame, covered);
+}
 
-  // The budget: the exact cascades, and those never shown, are refreshed whatever they cost;
-  // the others in order of staleness while their refresh fits what is left of the budget. A
-  // deferred cascade shows its last refresh.
+// Whether what the layer of cascade `i` shows covers this frame's slice `c` (before its depth
+// window is applied): its box holds the box the slice needs (the sphere, across a change of
+// light), its depth window the sphere.
+bool ShadowRenderer::shownCovers(std::uint32_t i, const Cascade& c, const glm::dmat3& basis) const {
+  const CacheShown& sh = shown_[i];
+  if (!sh.valid) return false;
+  const glm::dvec3 centerLs = glm::transpose(basis) * c.boxCenterWs;
+  const glm::dmat3 shownT = glm::transpose(sh.basis);
+  const glm::dvec3 shownCenter = shownT * sh.cascade.boxCenterWs;
+  const glm::dvec3 sphere = shownT * c.sphereCenterWs;
+  const bool sameLight = sh.basis == basis;
+  const glm::dvec3 needCenter = sameLight ? centerLs : sphere;
+  const double needHalf = sameLight && c.neededHalfExtentM > 0.0
+                              ? std::min(c.neededHalfExtentM, c.halfExtentLs.x)
+                              : (sameLight ? c.halfExtentLs.x : c.sphereRadiusM);
+  const double half = sh.cascade.halfExtentLs.x;
+  return std::abs(needCenter.x - shownCenter.x) + needHalf <= half &&
+         std::abs(needCenter.y - shownCenter.y) + needHalf <= half &&
+         sphere.z - c.sphereRadiusM >= sh.window.zNear &&
+         sphere.z + c.sphereRadiusM <= sh.window.zFar;
+}
+
+// The budget: the exact cascades, and those never shown, are refreshed whatever they cost; the
+// others in order of staleness while their refresh fits what is left of the budget. A deferred
+// cascade shows its last refresh.
+void ShadowRenderer::applyCacheBudget(CascadeFrame& frame,
+                                      const std::array<bool, kMaxCascades>& covered) {
+  const glm::dmat3& basis = frame.lightBasisWs;
   const std::uint64_t budget = options_.cacheBudgetTexels;
   std::vector<std::uint32_t> order;
   auto refresh = [&](std::uint32_t i) {
@@ -326,11 +402,10 @@ Status ShadowRenderer::createStaticImage(const ShadowSettings& settings, VkForma
   auto fail = [&](VkResult result, const char* what) {
     retireStaticImage();
     collectRetired(true);
-    return Status(ErrorCode::kVulkan,
-                  std::string(what) + " failed: VkResult " + std::to_string(result), result);
+    return vkError(result, what);
   };
   if (r != VK_SUCCESS) return fail(r, "vkCreateImage(csm static cache)");
-  setName(std::uint64_t(staticImage_), VK_OBJECT_TYPE_IMAGE, "csm static depth cache");
+  setName(handleBits(staticImage_), VK_OBJECT_TYPE_IMAGE, "csm static depth cache");
   VkMemoryRequirements req{};
   vkGetImageMemoryRequirements(dev, staticImage_, &req);
   Status s = allocate(req, &staticMemory_, "csm static depth cache memory");
@@ -351,7 +426,7 @@ Status ShadowRenderer::createStaticImage(const ShadowSettings& settings, VkForma
     r = vkCreateImageView(dev, &vi, nullptr, &staticViews_[i]);
     if (r != VK_SUCCESS) return fail(r, "vkCreateImageView(csm static cache layer)");
     const std::string name = "csm static depth cache layer " + std::to_string(i);
-    setName(std::uint64_t(staticViews_[i]), VK_OBJECT_TYPE_IMAGE_VIEW, name.c_str());
+    setName(handleBits(staticViews_[i]), VK_OBJECT_TYPE_IMAGE_VIEW, name.c_str());
   }
   staticInitialised_ = false;
   return {};
@@ -375,11 +450,115 @@ void ShadowRenderer::retireStaticImage() noexcept {
 // ---------------------------------------------------------------------------------------------
 // The cached pass
 
-Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame,
-                                        const CasterList& casters, const CullResult& visible) {
-  const std::int64_t res = resolution_;
-  // The frame must carry the windows (applyCacheWindows before culling). Each cascade is drawn
-  // in the window and light basis its layer shows (shown_: this frame's unless deferred).
+// The cached pass's drawing state: the casters' light-space texel rectangles in the cascade
+// being drawn, its light basis, the bound mesh buffers and per-cascade scratch.
+struct ShadowRenderer::CachedPass {
+  CachedPass(ShadowRenderer& renderer, VkCommandBuffer commands, const CasterList& list,
+             std::int64_t resolution)
+      : r(renderer), cmd(commands), casters(list), res(resolution) {}
+
+  ShadowRenderer& r;
+  VkCommandBuffer cmd;
+  const CasterList& casters;
+  std::int64_t res;
+  std::array<TexelRect, kMaxCascades> boxes{};  // each cascade's box (world texel indices)
+  std::vector<TexelRect> casterRects;           // computed once per cascade
+  const MeshDraw* bound = nullptr;
+  glm::dmat3 basisT{1.0};  // the light basis (transposed) of the cascade being drawn
+  std::vector<TexelRect> dirty, copyParts;
+  std::vector<LayerRect> layerRects, staticPieces, redrawParts;
+  std::vector<VkImageCopy> copyRegions;
+  std::vector<PieceHit> hits;
+
+  void setRect(const LayerRect& lr) const { setLayerRect(cmd, lr, res); }
+
+  // Draws caster `idx` (at the LOD of the uncached pass: the schedule and the texel error
+  // budget) under the current viewport and scissor; returns its triangles.
+  std::uint64_t drawCaster(std::uint32_t cascade, const CacheWindow& w, std::uint32_t idx) {
+    const CasterInstance& inst = casters.instances[idx];
+    const MeshDraw& mesh = casters.meshes[inst.meshForLod(
+        casterLod(inst, r.options_.cascadeLod[cascade], w.texel, r.options_.lodMaxErrorTexels))];
+    if (mesh.indexCount == 0) return 0;
+    bindMeshBuffers(cmd, mesh, bound, r.layout_.indexType);
+    const DepthPush push{anchorTransform(w, res, basisT, inst), cascade};
+    vkCmdPushConstants(cmd, r.pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
+                       &push);
+    r.drawIndexedCaster(cmd, inst, mesh, 1);
+    return mesh.indexCount / 3;
+  }
+
+  // Draws the casters of `list` with dynamic == `dynamic` that overlap `lr`; returns triangles.
+  std::uint64_t drawRect(std::uint32_t cascade, const CacheWindow& w,
+                         const std::vector<std::uint32_t>& list, bool dynamic,
+                         const LayerRect& lr) {
+    std::uint64_t triangles = 0;
+    for (std::uint32_t idx : list) {
+      if (casters.instances[idx].dynamic != dynamic) continue;
+      if (casterRects[idx].intersect(lr.world).empty()) continue;
+      triangles += drawCaster(cascade, w, idx);
+    }
+    return triangles;
+  }
+
+  // Draws the static casters of `list` over the stale rectangles `pieces` (already cleared). A
+  // caster over several pieces of one block (an L-shaped exposure, a strip and a box) is drawn
+  // once, scissored to the bounding rectangle of its parts, when that rectangle is no larger
+  // than the parts together: drawing it over texels that are valid leaves them bit-identical
+  // (they already hold the minimum over every static caster, this one included). Otherwise
+  // once per piece. Returns triangles; counts the draws saved in `saved`.
+  std::uint64_t drawPieces(std::uint32_t cascade, const CacheWindow& w,
+                           const std::vector<std::uint32_t>& list,
+                           const std::vector<LayerRect>& pieces, std::uint64_t& saved) {
+    std::uint64_t triangles = 0;
+    for (std::uint32_t idx : list) {
+      if (casters.instances[idx].dynamic) continue;
+      hits.clear();
+      for (std::size_t k = 0; k < pieces.size(); ++k) {
+        const TexelRect q = casterRects[idx].intersect(pieces[k].world);
+        if (!q.empty()) hits.push_back({k, q, false});
+      }
+      for (std::size_t h = 0; h < hits.size(); ++h) {
+        if (hits[h].done) continue;  // drawn with an earlier hit of its block
+        setRect(mergeHits(pieces, h, saved));
+        triangles += drawCaster(cascade, w, idx);
+      }
+    }
+    return triangles;
+  }
+
+  // The rectangle hit `h` is drawn in: merged with the later hits of the same block (same
+  // viewport, marked done) when their bounding rectangle is no larger than the parts together.
+  LayerRect mergeHits(const std::vector<LayerRect>& pieces, std::size_t h, std::uint64_t& saved) {
+    const LayerRect& first = pieces[hits[h].piece];
+    TexelRect u = hits[h].part;
+    std::uint64_t sum = u.area();
+    std::size_t n = 1;
+    for (std::size_t g = h + 1; g < hits.size(); ++g) {
+      const LayerRect& other = pieces[hits[g].piece];
+      if (other.mx != first.mx || other.my != first.my) continue;
+      const TexelRect& q = hits[g].part;
+      u = {std::min(u.x0, q.x0), std::min(u.y0, q.y0), std::max(u.x1, q.x1), std::max(u.y1, q.y1)};
+      sum += q.area();
+      ++n;
+    }
+    if (n == 1 || u.area() > sum) return first;
+    LayerRect merged = first;
+    merged.world = u;
+    merged.scissor.offset = {std::int32_t(first.scissor.offset.x + (u.x0 - first.world.x0)),
+                             std::int32_t(first.scissor.offset.y + (u.y0 - first.world.y0))};
+    merged.scissor.extent = {std::uint32_t(u.x1 - u.x0), std::uint32_t(u.y1 - u.y0)};
+    saved += n - 1;
+    for (std::size_t g = h + 1; g < hits.size(); ++g) {
+      const LayerRect& other = pieces[hits[g].piece];
+      if (other.mx == first.mx && other.my == first.my) hits[g].done = true;
+    }
+    return merged;
+  }
+};
+
+// The frame must carry the windows (applyCacheWindows before culling). Each cascade is drawn in
+// the window and light basis its layer shows (shown_: this frame's unless deferred).
+Status ShadowRenderer::checkCacheWindows(const CascadeFrame& frame) const {
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     const Cascade& c = frame.cascades[i];
     if (c.empty) continue;
@@ -395,15 +574,15 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
                         i));
     }
   }
+  return {};
+}
 
-  ++records_;
-  collectRetired(false);
-  const bool wasUndefined = pendingClear_;
-  pendingClear_ = false;
-  uniformsCleared_ = true;
-  uniforms_ = packUniforms(frame, settings_, uniformOptions_);
+// The uniform block of the cached pass (toroidal addressing: each cascade's wrap offset) and
+// each cascade's box in the window it shows.
+void ShadowRenderer::packCachedUniforms(const CascadeFrame& frame, CachedPass& pass) {
+  const std::int64_t res = resolution_;
+  uniforms_ = packFrameUniforms(frame);
   uniforms_.counts.w = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
-  std::array<TexelRect, kMaxCascades> boxes{};
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     const Cascade& c = frame.cascades[i];
     if (c.empty) continue;
@@ -412,496 +591,291 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
       // Deferred across a change of light: its world-grid origin in the basis it shows.
       CascadeFrame old = frame;
       old.lightBasisWs = shown_[i].basis;
-      uniforms_.cascades[i].depthInfo =
-          packUniforms(old, settings_, uniformOptions_).cascades[i].depthInfo;
+      uniforms_.cascades[i].depthInfo = packFrameUniforms(old).cascades[i].depthInfo;
     }
     const glm::dvec3 centerLs = glm::transpose(shown_[i].basis) * c.boxCenterWs;
     const std::int64_t bx = std::llround(centerLs.x / w.texel) - res / 2;
     const std::int64_t by = std::llround(centerLs.y / w.texel) - res / 2;
-    boxes[i] = {bx, by, bx + res, by + res};
+    pass.boxes[i] = {bx, by, bx + res, by + res};
     uniforms_.cascades[i].wrapInfo.x = float(floorMod(bx - w.anchorX, res));
     uniforms_.cascades[i].wrapInfo.y = float(floorMod(by - w.anchorY, res));
   }
-  if (beginLabel_) {
-    auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
-    label.pLabelName = "csm shadow pass (cached)";
-    label.color[2] = 0.8f;
-    label.color[3] = 1.0f;
-    beginLabel_(cmd, &label);
+}
+
+// The cached pass's start: its label, the uniform block (write after the previous frame's
+// reads), the static image after last frame's copies, and a new sampled image.
+void ShadowRenderer::recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined) {
+  VkImageMemoryBarrier2 img[2] = {
+      vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
+      vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
+  // A new image not yet cleared: every layer is written below (new windows) or not sampled.
+  img[0].srcStageMask = options_.consumerStages;
+  img[0].dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  img[0].dstAccessMask = VK_ACCESS_2_NONE;
+  img[0].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  img[0].newLayout = sampledLayout();
+  img[0].srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  img[0].dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  img[0].image = image_;
+  img[0].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
+  // The static image (DEPTH_ATTACHMENT_OPTIMAL between frames) after last frame's copies.
+  img[1] = img[0];
+  img[1].srcStageMask = kDepthStages | VK_PIPELINE_STAGE_2_COPY_BIT;
+  img[1].srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  img[1].oldLayout =
+      staticInitialised_ ? VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
+  img[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  img[1].image = staticImage_;
+  img[1].dstStageMask = kDepthStages;
+  img[1].dstAccessMask = kDepthAccess;
+  if (!staticInitialised_) {
+    for (CacheWindow& w : windows_) w.staticValid = false;
+  }
+  staticInitialised_ = true;
+  recordPassStart(cmd, "csm shadow pass (cached)",
+                  wasUndefined ? std::span<const VkImageMemoryBarrier2>(img, 2)
+                               : std::span<const VkImageMemoryBarrier2>(img + 1, 1));
+}
+
+// One cascade of the cached pass: its stale static texels re-rendered, the sampled layer
+// restored to the static depth and the dynamic casters drawn over it. Returns whether the
+// sampled layer was written (false: it already holds this frame's depth).
+bool ShadowRenderer::recordCachedCascade(CachedPass& pass, std::uint32_t i,
+                                         const std::vector<std::uint32_t>& list) {
+  const std::int64_t res = resolution_;
+  CacheWindow& w = windows_[i];        // the static layer's state
+  CacheShown& sh = shown_[i];          // what the sampled layer shows (drawn in its window)
+  const CacheWindow& win = sh.window;  // = w's window unless deferred
+  pass.basisT = glm::transpose(sh.basis);
+  CascadeCacheStats& st = cacheStats_[i];
+  st.deferred = sh.deferred;
+  st.lagFrames = sh.lag;
+  st.wantedTexels = sh.wanted;
+  const TexelRect box = pass.boxes[i];
+  bool dynamicNow = false;
+  for (std::uint32_t idx : list) {
+    pass.casterRects[idx] = boxTexels(pass.casters.boundsWs[idx], pass.basisT, win.texel);
+    dynamicNow = dynamicNow || pass.casters.instances[idx].dynamic;
   }
 
-  // Start: the uniform block (write after the previous frame's reads); the static image
-  // (DEPTH_ATTACHMENT_OPTIMAL between frames) after last frame's copies; a new sampled image.
-  const VkPipelineStageFlags2 readers =
-      options_.consumerStages | VK_PIPELINE_STAGE_2_VERTEX_SHADER_BIT;
-  const VkPipelineStageFlags2 depthStages =
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT;
-  const VkAccessFlags2 depthAccess = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
-                                     VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-  {
-    auto toWrite = vkInit<VkBufferMemoryBarrier2>(VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2);
-    toWrite.srcStageMask = readers;
-    toWrite.dstStageMask = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
-    toWrite.dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    toWrite.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    toWrite.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    toWrite.buffer = uniformBuffer_;
-    toWrite.size = VK_WHOLE_SIZE;
-    VkImageMemoryBarrier2 img[2] = {
-        vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
-        vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
-    // A new image not yet cleared: every layer is written below (new windows) or not sampled.
-    img[0].srcStageMask = options_.consumerStages;
-    img[0].dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    img[0].dstAccessMask = VK_ACCESS_2_NONE;
-    img[0].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    img[0].newLayout = sampledLayout();
-    img[0].srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    img[0].dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    img[0].image = image_;
-    img[0].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
-    img[1] = img[0];
-    img[1].srcStageMask = depthStages | VK_PIPELINE_STAGE_2_COPY_BIT;
-    img[1].srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-    img[1].oldLayout =
-        staticInitialised_ ? VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
-    img[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    img[1].image = staticImage_;
-    img[1].dstStageMask = depthStages;
-    img[1].dstAccessMask = depthAccess;
-    if (!staticInitialised_) {
-      for (CacheWindow& w : windows_) w.staticValid = false;
+  // What of the static layer is stale: everything (new window), the newly exposed rows and
+  // columns, and what lies under invalidated boxes. A deferred cascade draws none of it.
+  pass.dirty.clear();
+  bool full = false;
+  if (!sh.deferred) {
+    full = staleRects(w.staticValid, {w.boxX, w.boxY, w.boxX + res, w.boxY + res}, box, w.pending,
+                      pass.basisT, w.texel, pass.dirty);
+    st.newWindow = !w.staticValid;
+  }
+  const bool copy = !pass.dirty.empty() || dynamicNow || sh.dynamicLast;
+  if (!sh.deferred) {
+    w.staticValid = true;
+    w.boxX = box.x0;
+    w.boxY = box.y0;
+    w.pending.clear();
+  }
+  if (!copy) return false;  // the sampled layer already holds this frame's depth
+  if (cascadeHook_) cascadeHook_(pass.cmd, i);
+
+  if (!pass.dirty.empty()) recordStaticRects(pass, i, list, full);
+  const bool whole = planRestore(pass, i, full);
+  rememberDynamicRects(pass, i, list);  // none when !dynamicNow
+  recordStaticCopy(pass.cmd, i, pass.copyRegions, whole);
+  st.copied = !pass.copyRegions.empty();
+  if (dynamicNow || !pass.redrawParts.empty()) recordDynamicPass(pass, i, list);
+  sh.dynamicLast = dynamicNow;
+  return true;
+}
+
+// The stale rectangles of the static layer (pass.dirty): cleared (unless `full`: the whole
+// layer, cleared on load) and drawn with the static casters.
+void ShadowRenderer::recordStaticRects(CachedPass& pass, std::uint32_t i,
+                                       const std::vector<std::uint32_t>& list, bool full) {
+  const CacheWindow& win = shown_[i].window;
+  CascadeCacheStats& st = cacheStats_[i];
+  // Both images are DEPTH_ATTACHMENT_OPTIMAL while drawn (see recordStaticCopy).
+  beginDepthRendering(pass.cmd, staticViews_[i], 1, full, cascadeLabel(i, "static"), pipeline_);
+  pass.bound = nullptr;
+  pass.staticPieces.clear();
+  for (const TexelRect& r : pass.dirty) {
+    split(win, resolution_, r, pass.layerRects);
+    for (const LayerRect& lr : pass.layerRects) {
+      if (!full) clearRect(pass.cmd, lr.scissor);
+      st.staticTexels += lr.world.area();
+      pass.staticPieces.push_back(lr);
     }
-    staticInitialised_ = true;
-    auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
-    dep.bufferMemoryBarrierCount = 1;
-    dep.pBufferMemoryBarriers = &toWrite;
-    dep.imageMemoryBarrierCount = wasUndefined ? 2 : 1;
-    dep.pImageMemoryBarriers = wasUndefined ? img : img + 1;
+  }
+  st.staticTriangles += pass.drawPieces(i, win, list, pass.staticPieces, st.mergedDraws);
+  endLayer(pass.cmd);
+}
+
+// How the sampled layer gets the static depth back. It holds the static depth except where it
+// was re-rendered this frame and where dynamic casters were drawn last time: only those
+// rectangles are restored, copied (kCopyRects: pass.copyRegions) or cleared and redrawn with
+// the static casters (kRedraw: pass.redrawParts); the whole layer is copied on a full render,
+// when they are most of it, or with kWholeLayer. Returns whether the whole layer is copied.
+bool ShadowRenderer::planRestore(CachedPass& pass, std::uint32_t i, bool full) {
+  const std::int64_t res = resolution_;
+  const CacheShown& sh = shown_[i];
+  CascadeCacheStats& st = cacheStats_[i];
+  pass.copyParts.clear();
+  pass.redrawParts.clear();
+  bool whole = full || options_.cacheRestore == CacheRestore::kWholeLayer;
+  if (!whole) {
+    for (const TexelRect& r : pass.dirty) {
+      split(sh.window, res, r, pass.layerRects);
+      for (const LayerRect& lr : pass.layerRects) addDisjoint(pass.copyParts, layerTexels(lr));
+    }
+    for (const auto& d : sh.dynamicRects) addDisjoint(pass.copyParts, {d[0], d[1], d[2], d[3]});
+    whole = pass.copyParts.size() > 256 ||
+            totalArea(pass.copyParts) * 4 >= 3 * std::uint64_t(res * res);
+  }
+  if (whole) pass.copyParts.assign(1, TexelRect{0, 0, res, res});
+  if (!whole && options_.cacheRestore == CacheRestore::kRedraw) {
+    // The restored rectangles, with the block each lies in (as the box's own split).
+    split(sh.window, res, pass.boxes[i], pass.layerRects);
+    for (const TexelRect& p : pass.copyParts) {
+      for (const LayerRect& lr : pass.layerRects) {
+        const TexelRect q = p.intersect(layerTexels(lr));
+        if (q.empty()) continue;
+        const std::int64_t dx = lr.world.x0 - lr.scissor.offset.x;
+        const std::int64_t dy = lr.world.y0 - lr.scissor.offset.y;
+        LayerRect r{{q.x0 + dx, q.y0 + dy, q.x1 + dx, q.y1 + dy}, lr.mx, lr.my, {}};
+        r.scissor.offset = {std::int32_t(q.x0), std::int32_t(q.y0)};
+        r.scissor.extent = {std::uint32_t(q.x1 - q.x0), std::uint32_t(q.y1 - q.y0)};
+        pass.redrawParts.push_back(r);
+        st.restoredTexels += q.area();
+      }
+    }
+    pass.copyParts.clear();
+  }
+  pass.copyRegions.clear();
+  for (const TexelRect& r : pass.copyParts) {
+    VkImageCopy region{};
+    region.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, i, 1};
+    region.dstSubresource = region.srcSubresource;
+    region.srcOffset = {std::int32_t(r.x0), std::int32_t(r.y0), 0};
+    region.dstOffset = region.srcOffset;
+    region.extent = {std::uint32_t(r.x1 - r.x0), std::uint32_t(r.y1 - r.y0), 1};
+    pass.copyRegions.push_back(region);
+    st.restoredTexels += r.area();
+  }
+  return whole;
+}
+
+// The layer rectangles this frame's dynamic casters in `list` cover (restored next time).
+void ShadowRenderer::rememberDynamicRects(CachedPass& pass, std::uint32_t i,
+                                          const std::vector<std::uint32_t>& list) {
+  CacheShown& sh = shown_[i];
+  sh.dynamicRects.clear();
+  std::vector<TexelRect> parts;
+  for (std::uint32_t idx : list) {
+    if (!pass.casters.instances[idx].dynamic) continue;
+    split(sh.window, resolution_, pass.casterRects[idx].intersect(pass.boxes[i]), pass.layerRects);
+    for (const LayerRect& lr : pass.layerRects) {
+      if (parts.size() >= 64) {  // many casters: their bounding rectangle
+        TexelRect& u = parts[0];
+        const TexelRect t = layerTexels(lr);
+        u = {std::min(u.x0, t.x0), std::min(u.y0, t.y0), std::max(u.x1, t.x1),
+             std::max(u.y1, t.y1)};
+        parts.resize(1);
+      } else {
+        parts.push_back(layerTexels(lr));
+      }
+    }
+  }
+  for (const TexelRect& t : parts) {
+    sh.dynamicRects.push_back(
+        {std::int32_t(t.x0), std::int32_t(t.y0), std::int32_t(t.x1), std::int32_t(t.y1)});
+  }
+}
+
+// Static layer `i` -> the sampled layer `i` (`regions`; `whole`: the whole layer, so its old
+// content is discarded), leaving both as depth attachments. No regions (nothing to restore,
+// dynamic casters appear): the sampled layer straight to the attachment.
+void ShadowRenderer::recordStaticCopy(VkCommandBuffer cmd, std::uint32_t i,
+                                      std::span<const VkImageCopy> regions, bool whole) {
+  VkImageMemoryBarrier2 b[2] = {
+      vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
+      vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
+  b[0].srcStageMask = kDepthStages;
+  b[0].srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
+  b[0].dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  b[0].dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
+  b[0].oldLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  b[0].newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  b[0].srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b[0].dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b[0].image = staticImage_;
+  b[0].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, i, 1};
+  // The sampled layer: last frame's readers finish before the copy overwrites it.
+  b[1] = b[0];
+  b[1].image = image_;
+  b[1].srcStageMask = options_.consumerStages;
+  b[1].srcAccessMask = VK_ACCESS_2_NONE;
+  b[1].dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  // Overwritten whole by the copy, else kept where not copied (sampled since last frame).
+  b[1].oldLayout = whole ? VK_IMAGE_LAYOUT_UNDEFINED : sampledLayout();
+  b[1].newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
+  dep.imageMemoryBarrierCount = 2;
+  dep.pImageMemoryBarriers = b;
+  if (regions.empty()) {
+    b[1].dstStageMask = kDepthStages;
+    b[1].dstAccessMask = kDepthAccess;
+    b[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    dep.imageMemoryBarrierCount = 1;
+    dep.pImageMemoryBarriers = b + 1;
     vkCmdPipelineBarrier2(cmd, &dep);
-    vkCmdUpdateBuffer(cmd, uniformBuffer_, 0, sizeof(CsmUniforms), &uniforms_);
-    VkBufferMemoryBarrier2 toRead = toWrite;
-    toRead.srcStageMask = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
-    toRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    toRead.dstStageMask = readers;
-    toRead.dstAccessMask = VK_ACCESS_2_UNIFORM_READ_BIT;
-    auto dep2 = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
-    dep2.bufferMemoryBarrierCount = 1;
-    dep2.pBufferMemoryBarriers = &toRead;
-    vkCmdPipelineBarrier2(cmd, &dep2);
+    return;
   }
+  vkCmdPipelineBarrier2(cmd, &dep);
+  vkCmdCopyImage(cmd, staticImage_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image_,
+                 VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, static_cast<std::uint32_t>(regions.size()),
+                 regions.data());
+  // Then: the sampled layer to the attachment (dynamic casters) and, at the end, to the
+  // sampled layout; the static layer back to the attachment layout for the next frame.
+  b[1].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  b[1].srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  b[1].dstStageMask = kDepthStages;
+  b[1].dstAccessMask = kDepthAccess;
+  b[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  b[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  b[0].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  b[0].srcAccessMask = VK_ACCESS_2_NONE;
+  b[0].dstStageMask = kDepthStages;
+  b[0].dstAccessMask = kDepthAccess;
+  b[0].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  b[0].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  vkCmdPipelineBarrier2(cmd, &dep);
+}
 
-  // Light-space texel rectangles of the casters drawn this frame (computed once per cascade).
-  const std::size_t instanceCount = casters.instances.size();
-  std::vector<TexelRect> casterRects;
-  const MeshDraw* bound = nullptr;
-  glm::dmat3 basisT(1.0);  // the light basis (transposed) of the cascade being drawn
-
-  // Draws caster `index` in cascade `cascade` about the window's anchor: model -> the window's
-  // clip space, where layer pixel x = world texel index - anchorX (before the block shift).
-  auto anchorTransform = [&](const CacheWindow& w, const CasterInstance& inst) {
-    const double half = 0.5 * double(res) * w.texel;
-    const glm::dvec3 anchorLs(double(w.anchorX) * w.texel + half,
-                              double(w.anchorY) * w.texel + half, 0.0);
-    const glm::dvec3 scale(1.0 / half, 1.0 / half, 1.0 / (w.zFar - w.zNear));
-    const glm::dmat3 linear = basisT * glm::dmat3(inst.linearWs);
-    // In light space about the anchor: subtract in double (both may be ~1e7 m).
-    const glm::dvec3 t = basisT * inst.translationWs - anchorLs - glm::dvec3(0, 0, w.zNear);
-    glm::mat4 m(0.0f);
-    for (int col = 0; col < 3; ++col) {
-      for (int row = 0; row < 3; ++row) {
-        m[col][row] = static_cast<float>(linear[col][row] * scale[row]);
-      }
-    }
-    for (int row = 0; row < 3; ++row) m[3][row] = static_cast<float>(t[row] * scale[row]);
-    m[3][3] = 1.0f;
-    return m;
-  };
-
-  // The layer rectangles (and their block shifts) of a world rectangle.
-  struct LayerRect {
-    TexelRect world;
-    std::int64_t mx, my;
-    VkRect2D scissor;
-  };
-  auto split = [&](const CacheWindow& w, const TexelRect& r, std::vector<LayerRect>& out) {
-    out.clear();
-    if (r.empty()) return;
-    for (std::int64_t mx = floorDiv(r.x0 - w.anchorX, res);
-         mx <= floorDiv(r.x1 - 1 - w.anchorX, res); ++mx) {
-      for (std::int64_t my = floorDiv(r.y0 - w.anchorY, res);
-           my <= floorDiv(r.y1 - 1 - w.anchorY, res); ++my) {
-        const TexelRect block{w.anchorX + mx * res, w.anchorY + my * res,
-                              w.anchorX + (mx + 1) * res, w.anchorY + (my + 1) * res};
-        const TexelRect part = r.intersect(block);
-        if (part.empty()) continue;
-        LayerRect lr{part, mx, my, {}};
-        lr.scissor.offset = {std::int32_t(part.x0 - block.x0), std::int32_t(part.y0 - block.y0)};
-        lr.scissor.extent = {std::uint32_t(part.x1 - part.x0), std::uint32_t(part.y1 - part.y0)};
-        out.push_back(lr);
-      }
-    }
-  };
-
-  auto layerTexels = [](const LayerRect& lr) {
-    return TexelRect{lr.scissor.offset.x, lr.scissor.offset.y,
-                     lr.scissor.offset.x + std::int64_t(lr.scissor.extent.width),
-                     lr.scissor.offset.y + std::int64_t(lr.scissor.extent.height)};
-  };
-  std::vector<TexelRect> copyParts;
-  std::vector<VkImageCopy> copyRegions;
-  std::vector<LayerRect> redrawParts;
-  std::vector<LayerRect> staticPieces;
-
-  auto beginPass = [&](VkImageView view, bool clear, const char* what, std::uint32_t cascade) {
-    // Both images are DEPTH_ATTACHMENT_OPTIMAL while drawn (see the barriers around the copy).
-    if (beginLabel_) {
-      const std::string name = std::string("csm cascade ") + std::to_string(cascade) + " " + what;
-      auto label = vkInit<VkDebugUtilsLabelEXT>(VK_STRUCTURE_TYPE_DEBUG_UTILS_LABEL_EXT);
-      label.pLabelName = name.c_str();
-      beginLabel_(cmd, &label);
-    }
-    auto depth = vkInit<VkRenderingAttachmentInfo>(VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO);
-    depth.imageView = view;
-    depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    depth.loadOp = clear ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
-    depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    depth.clearValue.depthStencil = {1.0f, 0};
-    auto ri = vkInit<VkRenderingInfo>(VK_STRUCTURE_TYPE_RENDERING_INFO);
-    ri.renderArea = {{0, 0}, {resolution_, resolution_}};
-    ri.layerCount = 1;
-    ri.pDepthAttachment = &depth;
-    vkCmdBeginRendering(cmd, &ri);
-    vkCmdSetDepthBias(cmd, settings_.depthBiasConstant, 0.0f, settings_.depthBiasSlope);
-    vkCmdSetCullMode(cmd, options_.cullMode);
-    vkCmdSetFrontFace(cmd, options_.frontFace);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
-                            0, nullptr);
-    bound = nullptr;
-  };
-  auto endPass = [&] {
-    vkCmdEndRendering(cmd);
-    if (endLabel_) endLabel_(cmd);
-  };
-  auto setRect = [&](const LayerRect& lr) {
-    const VkViewport vp{
-        -float(lr.mx * res), -float(lr.my * res), float(res), float(res), 0.0f, 1.0f};
-    vkCmdSetViewport(cmd, 0, 1, &vp);
-    vkCmdSetScissor(cmd, 0, 1, &lr.scissor);
-  };
-  // Draws the casters of `list` with dynamic == `dynamic` that overlap `lr`; returns triangles.
-  // Draws caster `idx` (at the LOD of the uncached pass: the schedule and the texel error
-  // budget) under the current viewport and scissor; returns its triangles.
-  auto drawCaster = [&](std::uint32_t cascade, const CacheWindow& w, std::uint32_t idx) {
-    const CasterInstance& inst = casters.instances[idx];
-    const MeshDraw& mesh = casters.meshes[inst.meshForLod(
-        casterLod(inst, options_.cascadeLod[cascade], w.texel, options_.lodMaxErrorTexels))];
-    if (mesh.indexCount == 0) return std::uint64_t(0);
-    if (bound == nullptr || bound->vertexBuffer != mesh.vertexBuffer ||
-        bound->vertexBufferOffset != mesh.vertexBufferOffset) {
-      vkCmdBindVertexBuffers(cmd, 0, 1, &mesh.vertexBuffer, &mesh.vertexBufferOffset);
-    }
-    if (bound == nullptr || bound->indexBuffer != mesh.indexBuffer ||
-        bound->indexBufferOffset != mesh.indexBufferOffset) {
-      vkCmdBindIndexBuffer(cmd, mesh.indexBuffer, mesh.indexBufferOffset, layout_.indexType);
-    }
-    bound = &mesh;
-    const DepthPush push{anchorTransform(w, inst), cascade};
-    vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
-                       &push);
-    drawIndexedCaster(cmd, inst, mesh, 1);
-    return std::uint64_t(mesh.indexCount / 3);
-  };
-  // Draws the casters of `list` with dynamic == `dynamic` that overlap `lr`; returns triangles.
-  auto drawRect = [&](std::uint32_t cascade, const CacheWindow& w,
-                      const std::vector<std::uint32_t>& list, bool dynamic, const LayerRect& lr) {
-    std::uint64_t triangles = 0;
-    for (std::uint32_t idx : list) {
-      if (casters.instances[idx].dynamic != dynamic) continue;
-      if (casterRects[idx].intersect(lr.world).empty()) continue;
-      triangles += drawCaster(cascade, w, idx);
-    }
-    return triangles;
-  };
-  // Draws the static casters of `list` over the stale rectangles `pieces` (already cleared). A
-  // caster over several pieces of one block (an L-shaped exposure, a strip and a box) is drawn
-  // once, scissored to the bounding rectangle of its parts, when that rectangle is no larger
-  // than the parts together: drawing it over texels that are valid leaves them bit-identical
-  // (they already hold the minimum over every static caster, this one included). Otherwise
-  // once per piece. Returns triangles; counts the draws saved in `saved`.
-  struct Hit {
-    std::size_t piece;
-    TexelRect part;
-    bool done;
-  };
-  std::vector<Hit> hits;
-  auto drawPieces = [&](std::uint32_t cascade, const CacheWindow& w,
-                        const std::vector<std::uint32_t>& list,
-                        const std::vector<LayerRect>& pieces, std::uint64_t& saved) {
-    std::uint64_t triangles = 0;
-    for (std::uint32_t idx : list) {
-      if (casters.instances[idx].dynamic) continue;
-      hits.clear();
-      for (std::size_t k = 0; k < pieces.size(); ++k) {
-        const TexelRect q = casterRects[idx].intersect(pieces[k].world);
-        if (!q.empty()) hits.push_back({k, q, false});
-      }
-      for (std::size_t h = 0; h < hits.size(); ++h) {
-        if (hits[h].done) continue;  // drawn with an earlier hit of its block
-        const LayerRect& first = pieces[hits[h].piece];
-        // This hit and the later ones of the same block (same viewport).
-        TexelRect u = hits[h].part;
-        std::uint64_t sum = u.area();
-        std::size_t n = 1;
-        for (std::size_t g = h + 1; g < hits.size(); ++g) {
-          const LayerRect& other = pieces[hits[g].piece];
-          if (other.mx != first.mx || other.my != first.my) continue;
-          const TexelRect& q = hits[g].part;
-          u = {std::min(u.x0, q.x0), std::min(u.y0, q.y0), std::max(u.x1, q.x1),
-               std::max(u.y1, q.y1)};
-          sum += q.area();
-          ++n;
-        }
-        if (n > 1 && u.area() <= sum) {
-          LayerRect merged = first;
-          merged.world = u;
-          merged.scissor.offset = {std::int32_t(first.scissor.offset.x + (u.x0 - first.world.x0)),
-                                   std::int32_t(first.scissor.offset.y + (u.y0 - first.world.y0))};
-          merged.scissor.extent = {std::uint32_t(u.x1 - u.x0), std::uint32_t(u.y1 - u.y0)};
-          setRect(merged);
-          triangles += drawCaster(cascade, w, idx);
-          saved += n - 1;
-          for (std::size_t g = h + 1; g < hits.size(); ++g) {
-            const LayerRect& other = pieces[hits[g].piece];
-            if (other.mx == first.mx && other.my == first.my) hits[g].done = true;
-          }
-          continue;
-        }
-        setRect(first);
-        triangles += drawCaster(cascade, w, idx);
-      }
-    }
-    return triangles;
-  };
-
-  std::vector<TexelRect> dirty;
-  std::vector<LayerRect> layerRects;
-  bool any = false;
-  std::uint32_t copiedMask = 0;
-  cacheStats_ = {};
-  if (casterRects.size() < instanceCount) casterRects.resize(instanceCount);
-  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
-    const Cascade& c = frame.cascades[i];
-    if (c.empty) continue;
-    CacheWindow& w = windows_[i];        // the static layer's state
-    CacheShown& sh = shown_[i];          // what the sampled layer shows (drawn in its window)
-    const CacheWindow& win = sh.window;  // = w's window unless deferred
-    basisT = glm::transpose(sh.basis);
-    CascadeCacheStats& st = cacheStats_[i];
-    st.deferred = sh.deferred;
-    st.lagFrames = sh.lag;
-    st.wantedTexels = sh.wanted;
-    const TexelRect box = boxes[i];
-    const std::vector<std::uint32_t>& list = visible.visible[i];
-    bool dynamicNow = false;
-    for (std::uint32_t idx : list) {
-      casterRects[idx] = boxTexels(casters.boundsWs[idx], basisT, win.texel);
-      dynamicNow = dynamicNow || casters.instances[idx].dynamic;
-    }
-
-    // What of the static layer is stale: everything (new window), the newly exposed rows and
-    // columns, and what lies under invalidated boxes. A deferred cascade draws none of it.
-    dirty.clear();
-    bool full = false;
-    if (!sh.deferred) {
-      full = staleRects(w.staticValid, {w.boxX, w.boxY, w.boxX + res, w.boxY + res}, box, w.pending,
-                        basisT, w.texel, dirty);
-      st.newWindow = !w.staticValid;
-    }
-    const bool copy = !dirty.empty() || dynamicNow || sh.dynamicLast;
-    if (!sh.deferred) {
-      w.staticValid = true;
-      w.boxX = box.x0;
-      w.boxY = box.y0;
-      w.pending.clear();
-    }
-    if (!copy) continue;  // the sampled layer already holds this frame's depth
-    if (cascadeHook_) cascadeHook_(cmd, i);
-    any = true;
-
-    if (!dirty.empty()) {
-      beginPass(staticViews_[i], full, "static", i);
-      staticPieces.clear();
-      for (const TexelRect& r : dirty) {
-        split(win, r, layerRects);
-        for (const LayerRect& lr : layerRects) {
-          if (!full) {
-            VkClearAttachment ca{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
-            ca.clearValue.depthStencil = {1.0f, 0};
-            const VkClearRect cr{lr.scissor, 0, 1};
-            vkCmdClearAttachments(cmd, 1, &ca, 1, &cr);
-          }
-          st.staticTexels += lr.world.area();
-          staticPieces.push_back(lr);
-        }
-      }
-      st.staticTriangles += drawPieces(i, win, list, staticPieces, st.mergedDraws);
-      endPass();
-    }
-
-    // Static layer -> sampled layer, then the dynamic casters over it. The sampled layer holds
-    // the static depth except where it was re-rendered this frame and where dynamic casters were
-    // drawn last time: only those rectangles are restored, copied (kCopyRects) or cleared and
-    // redrawn with the static casters (kRedraw); the whole layer is copied on a full render, when
-    // they are most of it, or with kWholeLayer.
-    copyParts.clear();
-    redrawParts.clear();
-    bool whole = full || options_.cacheRestore == CacheRestore::kWholeLayer;
-    if (!whole) {
-      for (const TexelRect& r : dirty) {
-        split(win, r, layerRects);
-        for (const LayerRect& lr : layerRects) addDisjoint(copyParts, layerTexels(lr));
-      }
-      for (const auto& d : sh.dynamicRects) addDisjoint(copyParts, {d[0], d[1], d[2], d[3]});
-      whole = copyParts.size() > 256 || totalArea(copyParts) * 4 >= 3 * std::uint64_t(res * res);
-    }
-    if (whole) copyParts.assign(1, TexelRect{0, 0, res, res});
-    if (!whole && options_.cacheRestore == CacheRestore::kRedraw) {
-      // The restored rectangles, with the block each lies in (as the box's own split).
-      split(win, box, layerRects);
-      for (const TexelRect& p : copyParts) {
-        for (const LayerRect& lr : layerRects) {
-          const TexelRect q = p.intersect(layerTexels(lr));
-          if (q.empty()) continue;
-          const std::int64_t dx = lr.world.x0 - lr.scissor.offset.x;
-          const std::int64_t dy = lr.world.y0 - lr.scissor.offset.y;
-          LayerRect r{{q.x0 + dx, q.y0 + dy, q.x1 + dx, q.y1 + dy}, lr.mx, lr.my, {}};
-          r.scissor.offset = {std::int32_t(q.x0), std::int32_t(q.y0)};
-          r.scissor.extent = {std::uint32_t(q.x1 - q.x0), std::uint32_t(q.y1 - q.y0)};
-          redrawParts.push_back(r);
-          st.restoredTexels += q.area();
-        }
-      }
-      copyParts.clear();
-    }
-    copyRegions.clear();
-    for (const TexelRect& r : copyParts) {
-      VkImageCopy region{};
-      region.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, i, 1};
-      region.dstSubresource = region.srcSubresource;
-      region.srcOffset = {std::int32_t(r.x0), std::int32_t(r.y0), 0};
-      region.dstOffset = region.srcOffset;
-      region.extent = {std::uint32_t(r.x1 - r.x0), std::uint32_t(r.y1 - r.y0), 1};
-      copyRegions.push_back(region);
-      st.restoredTexels += r.area();
-    }
-    // The rectangles this frame's dynamic casters cover (copied back next time).
-    sh.dynamicRects.clear();
-    if (dynamicNow) {
-      std::vector<TexelRect> parts;
-      for (std::uint32_t idx : list) {
-        if (!casters.instances[idx].dynamic) continue;
-        split(win, casterRects[idx].intersect(box), layerRects);
-        for (const LayerRect& lr : layerRects) {
-          if (parts.size() >= 64) {  // many casters: their bounding rectangle
-            TexelRect& u = parts[0];
-            const TexelRect t = layerTexels(lr);
-            u = {std::min(u.x0, t.x0), std::min(u.y0, t.y0), std::max(u.x1, t.x1),
-                 std::max(u.y1, t.y1)};
-            parts.resize(1);
-          } else {
-            parts.push_back(layerTexels(lr));
-          }
-        }
-      }
-      for (const TexelRect& t : parts) {
-        sh.dynamicRects.push_back(
-            {std::int32_t(t.x0), std::int32_t(t.y0), std::int32_t(t.x1), std::int32_t(t.y1)});
-      }
-    }
-    VkImageMemoryBarrier2 b[2] = {
-        vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
-        vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
-    b[0].srcStageMask = depthStages;
-    b[0].srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
-    b[0].dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-    b[0].dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-    b[0].oldLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    b[0].newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    b[0].srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b[0].dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    b[0].image = staticImage_;
-    b[0].subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, i, 1};
-    // The sampled layer: last frame's readers finish before the copy overwrites it.
-    b[1] = b[0];
-    b[1].image = image_;
-    b[1].srcStageMask = options_.consumerStages;
-    b[1].srcAccessMask = VK_ACCESS_2_NONE;
-    b[1].dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    // Overwritten whole by the copy, else kept where not copied (sampled since last frame).
-    b[1].oldLayout = whole ? VK_IMAGE_LAYOUT_UNDEFINED : sampledLayout();
-    b[1].newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
-    dep.imageMemoryBarrierCount = 2;
-    dep.pImageMemoryBarriers = b;
-    if (copyRegions.empty()) {
-      // Nothing to restore (dynamic casters appear): the layer straight to the attachment.
-      b[1].dstStageMask = depthStages;
-      b[1].dstAccessMask = depthAccess;
-      b[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-      dep.imageMemoryBarrierCount = 1;
-      dep.pImageMemoryBarriers = b + 1;
-      vkCmdPipelineBarrier2(cmd, &dep);
-    } else {
-      vkCmdPipelineBarrier2(cmd, &dep);
-      vkCmdCopyImage(cmd, staticImage_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image_,
-                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                     static_cast<std::uint32_t>(copyRegions.size()), copyRegions.data());
-      st.copied = true;
-      // Then: the sampled layer to the attachment (dynamic casters) and, at the end, to the
-      // sampled layout; the static layer back to the attachment layout for the next frame.
-      b[1].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-      b[1].srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-      b[1].dstStageMask = depthStages;
-      b[1].dstAccessMask = depthAccess;
-      b[1].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-      b[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-      b[0].srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-      b[0].srcAccessMask = VK_ACCESS_2_NONE;
-      b[0].dstStageMask = depthStages;
-      b[0].dstAccessMask = depthAccess;
-      b[0].oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-      b[0].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-      vkCmdPipelineBarrier2(cmd, &dep);
-    }
-    copiedMask |= 1u << i;
-    if (dynamicNow || !redrawParts.empty()) {
-      beginPass(layerViews_[i], false, "dynamic", i);
-      for (const LayerRect& lr : redrawParts) {
-        VkClearAttachment ca{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
-        ca.clearValue.depthStencil = {1.0f, 0};
-        const VkClearRect cr{lr.scissor, 0, 1};
-        vkCmdClearAttachments(cmd, 1, &ca, 1, &cr);
-      }
-      st.restoreTriangles += drawPieces(i, win, list, redrawParts, st.mergedDraws);
-      split(win, box, layerRects);
-      for (const LayerRect& lr : layerRects) {
-        setRect(lr);
-        st.dynamicTriangles += drawRect(i, win, list, true, lr);
-      }
-      endPass();
-    }
-    sh.dynamicLast = dynamicNow;
+// The sampled layer's dynamic pass: the rectangles restored by redrawing (pass.redrawParts)
+// cleared and drawn with the static casters, then the dynamic casters over the box.
+void ShadowRenderer::recordDynamicPass(CachedPass& pass, std::uint32_t i,
+                                       const std::vector<std::uint32_t>& list) {
+  const CacheWindow& win = shown_[i].window;
+  CascadeCacheStats& st = cacheStats_[i];
+  beginDepthRendering(pass.cmd, layerViews_[i], 1, false, cascadeLabel(i, "dynamic"), pipeline_);
+  pass.bound = nullptr;
+  for (const LayerRect& lr : pass.redrawParts) clearRect(pass.cmd, lr.scissor);
+  st.restoreTriangles += pass.drawPieces(i, win, list, pass.redrawParts, st.mergedDraws);
+  split(win, resolution_, pass.boxes[i], pass.layerRects);
+  for (const LayerRect& lr : pass.layerRects) {
+    pass.setRect(lr);
+    st.dynamicTriangles += pass.drawRect(i, win, list, true, lr);
   }
-  if (cascadeHook_ && any) cascadeHook_(cmd, kCascadeHookEnd);
+  endLayer(pass.cmd);
+}
 
-  // Layers written this frame -> the sampled layout; the others stayed sampleable.
+// The cached pass's end: layers written this frame -> the sampled layout.
+void ShadowRenderer::recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMask) {
+  // The others stayed sampleable.
   std::vector<VkImageMemoryBarrier2> toSampled;
   for (std::uint32_t i = 0; i < layerCount_; ++i) {
     if ((copiedMask & (1u << i)) == 0) continue;
     auto b = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
-    b.srcStageMask = depthStages;
+    b.srcStageMask = kDepthStages;
     b.srcAccessMask = VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
     b.dstStageMask = options_.consumerStages;
     b.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
@@ -918,6 +892,31 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
   dep.pImageMemoryBarriers = toSampled.data();
   if (!toSampled.empty()) vkCmdPipelineBarrier2(cmd, &dep);
   if (endLabel_) endLabel_(cmd);
+}
+
+Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                                        const CasterList& casters, const CullResult& visible) {
+  Status s = checkCacheWindows(frame);
+  if (!s.ok()) return s;
+
+  const bool wasUndefined = countRecord();
+  CachedPass pass(*this, cmd, casters, resolution_);
+  packCachedUniforms(frame, pass);
+  recordCachedBegin(cmd, wasUndefined);
+
+  bool any = false;
+  std::uint32_t copiedMask = 0;
+  cacheStats_ = {};
+  pass.casterRects.resize(casters.instances.size());
+  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+    if (frame.cascades[i].empty) continue;
+    if (!recordCachedCascade(pass, i, visible.visible[i])) continue;
+    any = true;
+    copiedMask |= 1u << i;
+  }
+  if (cascadeHook_ && any) cascadeHook_(cmd, kCascadeHookEnd);
+
+  recordCachedEnd(cmd, copiedMask);
   return {};
 }
 

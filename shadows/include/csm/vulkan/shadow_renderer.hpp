@@ -486,10 +486,25 @@ class ShadowRenderer {
   void retireStaticImage() noexcept;
   Status recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame, const CasterList& casters,
                           const CullResult& visible);
-  // recordCachedPass()'s steps (shadow_cache.cpp).
+  // applyCacheWindows()'s steps (shadow_cache.cpp).
+  bool shownCovers(std::uint32_t cascade, const Cascade& c, const glm::dmat3& basis) const;
+  void applyCacheBudget(CascadeFrame& frame, const std::array<bool, kMaxCascades>& covered);
+  // recordCachedPass()'s steps (shadow_cache.cpp). CachedPass: the pass's drawing state.
+  struct CachedPass;
   Status checkCacheWindows(const CascadeFrame& frame) const;
+  void packCachedUniforms(const CascadeFrame& frame, CachedPass& pass);
   void recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined);
-  void recordStaticCopy(VkCommandBuffer cmd, std::uint32_t cascade);
+  bool recordCachedCascade(CachedPass& pass, std::uint32_t cascade,
+                           const std::vector<std::uint32_t>& list);
+  void recordStaticRects(CachedPass& pass, std::uint32_t cascade,
+                         const std::vector<std::uint32_t>& list, bool full);
+  bool planRestore(CachedPass& pass, std::uint32_t cascade, bool full);
+  void rememberDynamicRects(CachedPass& pass, std::uint32_t cascade,
+                            const std::vector<std::uint32_t>& list);
+  void recordStaticCopy(VkCommandBuffer cmd, std::uint32_t cascade,
+                        std::span<const VkImageCopy> regions, bool whole);
+  void recordDynamicPass(CachedPass& pass, std::uint32_t cascade,
+                         const std::vector<std::uint32_t>& list);
   void recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMask);
 
   DeviceInfo device_{};
