@@ -574,7 +574,7 @@ TEST(ShadowCacheTiming, DISABLED_CopyRectsVsWholeLayer) {
       copyRects ? csm::vk::CacheRestore::kCopyRects : csm::vk::CacheRestore::kRedraw;
   std::array<std::unique_ptr<csm::vk::ShadowView>, 2> views;
   for (std::size_t v = 0; v < 2; ++v) {
-    views[v] = world::createShadowView(*rig.ctx_);
+    views[v] = glue::createShadowView(*rig.ctx_);
     csm::ShadowSettings settings;
     settings.cascadeCount = kCascades;
     settings.resolution = res;
