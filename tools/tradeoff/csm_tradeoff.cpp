@@ -8,7 +8,8 @@
 // Axes: cascade count 1..6 x resolution 512..8192 x caster LODs on/off (each cascade draws the
 // sample world's simplified caster meshes at the fly-through's default LOD for it: 0, 1, 2, 2...),
 // then split lambda, PCF kernel, blend band, depth format, box fit, size-ladder step (or off) and
-// receiver-driven splits one at a time around the defaults (4 cascades, 2048^2, lambda 0.75,
+// receiver-driven splits (range, or histogram: CSV receiver_splits 1 / 2) one at a time around
+// the defaults (4 cascades, 2048^2, lambda 0.75,
 // tent3x3, band 0.1, D32, LODs on, sphere box, ladder 2^(1/8), full split range).
 // Timing per pose: one warm-up frame, then the fastest of two. Full mode: world of 8000 trees,
 // 5 poses, 8 shimmer frames, timing view 640x360, accuracy view 320x180 (sized to finish in
@@ -30,6 +31,8 @@
 #include <sample_world/paths.hpp>
 #include <sample_world/settings.hpp>
 #include <sample_world/world.hpp>
+
+#include "receiver_histogram.hpp"
 
 #include <algorithm>
 #include <array>
@@ -74,6 +77,9 @@ struct Config {
   csm::BoxFit fit = csm::BoxFit::kSphere;
   double ladderSteps = 8.0;
   bool receivers = false;
+  /// With `receivers`: the splits from the receivers' depth histogram (ReceiverSplitScheme::
+  /// kHistogram) instead of the range's lambda splits.
+  bool histogram = false;
   /// The LOD each cascade draws at least when `lods` (--lod-study varies it; empty: all 0).
   std::vector<uint32_t> schedule;
   /// RendererOptions::lodMaxErrorTexels when `lods` (0: the schedule alone).
@@ -106,7 +112,7 @@ struct Config {
     } else if (ladderSteps != 8.0) {
       s += " ladder" + std::to_string(int(ladderSteps));
     }
-    if (receivers) s += " rcv";
+    if (receivers) s += histogram ? " hist" : " rcv";
     return s;
   }
   /// The label without the fields at their default (for the plot).
@@ -221,7 +227,8 @@ std::vector<Row> readCsv(const std::string& path) {
     if (f.size() == 23) {
       r.config.fit = f[20] == "tight" ? csm::BoxFit::kTight : csm::BoxFit::kSphere;
       r.config.ladderSteps = std::stod(f[21]);
-      r.config.receivers = f[22] == "1";
+      r.config.receivers = f[22] == "1" || f[22] == "2";
+      r.config.histogram = f[22] == "2";
     }
     rows.push_back(r);
   }
@@ -274,6 +281,7 @@ struct FitConfig {
   const char* name;
   csm::BoxFit fit;
   bool receivers;
+  csm::ReceiverSplitScheme scheme = csm::ReceiverSplitScheme::kRange;
 };
 
 int runFitStudy(const Options& o) {
@@ -283,10 +291,14 @@ int runFitStudy(const Options& o) {
   wd.rockCount = 400;
   wd.buildingCount = 40;
   nlohmann::json report;
-  const FitConfig configs[] = {{"sphere, full range (before)", csm::BoxFit::kSphere, false},
-                               {"tight box", csm::BoxFit::kTight, false},
-                               {"receiver splits", csm::BoxFit::kSphere, true},
-                               {"tight box + receiver splits", csm::BoxFit::kTight, true}};
+  const FitConfig configs[] = {
+      {"sphere, full range (before)", csm::BoxFit::kSphere, false},
+      {"tight box", csm::BoxFit::kTight, false},
+      {"receiver splits", csm::BoxFit::kSphere, true},
+      {"tight box + receiver splits", csm::BoxFit::kTight, true},
+      {"receiver histogram", csm::BoxFit::kSphere, true, csm::ReceiverSplitScheme::kHistogram},
+      {"tight box + receiver histogram", csm::BoxFit::kTight, true,
+       csm::ReceiverSplitScheme::kHistogram}};
   struct Study {
     const char* path;
     std::vector<double> poses;
@@ -325,6 +337,7 @@ int runFitStudy(const Options& o) {
       for (const FitConfig& fc : configs) {
         csm::ShadowSettings s = app.shadow;
         s.boxFit = fc.fit;
+        s.receiverSplitScheme = fc.scheme;
         if (!harness.configure(s).ok()) throw std::runtime_error("configure failed");
         harness.setReceiverRange(fc.receivers ? range : std::nullopt);
         csm::CascadeHistory h;
@@ -349,7 +362,9 @@ int runFitStudy(const Options& o) {
           }
           std::sort(depths.begin(), depths.end());
           if (!depths.empty()) {
-            range = csm::ReceiverDepthRange{std::max(0.0, depths.front()), depths.back()};
+            // With the histogram the fly-through's reduction builds (camera near .. shadow
+            // distance).
+            range = tradeoff::receiverRangeOf(px, accCam, cam.nearM, s.shadowDistanceM);
             medianDepthM = depths[depths.size() / 2];
           }
         }
@@ -542,7 +557,7 @@ int run(int argc, char** argv) {
       configs.push_back(cfg);
     }
     // The fit axes (issue 10): box fit, ladder step (0 = off), receiver-driven splits.
-    for (int k = 0; k < 6; ++k) {
+    for (int k = 0; k < 8; ++k) {
       if (o.lodStudy) break;
       Config cfg;
       if (k == 0) cfg.fit = csm::BoxFit::kTight;
@@ -553,6 +568,10 @@ int run(int argc, char** argv) {
       if (k == 5) {
         cfg.fit = csm::BoxFit::kTight;
         cfg.receivers = true;
+      }
+      if (k >= 6) {  // histogram-driven splits (sphere, tight)
+        cfg.fit = k == 7 ? csm::BoxFit::kTight : csm::BoxFit::kSphere;
+        cfg.receivers = cfg.histogram = true;
       }
       configs.push_back(cfg);
     }
@@ -573,6 +592,7 @@ int run(int argc, char** argv) {
       s.splitLambda = cfg.lambda;
       s.blendBand = cfg.blendBand;
       s.boxFit = cfg.fit;
+      if (cfg.histogram) s.receiverSplitScheme = csm::ReceiverSplitScheme::kHistogram;
       s.sizeLadder = cfg.ladderSteps > 0.0;
       if (cfg.ladderSteps > 0.0) s.ladderStepsPerOctave = cfg.ladderSteps;
       harness.setReceiverRange(std::nullopt);
@@ -606,16 +626,9 @@ int run(int argc, char** argv) {
           rc.aspect = double(accuracyView.width) / accuracyView.height;
           csm::CascadeHistory hr;
           const csm::CascadeFrame fr = harness.computeFrame(rc, light, hr);
-          double lo = 1e300, hi = 0.0;
-          for (const csm_measure::PixelSample& p :
-               harness.renderAccuracy(rc, fr, accuracyView, cfg.kernel)) {
-            const double d = glm::dot(p.posWs - rc.positionWs, rc.forwardWs());
-            lo = std::min(lo, d);
-            hi = std::max(hi, d);
-          }
-          harness.setReceiverRange(hi >= lo ? std::optional<csm::ReceiverDepthRange>(
-                                                  csm::ReceiverDepthRange{std::max(0.0, lo), hi})
-                                            : std::nullopt);
+          harness.setReceiverRange(
+              tradeoff::receiverRangeOf(harness.renderAccuracy(rc, fr, accuracyView, cfg.kernel),
+                                        rc, rc.nearM, std::max(s.shadowDistanceM, 2.0 * rc.nearM)));
         }
         csm::CascadeHistory h;
         // Timing: one warm-up frame, then the fastest of kTimedFrames (lavapipe's timings vary by
@@ -700,7 +713,7 @@ int run(int argc, char** argv) {
                     r.shimmerMean, r.shimmerMax, r.triangles, (unsigned long long)r.pixels,
                     r.pareto ? 1 : 0, c.isDefault() ? 1 : 0,
                     c.fit == csm::BoxFit::kTight ? "tight" : "sphere", c.ladderSteps,
-                    c.receivers ? 1 : 0);
+                    c.receivers ? (c.histogram ? 2 : 1) : 0);
       f << line;
     }
   }
