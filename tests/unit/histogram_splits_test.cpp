@@ -211,6 +211,8 @@ TEST(HistogramSplits, TownCascadeIsTighterThanWithTheRangeScheme) {
   for (const glm::dvec3 origin : {glm::dvec3(0.0), glm::dvec3(1e7, 0.0, -1e7)}) {
     const DirectionalLight light{{0.45, -0.8, -0.35}};
     ShadowSettings s = zoomSettings();
+    EXPECT_EQ(s.receiverSplitScheme, ReceiverSplitScheme::kHistogram);  // the default
+    s.receiverSplitScheme = ReceiverSplitScheme::kRange;
     const ReceiverDepthRange town = townRange();
     const auto range = computeCascades(s, zoomCamera(origin), light, nullptr, nullptr, &town);
     s.receiverSplitScheme = ReceiverSplitScheme::kHistogram;

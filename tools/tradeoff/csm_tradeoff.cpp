@@ -620,7 +620,8 @@ int run(int argc, char** argv) {
       s.splitLambda = cfg.lambda;
       s.blendBand = cfg.blendBand;
       s.boxFit = cfg.fit;
-      if (cfg.histogram) s.receiverSplitScheme = csm::ReceiverSplitScheme::kHistogram;
+      s.receiverSplitScheme =
+          cfg.histogram ? csm::ReceiverSplitScheme::kHistogram : csm::ReceiverSplitScheme::kRange;
       s.sizeLadder = cfg.ladderSteps > 0.0;
       if (cfg.ladderSteps > 0.0) s.ladderStepsPerOctave = cfg.ladderSteps;
       harness.setReceiverRange(std::nullopt);

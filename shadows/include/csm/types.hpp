@@ -120,8 +120,10 @@ struct ShadowSettings {
   /// [0, 1].
   double receiverDepthMargin = 0.15;
   /// How receiver-driven splits place the interior splits (kHistogram needs a histogram in the
-  /// ReceiverDepthRange; without one it acts as kRange).
-  ReceiverSplitScheme receiverSplitScheme = ReceiverSplitScheme::kRange;
+  /// ReceiverDepthRange; without one it acts as kRange). kHistogram by measurement (README,
+  /// "Tighter where the receivers are"): as accurate as kRange on a narrow zoom, and on a wide view
+  /// whose receivers crowd the near end it keeps the near cascades tight and draws fewer triangles.
+  ReceiverSplitScheme receiverSplitScheme = ReceiverSplitScheme::kHistogram;
 
   // ---- Soft shadows (the PCSS kernel) ----
   /// Angular diameter of the light (the sun: 0.53 degrees), in degrees, [0, 20]. Sets the
