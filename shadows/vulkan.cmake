@@ -17,6 +17,7 @@ add_custom_command(OUTPUT ${_csm_range_hdr}
           -I${CSM_SHARED_INCLUDE_DIR} --vn csm_depth_range_comp_spv -o ${_csm_range_hdr}
           ${CSM_MODULE_SHADER_DIR}/csm_depth_range.comp
   DEPENDS ${CSM_MODULE_SHADER_DIR}/csm_depth_range.comp
+          ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
   COMMENT "glslang csm_depth_range.comp" VERBATIM)
 add_custom_target(csm_depth_range_shader DEPENDS ${_csm_range_hdr})
 

@@ -142,6 +142,9 @@ constexpr std::array<std::pair<const char*, SplitScheme>, 3> kSchemes{{
 }};
 constexpr std::array<std::pair<const char*, csm::BoxFit>, 2> kBoxFits{
     {{"sphere", csm::BoxFit::kSphere}, {"tight", csm::BoxFit::kTight}}};
+constexpr std::array<std::pair<const char*, csm::ReceiverSplitScheme>, 2> kReceiverSchemes{
+    {{"range", csm::ReceiverSplitScheme::kRange},
+     {"histogram", csm::ReceiverSplitScheme::kHistogram}}};
 constexpr std::array<std::pair<const char*, bool>, 2> kDepthFormats{
     {{"d32", false}, {"d16", true}}};
 
@@ -199,6 +202,9 @@ const std::vector<Entry>& table() {
       choice("shadow.boxFit", "one of sphere, tight", kBoxFits,
              [](AppSettings& s) -> csm::BoxFit& { return s.shadow.boxFit; }),
       boolean("shadow.receiverSplits", [](AppSettings& s) -> bool& { return s.receiverSplits; }),
+      choice(
+          "shadow.receiverSplitScheme", "one of range, histogram", kReceiverSchemes,
+          [](AppSettings& s) -> csm::ReceiverSplitScheme& { return s.shadow.receiverSplitScheme; }),
       number<double>("shadow.lightStep", "degrees in [0, 10] (0 = the exact sun)", 0, 10, false,
                      [](AppSettings& s) -> double& { return s.shadow.lightStepDeg; }),
       boolean("lod.enabled", [](AppSettings& s) -> bool& { return s.casterLods; }),

@@ -656,7 +656,11 @@ void WorldRenderer::recordDepthRange(const engine::Frame& f) {
       VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
       VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
   const glm::mat4 proj = camera_.projection();
-  const csm::vk::DepthProjection dp{proj[2][2], proj[3][2], 1.0f};
+  // (And the receivers' view-depth histogram, camera near .. shadow distance, for
+  // shadow.receiverSplitScheme=histogram.)
+  const csm::vk::DepthProjection dp{
+      proj[2][2], proj[3][2], 1.0f, float(camera_.nearM),
+      float(std::max(settings_.shadow.shadowDistanceM, 2.0 * camera_.nearM))};
   const csm::vk::Status s = depthRange_->record(
       cmd, f.depthView, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, f.extent, dp, f.slot);
   if (!s.ok()) throw std::runtime_error("DepthRangeReducer::record: " + s.message());

@@ -1,12 +1,14 @@
 // csm::vk::DepthRangeReducer against an analytic scene: the depth buffer of a camera above an
 // infinite ground plane (sky where the view looks above the horizon or beyond the far plane),
 // computed exactly and uploaded; the reduction must return the nearest and farthest view depth
-// of the ground pixels. A camera cut drops every earlier result; an empty view gives none.
+// of the ground pixels, and their histogram over log-spaced view-depth bins pixel for pixel. A
+// camera cut drops every earlier result; an empty view gives none.
 // Validation on, zero messages.
 #include <cmath>
 #include <limits>
 #include <vector>
 
+#include <csm/splits.hpp>
 #include <csm/vulkan/depth_range.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -16,7 +18,8 @@
 namespace {
 
 struct AnalyticDepth {
-  std::vector<float> depth;  // the depth buffer (D32, standard depth, 1 = clear)
+  std::vector<float> depth;    // the depth buffer (D32, standard depth, 1 = clear)
+  std::vector<double> depthM;  // analytic view depth of each ground pixel (0: sky)
   double minM = std::numeric_limits<double>::infinity();
   double maxM = 0.0;  // analytic view depths of the ground pixels
   float minF = std::numeric_limits<float>::infinity(), maxF = 0.0f;  // as the shader computes
@@ -34,6 +37,7 @@ AnalyticDepth groundPlane(std::uint32_t w, std::uint32_t h, double heightM, doub
   const double tanY = std::tan(glm::radians(fovDeg) * 0.5);
   const double pitch = glm::radians(pitchDeg);
   a.depth.resize(std::size_t(w) * h, 1.0f);
+  a.depthM.resize(std::size_t(w) * h, 0.0);
   for (std::uint32_t y = 0; y < h; ++y) {
     for (std::uint32_t x = 0; x < w; ++x) {
       // View-space ray through the pixel centre (Vulkan: y down in the image); its x does not
@@ -49,6 +53,7 @@ AnalyticDepth groundPlane(std::uint32_t w, std::uint32_t h, double heightM, doub
       const float z = float(clip.z / clip.w);
       if (!(z < 1.0f)) continue;
       a.depth[std::size_t(y) * w + x] = z;
+      a.depthM[std::size_t(y) * w + x] = depthM;
       a.minM = std::min(a.minM, depthM);
       a.maxM = std::max(a.maxM, depthM);
       const float d = a.projection.p32 / (z + a.projection.p22);
@@ -148,6 +153,114 @@ TEST_F(DepthRangeTest, ReturnsTheAnalyticRangeAndFallsBackAfterACut) {
   });
   EXPECT_FALSE(csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), 9, &status));
   EXPECT_NE(status.message().find("slots = 9"), std::string::npos) << status.message();
+  reducer.reset();
+}
+
+TEST_F(DepthRangeTest, HistogramOfAnAnalyticGroundPlane) {
+  constexpr std::uint32_t kW = 333, kH = 187;  // not multiples of the 16x16 tile
+  const AnalyticDepth scene = groundPlane(kW, kH, 6.0, -12.0, 60.0, 0.1, 800.0);
+  csm::vk::DepthProjection proj = scene.projection;
+  proj.histogramNearM = 0.5f;
+  proj.histogramFarM = 400.0f;  // the ground reaches ~585 m: the last bin holds the rest
+
+  // Expected counts: every ground pixel binned by its view depth as the shader computes it
+  // (float formula from the uploaded value); a pixel within 1e-3 of a bin edge may land in
+  // either bin (the shader's float log), so each bin gets a [sure, possible] interval.
+  const double binsPerLog = csm::kDepthHistogramBins / std::log(400.0 / 0.5);
+  std::vector<std::uint32_t> sure(csm::kDepthHistogramBins), possible(csm::kDepthHistogramBins);
+  std::vector<std::uint32_t> analytic(csm::kDepthHistogramBins);
+  std::uint64_t ground = 0;
+  for (std::size_t i = 0; i < scene.depth.size(); ++i) {
+    if (scene.depth[i] == 1.0f) continue;
+    ++ground;
+    const float d = proj.p32 / (scene.depth[i] + proj.p22);
+    const double u = std::log(double(d) / 0.5) * binsPerLog;
+    const std::uint32_t b = csm::depthHistogramBin(0.5, 400.0, csm::kDepthHistogramBins, d);
+    const std::uint32_t lo = csm::depthHistogramBin(0.5, 400.0, csm::kDepthHistogramBins,
+                                                    0.5 * std::exp((u - 1e-3) / binsPerLog));
+    const std::uint32_t hi = csm::depthHistogramBin(0.5, 400.0, csm::kDepthHistogramBins,
+                                                    0.5 * std::exp((u + 1e-3) / binsPerLog));
+    if (lo == hi) ++sure[b];
+    for (std::uint32_t k = lo; k <= hi; ++k) ++possible[k];
+    ++analytic[csm::depthHistogramBin(0.5, 400.0, csm::kDepthHistogramBins, scene.depthM[i])];
+  }
+  ASSERT_GT(ground, 20000u);
+
+  engine::ImageDesc desc;
+  desc.format = VK_FORMAT_D32_SFLOAT;
+  desc.extent = {kW, kH};
+  desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  engine::Image depth(ctx(), desc, "analytic depth");
+  engine::uploadImage(ctx(), depth, engine::asBytes(std::span<const float>(scene.depth)),
+                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  csm::vk::Status status;
+  auto reducer = csm::vk::DepthRangeReducer::create(world::shadowDeviceInfo(ctx()), 2, &status);
+  ASSERT_TRUE(reducer) << status.message();
+  ctx().submitAndWait([&](VkCommandBuffer cmd) {
+    ASSERT_TRUE(
+        reducer
+            ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, proj, 0)
+            .ok());
+    // Slot 1 without a histogram range: a range with no histogram.
+    ASSERT_TRUE(reducer
+                    ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH},
+                             scene.projection, 1)
+                    .ok());
+  });
+  const auto range = reducer->read(0);
+  ASSERT_TRUE(range.has_value());
+  ASSERT_TRUE(range->histogram.present());
+  EXPECT_EQ(range->histogram.nearM, 0.5);
+  EXPECT_EQ(range->histogram.farM, 400.0);
+  std::uint64_t total = 0, occupied = 0, differAnalytic = 0;
+  for (std::uint32_t b = 0; b < csm::kDepthHistogramBins; ++b) {
+    const std::uint32_t got = range->histogram.counts[b];
+    total += got;
+    occupied += got > 0 ? 1 : 0;
+    EXPECT_GE(got, sure[b]) << "bin " << b;
+    EXPECT_LE(got, possible[b]) << "bin " << b;
+    differAnalytic += got > analytic[b] ? got - analytic[b] : analytic[b] - got;
+  }
+  EXPECT_EQ(total, ground);  // every ground pixel counted once, sky never
+  // A row of the view sees one view depth (x does not change it): every bin holds whole rows
+  // (83 of the bins are occupied by the 180-odd ground rows).
+  for (std::uint32_t b = 0; b < csm::kDepthHistogramBins; ++b) {
+    EXPECT_EQ(range->histogram.counts[b] % kW, 0u) << "bin " << b;
+  }
+  EXPECT_GT(occupied, 60u);
+  EXPECT_GE(range->histogram.counts[csm::kDepthHistogramBins - 1], kW);  // beyond 400 m
+  // Against the analytic depths (double): only pixels the depth buffer's precision moves
+  // across a bin edge differ.
+  EXPECT_LT(differAnalytic, ground / 100) << differAnalytic << " of " << ground;
+  std::printf(
+      "histogram: %llu ground pixels in %llu bins, %llu bin moves against the analytic "
+      "depths\n",
+      (unsigned long long)total, (unsigned long long)occupied, (unsigned long long)differAnalytic);
+  const auto plain = reducer->read(1);
+  ASSERT_TRUE(plain.has_value());
+  EXPECT_FALSE(plain->histogram.present());
+
+  // The histogram drives the splits.
+  csm::ShadowSettings s;
+  s.receiverSplitScheme = csm::ReceiverSplitScheme::kHistogram;
+  csm::Camera cam;
+  cam.farM = 800.0;
+  auto f = csm::computeCascades(s, cam, csm::DirectionalLight{}, nullptr, nullptr, &*range);
+  ASSERT_TRUE(f.ok());
+  EXPECT_TRUE(f.value().histogramDriven);
+  auto g = csm::computeCascades(s, cam, csm::DirectionalLight{}, nullptr, nullptr, &*plain);
+  ASSERT_TRUE(g.ok());
+  EXPECT_FALSE(g.value().histogramDriven);
+
+  // A bad histogram range is refused by name.
+  ctx().submitAndWait([&](VkCommandBuffer cmd) {
+    csm::vk::DepthProjection bad = proj;
+    bad.histogramFarM = 0.25f;
+    const csm::vk::Status st = reducer->record(
+        cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, bad, 0);
+    EXPECT_EQ(st.code(), csm::vk::ErrorCode::kInvalidArgument);
+    EXPECT_NE(st.message().find("histogramFarM = 0.25"), std::string::npos) << st.message();
+  });
   reducer.reset();
 }
 

@@ -9,7 +9,8 @@
 // Axes: cascade count 1..6 x resolution 512..8192 x caster LODs on/off (each cascade draws the
 // sample world's simplified caster meshes at the fly-through's default LOD for it: 0, 1, 2, 2...),
 // then split lambda, PCF kernel, blend band, depth format, box fit, size-ladder step (or off) and
-// receiver-driven splits one at a time around the defaults (4 cascades, 2048^2, lambda 0.75,
+// receiver-driven splits (range, or histogram: CSV receiver_splits 1 / 2) one at a time around
+// the defaults (4 cascades, 2048^2, lambda 0.75,
 // tent3x3, band 0.1, D32, LODs on, sphere box, ladder 2^(1/8), full split range).
 // Timing per pose: one warm-up frame, then the fastest of two. Full mode: world of 8000 trees,
 // 5 poses, 8 shimmer frames, timing view 640x360, accuracy view 320x180 (sized to finish in

@@ -46,6 +46,9 @@ struct Config {
   csm::BoxFit fit = csm::BoxFit::kSphere;
   double ladderSteps = 8.0;
   bool receivers = false;
+  /// With `receivers`: the splits from the receivers' depth histogram (ReceiverSplitScheme::
+  /// kHistogram) instead of the range's lambda splits.
+  bool histogram = false;
   /// The LOD each cascade draws at least when `lods` (--lod-study varies it; empty: all 0).
   std::vector<uint32_t> schedule;
   /// RendererOptions::lodMaxErrorTexels when `lods` (0: the schedule alone).
@@ -78,7 +81,7 @@ struct Config {
     } else if (ladderSteps != 8.0) {
       s += " ladder" + std::to_string(int(ladderSteps));
     }
-    if (receivers) s += " rcv";
+    if (receivers) s += histogram ? " hist" : " rcv";
     return s;
   }
   /// The label without the fields at their default (for the plot).

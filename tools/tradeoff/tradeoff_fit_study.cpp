@@ -9,10 +9,15 @@
 #include <sample_world/settings.hpp>
 #include <sample_world/world.hpp>
 
+#include "receiver_histogram.hpp"
+
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -21,15 +26,52 @@ namespace tradeoff {
 // --fit-study: what the tight box and receiver-driven splits buy where the sphere loses (the
 // zoom path at 8 degrees) and what they cost where it does not (the forest path at 60 degrees),
 // at the fly-through's shadow settings. Per pose and configuration: shadow-pass GPU ms (warm-up,
-// fastest of 2), misclassified receiver pixels against Embree, and the texel size of the cascade
+// fastest of 2, then 3 rounds with the configurations interleaved, fastest kept) and triangles,
+// misclassified receiver pixels against Embree, and the texel size of the cascade
 // that holds the median receiver depth (the town, on the zoom path). The receiver range is the
-// min/max view depth of the receiver pixels of the pose's full-range frame: what the depth
-// reduction (csm::vk::DepthRangeReducer) returns for the frame before.
+// min/max view depth (and the log-spaced histogram, camera near .. shadow distance) of the
+// receiver pixels of the pose's full-range frame: what the depth reduction
+// (csm::vk::DepthRangeReducer) returns for the frame before.
 struct FitConfig {
   const char* name;
   csm::BoxFit fit;
   bool receivers;
+  csm::ReceiverSplitScheme scheme = csm::ReceiverSplitScheme::kRange;
 };
+
+// The shadow pass of every configuration again, interleaved (3 rounds, fastest kept): the
+// machine's load drifts over a sequential run, so the ms are compared within a round.
+void retimeInterleaved(csm_measure::Harness& harness, std::span<const FitConfig> configs,
+                       const world::AppSettings& app,
+                       const std::optional<csm::ReceiverDepthRange>& range, const csm::Camera& cam,
+                       const csm::DirectionalLight& light, VkExtent2D view,
+                       std::vector<nlohmann::json>& poseRows) {
+  for (int round = 0; round < 3; ++round) {
+    for (std::size_t k = 0; k < configs.size(); ++k) {
+      csm::ShadowSettings s = app.shadow;
+      s.boxFit = configs[k].fit;
+      s.receiverSplitScheme = configs[k].scheme;
+      if (!harness.configure(s).ok()) throw std::runtime_error("configure failed");
+      harness.setReceiverRange(configs[k].receivers ? range : std::nullopt);
+      csm::CascadeHistory h;
+      harness.timeFrame(cam, light, h, view, app.kernel);
+      const double ms = harness.timeFrame(cam, light, h, view, app.kernel).shadowGpuMs;
+      poseRows[k]["shadow_gpu_ms"] = std::min(poseRows[k]["shadow_gpu_ms"].get<double>(), ms);
+    }
+  }
+}
+
+// One Markdown row of the study's table.
+void printFitRow(const char* path, double t, double fovDeg, const nlohmann::json& j) {
+  std::printf("| %s | t=%.1f, fov %.0f deg | %s | %.4f | %llu | %llu | %.2f | %llu |\n", path, t,
+              fovDeg, j["configuration"].get<std::string>().c_str(),
+              j["texel_of_median_cascade_m"].get<double>(),
+              (unsigned long long)j["misclassified"].get<std::uint64_t>(),
+              (unsigned long long)j["receiver_pixels"].get<std::uint64_t>(),
+              j["shadow_gpu_ms"].get<double>(),
+              (unsigned long long)j["shadow_triangles"].get<std::uint64_t>());
+  std::fflush(stdout);
+}
 
 int runFitStudy(const Options& o) {
   std::filesystem::create_directories(o.out);
@@ -38,10 +80,14 @@ int runFitStudy(const Options& o) {
   wd.rockCount = 400;
   wd.buildingCount = 40;
   nlohmann::json report;
-  const FitConfig configs[] = {{"sphere, full range (before)", csm::BoxFit::kSphere, false},
-                               {"tight box", csm::BoxFit::kTight, false},
-                               {"receiver splits", csm::BoxFit::kSphere, true},
-                               {"tight box + receiver splits", csm::BoxFit::kTight, true}};
+  const FitConfig configs[] = {
+      {"sphere, full range (before)", csm::BoxFit::kSphere, false},
+      {"tight box", csm::BoxFit::kTight, false},
+      {"receiver splits", csm::BoxFit::kSphere, true},
+      {"tight box + receiver splits", csm::BoxFit::kTight, true},
+      {"receiver histogram", csm::BoxFit::kSphere, true, csm::ReceiverSplitScheme::kHistogram},
+      {"tight box + receiver histogram", csm::BoxFit::kTight, true,
+       csm::ReceiverSplitScheme::kHistogram}};
   struct Study {
     const char* path;
     std::vector<double> poses;
@@ -52,8 +98,8 @@ int runFitStudy(const Options& o) {
   const double aspect = double(o.width) / double(o.height);
   std::printf(
       "| path | pose | configuration | texel of the median receiver's cascade (m) | "
-      "misclassified pixels | of receiver pixels | shadow pass GPU ms |\n"
-      "|---|---|---|---|---|---|---|\n");
+      "misclassified pixels | of receiver pixels | shadow pass GPU ms | shadow triangles |\n"
+      "|---|---|---|---|---|---|---|---|\n");
   for (const Study& st : studies) {
     wd.originWs = world::pathWorldOrigin(st.path, wd.sizeM);
     world::WorldError err;
@@ -77,9 +123,11 @@ int runFitStudy(const Options& o) {
       accCam.aspect = double(accuracyView.width) / accuracyView.height;
       std::optional<csm::ReceiverDepthRange> range;
       double medianDepthM = 0.0;
+      std::vector<nlohmann::json> poseRows;
       for (const FitConfig& fc : configs) {
         csm::ShadowSettings s = app.shadow;
         s.boxFit = fc.fit;
+        s.receiverSplitScheme = fc.scheme;
         if (!harness.configure(s).ok()) throw std::runtime_error("configure failed");
         harness.setReceiverRange(fc.receivers ? range : std::nullopt);
         csm::CascadeHistory h;
@@ -104,7 +152,9 @@ int runFitStudy(const Options& o) {
           }
           std::sort(depths.begin(), depths.end());
           if (!depths.empty()) {
-            range = csm::ReceiverDepthRange{std::max(0.0, depths.front()), depths.back()};
+            // With the histogram the fly-through's reduction builds (camera near .. shadow
+            // distance).
+            range = receiverRangeOf(px, accCam, cam.nearM, s.shadowDistanceM);
             medianDepthM = depths[depths.size() / 2];
           }
         }
@@ -114,11 +164,6 @@ int runFitStudy(const Options& o) {
             texel = frame.cascades[c].texelSizeM();
           }
         }
-        std::printf("| %s | t=%.1f, fov %.0f deg | %s | %.4f | %llu | %llu | %.2f |\n", st.path, t,
-                    glm::degrees(cam.fovYRad), fc.name, texel,
-                    (unsigned long long)acc.overall.misclassified,
-                    (unsigned long long)acc.overall.pixels, shadowMs);
-        std::fflush(stdout);
         nlohmann::json j;
         j["path"] = st.path;
         j["t"] = t;
@@ -135,9 +180,16 @@ int runFitStudy(const Options& o) {
         }
         j["texel_m"] = texels;
         j["misclassified"] = acc.overall.misclassified;
+        j["accuracy"] = acc.toJson(frame.cascadeCount);
         j["receiver_pixels"] = acc.overall.pixels;
         j["shadow_gpu_ms"] = shadowMs;
+        j["shadow_triangles"] = harness.shadowTriangles();
         j["device"] = harness.context().properties().deviceName;
+        poseRows.push_back(j);
+      }
+      retimeInterleaved(harness, configs, app, range, cam, light, {o.width, o.height}, poseRows);
+      for (nlohmann::json& j : poseRows) {
+        printFitRow(st.path, t, glm::degrees(cam.fovYRad), j);
         report["rows"].push_back(j);
       }
     }

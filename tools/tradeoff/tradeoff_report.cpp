@@ -55,7 +55,8 @@ std::vector<Row> readCsv(const std::string& path) {
     if (f.size() >= 23) {
       r.config.fit = f[20] == "tight" ? csm::BoxFit::kTight : csm::BoxFit::kSphere;
       r.config.ladderSteps = std::stod(f[21]);
-      r.config.receivers = f[22] == "1";
+      r.config.receivers = f[22] == "1" || f[22] == "2";
+      r.config.histogram = f[22] == "2";
     }
     if (f.size() >= 24) r.softError = std::stod(f[23]);
     rows.push_back(r);
@@ -92,7 +93,7 @@ void writeCsv(const std::vector<Row>& rows, const std::string& csv) {
                   r.shimmerMean, r.shimmerMax, r.triangles, (unsigned long long)r.pixels,
                   r.pareto ? 1 : 0, c.isDefault() ? 1 : 0,
                   c.fit == csm::BoxFit::kTight ? "tight" : "sphere", c.ladderSteps,
-                  c.receivers ? 1 : 0, r.softError);
+                  c.receivers ? (c.histogram ? 2 : 1) : 0, r.softError);
     f << line;
   }
 }

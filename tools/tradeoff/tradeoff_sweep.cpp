@@ -12,6 +12,8 @@
 #include <sample_world/settings.hpp>
 #include <sample_world/world.hpp>
 
+#include "receiver_histogram.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cstdio>
@@ -111,7 +113,7 @@ std::vector<Config> sweepConfigs(const Options& o) {
     configs.push_back(cfg);
   }
   // The fit axes (issue 10): box fit, ladder step (0 = off), receiver-driven splits.
-  for (int k = 0; k < 6; ++k) {
+  for (int k = 0; k < 8; ++k) {
     if (o.lodStudy) break;
     Config cfg;
     if (k == 0) cfg.fit = csm::BoxFit::kTight;
@@ -122,6 +124,10 @@ std::vector<Config> sweepConfigs(const Options& o) {
     if (k == 5) {
       cfg.fit = csm::BoxFit::kTight;
       cfg.receivers = true;
+    }
+    if (k >= 6) {  // histogram-driven splits (sphere, tight)
+      cfg.fit = k == 7 ? csm::BoxFit::kTight : csm::BoxFit::kSphere;
+      cfg.receivers = cfg.histogram = true;
     }
     configs.push_back(cfg);
   }
@@ -168,6 +174,8 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
   s.splitLambda = cfg.lambda;
   s.blendBand = cfg.blendBand;
   s.boxFit = cfg.fit;
+  s.receiverSplitScheme =
+      cfg.histogram ? csm::ReceiverSplitScheme::kHistogram : csm::ReceiverSplitScheme::kRange;
   s.sizeLadder = cfg.ladderSteps > 0.0;
   if (cfg.ladderSteps > 0.0) s.ladderStepsPerOctave = cfg.ladderSteps;
   harness.setReceiverRange(std::nullopt);
@@ -202,16 +210,9 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
       rc.aspect = double(accuracyView.width) / accuracyView.height;
       csm::CascadeHistory hr;
       const csm::CascadeFrame fr = harness.computeFrame(rc, light, hr);
-      double lo = 1e300, hi = 0.0;
-      for (const csm_measure::PixelSample& p :
-           harness.renderAccuracy(rc, fr, accuracyView, cfg.kernel)) {
-        const double d = glm::dot(p.posWs - rc.positionWs, rc.forwardWs());
-        lo = std::min(lo, d);
-        hi = std::max(hi, d);
-      }
-      harness.setReceiverRange(hi >= lo ? std::optional<csm::ReceiverDepthRange>(
-                                              csm::ReceiverDepthRange{std::max(0.0, lo), hi})
-                                        : std::nullopt);
+      harness.setReceiverRange(
+          receiverRangeOf(harness.renderAccuracy(rc, fr, accuracyView, cfg.kernel), rc, rc.nearM,
+                          std::max(s.shadowDistanceM, 2.0 * rc.nearM)));
     }
     csm::CascadeHistory h;
     // Timing: one warm-up frame, then the fastest of kTimedFrames (lavapipe's timings vary by

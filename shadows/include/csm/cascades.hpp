@@ -94,6 +94,9 @@ struct CascadeFrame {
   float normalOffsetTexels = 0.0f;
   /// The splits were fitted to a receiver depth range (computeCascades got one).
   bool receiverDriven = false;
+  /// The interior splits were placed from the receivers' depth histogram
+  /// (ReceiverSplitScheme::kHistogram with a usable histogram; histogramSplits()).
+  bool histogramDriven = false;
   /// The light direction used this frame was advanced (settings.lightStepDeg > 0 with a history).
   bool lightStepped = false;
 };

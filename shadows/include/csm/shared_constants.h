@@ -51,4 +51,10 @@
 // Most PCSS taps a pipeline may ask for (the loops are bounded by it).
 #define CSM_PCSS_MAX_TAPS 64
 
+// Bins of the receiver view-depth histogram the depth-range reduction builds
+// (csm_depth_range.comp, csm::ReceiverDepthHistogram), log-spaced between a near and a far depth:
+// 256 over 0.5 .. 1500 m is 22 bins per octave (3% of depth per bin), finer than the ladder's
+// 8 rungs per octave the splits are placed on; the shader reduces a 16x16 tile, one bin each.
+#define CSM_DEPTH_HISTOGRAM_BINS 256
+
 #endif

@@ -37,4 +37,42 @@ using SplitArray = std::array<double, kMaxCascades + 1>;
 [[nodiscard]] double quantizedShadowFar(double neededM, double maxM, double minM,
                                         double previousM) noexcept;
 
+/// The bin of view depth `depthM` in a histogram of `bins` log-spaced bins over [nearM, farM)
+/// (ReceiverDepthHistogram): floor(bins * ln(depth / near) / ln(far / near)), clamped to
+/// [0, bins - 1] (also for depths outside the range, 0 and NaN). The GPU reduction
+/// (csm_depth_range.comp) bins with the same formula in float.
+[[nodiscard]] std::uint32_t depthHistogramBin(double nearM, double farM, std::uint32_t bins,
+                                              double depthM) noexcept;
+
+/// The half side (metres) the box of the frustum slice between view depths nearM < farM needs:
+/// the split placement's model of a cascade's texel size (texel = 2 x half side / resolution).
+/// A function and its context, so that placing splits allocates nothing.
+struct SliceHalfExtent {
+  double (*halfExtentM)(const void* context, double nearM, double farM) noexcept = nullptr;
+  const void* context = nullptr;
+  [[nodiscard]] double operator()(double nearM, double farM) const noexcept {
+    return halfExtentM(context, nearM, farM);
+  }
+};
+
+/// Sample-distribution split placement from a histogram of the visible receivers' view depth.
+/// Chooses the count - 1 interior splits among the ladder's rungs 2^(k / stepsPerOctave) strictly
+/// inside (nearM, farM) (every 2nd, 3rd... rung if there are more than 126) that minimise
+///   sum over cascades of  halfExtent(cascade) x sum over its receivers of 1 / view depth,
+/// i.e. the receivers' mean texel size in units of their pixel's footprint (a pixel's footprint
+/// grows with its view depth): cascades go where the receivers are, tight around clusters, and an
+/// empty depth gap costs nothing, so it gets no resolution. Each bin counts in the cascade that
+/// holds its centre (bins before nearM in the first, after farM in the last). Exact minimum by
+/// dynamic programming over the rungs (count x rungs^2 slice extents).
+/// `previous` (optional): last frame's splits; they are kept while their cost is at most
+/// (1 + hysteresis) x the minimum's (and they are strictly increasing inside (nearM, farM)), so
+/// a histogram that changes a little moves no split.
+/// Returns false and leaves `splits` alone when there is nothing to place by: no histogram, no
+/// receiver counted, non-finite or inverted inputs, count < 2, or fewer rungs than interior
+/// splits. Otherwise splits[0] = nearM, splits[count] = farM, strictly increasing.
+[[nodiscard]] bool histogramSplits(const ReceiverDepthHistogram& histogram, double nearM,
+                                   double farM, std::uint32_t count, double stepsPerOctave,
+                                   const SliceHalfExtent& halfExtent, const SplitArray* previous,
+                                   double hysteresis, SplitArray& splits) noexcept;
+
 }  // namespace csm

@@ -51,6 +51,29 @@ glm::dvec3 heldLightDirection(const ShadowSettings& settings, const glm::dvec3& 
   return directionWs;
 }
 
+// The split placement's model of a slice's box (histogramSplits): the half side of the slice's
+// minimal sphere, or of its light-space square where the tight box would take that.
+struct SliceBoxModel {
+  const Camera* camera = nullptr;
+  glm::dmat3 basisT{1.0};
+  bool tight = false;
+};
+
+double sliceBoxHalfExtent(const void* context, double nearM, double farM) noexcept {
+  const SliceBoxModel& m = *static_cast<const SliceBoxModel*>(context);
+  double half = minimalSliceSphere(m.camera->fovYRad, m.camera->aspect, nearM, farM).radiusM;
+  if (m.tight) {
+    glm::dvec2 lo(kInf), hi(-kInf);
+    for (const glm::dvec3& p : sliceCornersCr(*m.camera, nearM, farM)) {
+      const glm::dvec3 q = m.basisT * p;
+      lo = glm::min(lo, glm::dvec2(q));
+      hi = glm::max(hi, glm::dvec2(q));
+    }
+    half = std::min(half, 0.5 * std::max(hi.x - lo.x, hi.y - lo.y));
+  }
+  return half;
+}
+
 // Puts the interior splits on the ladder (nearest rung, with hysteresis). If two would meet
 // (a span too short for the ladder's step), the splits stay as computed this frame.
 void ladderSplits(SplitArray& splitsM, std::uint32_t count, double steps, double hysteresis,
@@ -207,8 +230,30 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   frame.splitsM = settings.explicitSplits()
                       ? explicitSplits(splitNearM, frame.shadowFarM, count, settings.splitPositions)
                       : practicalSplits(splitNearM, frame.shadowFarM, count, settings.splitLambda);
+  // Histogram-driven interior splits (sample-distribution shadow maps): on the ladder's rungs
+  // by construction, kept while last frame's are within one rung's ratio of the best cost
+  // (times the hysteresis), so the rung hysteresis below is not applied on top.
+  double splitHysteresis = hysteresis;
+  if (receivers != nullptr && settings.receiverSplitScheme == ReceiverSplitScheme::kHistogram &&
+      !settings.explicitSplits()) {
+    const SliceBoxModel model{&camera, basisT,
+                              settings.stabilize && settings.boxFit == BoxFit::kTight};
+    SplitArray previous{};
+    bool havePrevious = ladder && history != nullptr;
+    for (std::uint32_t i = 1; havePrevious && i < count; ++i) {
+      if (history->splitRung[i] == kNoRung) havePrevious = false;
+      if (havePrevious) previous[i] = ladderValue(history->splitRung[i], steps);
+    }
+    if (histogramSplits(receivers->histogram, splitNearM, frame.shadowFarM, count, steps,
+                        SliceHalfExtent{&sliceBoxHalfExtent, &model},
+                        havePrevious ? &previous : nullptr,
+                        hysteresis * (std::exp2(1.0 / steps) - 1.0), frame.splitsM)) {
+      frame.histogramDriven = true;
+      splitHysteresis = 0.0;
+    }
+  }
   std::array<int, kMaxCascades + 1> splitRungs = detail::noRungs<kMaxCascades + 1>();
-  if (ladder) ladderSplits(frame.splitsM, count, steps, hysteresis, history, splitRungs);
+  if (ladder) ladderSplits(frame.splitsM, count, steps, splitHysteresis, history, splitRungs);
 
   const double res = static_cast<double>(settings.resolution);
   // A box of whole texels whose half side leaves room for the half-texel snap:

@@ -99,6 +99,11 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
     return refuse("settings.receiverDepthMargin", s.receiverDepthMargin,
                   "a fraction of the range in [0, 1]");
   }
+  if (!(s.receiverSplitScheme == ReceiverSplitScheme::kRange ||
+        s.receiverSplitScheme == ReceiverSplitScheme::kHistogram)) {
+    return refuse("settings.receiverSplitScheme", static_cast<double>(s.receiverSplitScheme),
+                  "0 (range) or 1 (histogram)");
+  }
   if (!(s.minCasterTexels >= 0.0f && s.minCasterTexels <= 1e6f)) {
     return refuse("settings.minCasterTexels", s.minCasterTexels,
                   "a number of texels in [0, 1e6] (0 turns the test off)");
@@ -151,6 +156,17 @@ std::optional<ValidationError> validate(const ReceiverDepthRange& r) {
   }
   if (!(r.maxM >= r.minM) || !std::isfinite(r.maxM)) {
     return refuse("receivers.maxM", r.maxM, "a finite view depth in metres >= receivers.minM");
+  }
+  const ReceiverDepthHistogram& h = r.histogram;
+  if (h.present()) {
+    if (!(h.nearM > 0.0) || !std::isfinite(h.nearM)) {
+      return refuse("receivers.histogram.nearM", h.nearM,
+                    "a finite view depth in metres > 0 (0: no histogram)");
+    }
+    if (!(h.farM > h.nearM * (1.0 + 1e-6)) || !std::isfinite(h.farM)) {
+      return refuse("receivers.histogram.farM", h.farM,
+                    "a finite view depth in metres > receivers.histogram.nearM * (1 + 1e-6)");
+    }
   }
   return std::nullopt;
 }

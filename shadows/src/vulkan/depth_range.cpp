@@ -14,6 +14,8 @@ namespace {
 
 constexpr std::uint32_t kGroup = 16;  // local size of csm_depth_range.comp
 constexpr std::uint32_t kFltMaxBits = 0x7f7fffffu;
+// One result slot: uvec4 (min bits, max bits, count, unused) then the histogram's bins.
+constexpr VkDeviceSize kSlotBytes = 16 + 4 * VkDeviceSize(kDepthHistogramBins);
 
 struct PushConstants {
   std::uint32_t extent[2];
@@ -21,8 +23,10 @@ struct PushConstants {
   float p32;
   float clearDepth;
   std::uint32_t slot;
+  float histNear;  // 0: no histogram
+  float binsPerLog;
 };
-static_assert(sizeof(PushConstants) == 24);
+static_assert(sizeof(PushConstants) == 32);
 
 bool readableLayout(VkImageLayout l) {
   return l == VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL ||
@@ -141,12 +145,13 @@ Status DepthRangeReducer::createSampler() {
   return {};
 }
 
-// The result buffer: one uvec4 per slot, host-visible and coherent (read back by the CPU).
+// The result buffer: one Slot (uvec4 + bins) per slot, host-visible and coherent (read back by
+// the CPU).
 Status DepthRangeReducer::createResultBuffer(VkPhysicalDevice physicalDevice) {
   const VkDevice dev = device_;
   const std::uint32_t slots = slots_;
   auto ci = vkInit<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
-  ci.size = VkDeviceSize(16) * slots;
+  ci.size = kSlotBytes * slots;
   ci.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
   ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   CSM_VK_TRY(vkCreateBuffer(dev, &ci, nullptr, &buffer_));
@@ -175,7 +180,7 @@ Status DepthRangeReducer::createResultBuffer(VkPhysicalDevice physicalDevice) {
   setName(handleBits(memory_), VK_OBJECT_TYPE_DEVICE_MEMORY, "csm depth range results memory");
   CSM_VK_TRY(vkBindBufferMemory(dev, buffer_, memory_, 0));
   CSM_VK_TRY(vkMapMemory(dev, memory_, 0, VK_WHOLE_SIZE, 0, &mapped_));
-  std::memset(mapped_, 0, std::size_t(16) * slots);
+  std::memset(mapped_, 0, std::size_t(kSlotBytes) * slots);
   return {};
 }
 
@@ -239,6 +244,17 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
     return Status(ErrorCode::kInvalidArgument,
                   "DepthRangeReducer::record: projection.p22 and p32 must be finite, p32 != 0");
   }
+  const float hNear = projection.histogramNearM, hFar = projection.histogramFarM;
+  if (hNear != 0.0f &&
+      !(hNear > 0.0f && std::isfinite(hFar) && double(hFar) > double(hNear) * (1.0 + 1e-6))) {
+    char buf[224];
+    std::snprintf(buf, sizeof buf,
+                  "DepthRangeReducer::record: projection.histogramNearM = %g, histogramFarM = %g "
+                  "is invalid: allowed 0 < histogramNearM < histogramFarM (finite), or "
+                  "histogramNearM = 0 for no histogram",
+                  double(hNear), double(hFar));
+    return Status(ErrorCode::kInvalidArgument, buf);
+  }
   // The slot's previous submission has completed (the caller's contract): rewrite its set.
   VkDescriptorImageInfo image{sampler_, depthView, layout};
   VkDescriptorBufferInfo buffer{buffer_, 0, VK_WHOLE_SIZE};
@@ -255,10 +271,10 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
   w[1].pBufferInfo = &buffer;
   vkUpdateDescriptorSets(device_, 2, w, 0, nullptr);
 
-  // Reset the slot (min = FLT_MAX, max = count = 0), then reduce.
-  const VkDeviceSize offset = VkDeviceSize(16) * slot;
+  // Reset the slot (min = FLT_MAX, max = count = 0, every bin 0), then reduce.
+  const VkDeviceSize offset = kSlotBytes * slot;
   vkCmdFillBuffer(cmd, buffer_, offset, 4, kFltMaxBits);
-  vkCmdFillBuffer(cmd, buffer_, offset + 4, 12, 0u);
+  vkCmdFillBuffer(cmd, buffer_, offset + 4, kSlotBytes - 4, 0u);
   auto toCompute = vkInit<VkMemoryBarrier2>(VK_STRUCTURE_TYPE_MEMORY_BARRIER_2);
   toCompute.srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT | VK_PIPELINE_STAGE_2_COPY_BIT;
   toCompute.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
@@ -273,8 +289,16 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineLayout_, 0, 1, &sets_[slot],
                           0, nullptr);
-  const PushConstants push{
-      {extent.width, extent.height}, projection.p22, projection.p32, projection.clearDepth, slot};
+  const float binsPerLog =
+      hNear > 0.0f ? float(double(kDepthHistogramBins) / std::log(double(hFar) / double(hNear)))
+                   : 0.0f;
+  const PushConstants push{{extent.width, extent.height},
+                           projection.p22,
+                           projection.p32,
+                           projection.clearDepth,
+                           slot,
+                           hNear,
+                           binsPerLog};
   vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
   vkCmdDispatch(cmd, (extent.width + kGroup - 1) / kGroup, (extent.height + kGroup - 1) / kGroup,
                 1);
@@ -287,19 +311,28 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
   dep.pMemoryBarriers = &toHost;
   vkCmdPipelineBarrier2(cmd, &dep);
   slotGeneration_[slot] = generation_;
+  slotHistogramNearM_[slot] = hNear;
+  slotHistogramFarM_[slot] = hFar;
   return {};
 }
 
 std::optional<ReceiverDepthRange> DepthRangeReducer::read(std::uint32_t slot) const {
   if (!(slot < slots_) || slotGeneration_[slot] != generation_) return std::nullopt;
   std::uint32_t v[4];
-  std::memcpy(v, static_cast<const char*>(mapped_) + std::size_t(16) * slot, sizeof v);
+  const char* base = static_cast<const char*>(mapped_) + std::size_t(kSlotBytes) * slot;
+  std::memcpy(v, base, sizeof v);
   if (v[2] == 0) return std::nullopt;  // no receiver pixel
   float lo = 0.0f, hi = 0.0f;
   std::memcpy(&lo, &v[0], 4);
   std::memcpy(&hi, &v[1], 4);
   if (!(lo > 0.0f) || !(hi >= lo) || !std::isfinite(hi)) return std::nullopt;
-  return ReceiverDepthRange{double(lo), double(hi)};
+  ReceiverDepthRange range{double(lo), double(hi)};
+  if (slotHistogramNearM_[slot] > 0.0f) {
+    range.histogram.nearM = double(slotHistogramNearM_[slot]);
+    range.histogram.farM = double(slotHistogramFarM_[slot]);
+    std::memcpy(range.histogram.counts.data(), base + 16, 4 * std::size_t(kDepthHistogramBins));
+  }
+  return range;
 }
 
 }  // namespace csm::vk

@@ -8,9 +8,11 @@
 //   ... host renders its depth buffer, makes it readable by compute ...
 //   reducer.record(cmd, depthView, layout, extent, projection, slot)
 //   slot = (slot + 1) % N
-// So the splits use the range of a frame one to N frames old. After a camera cut call
-// invalidate(): every result recorded before it is dropped (read returns nothing) and the splits
-// fall back to the full range until a new one arrives. Not thread-safe.
+// So the splits use the range of a frame one to N frames old. With a histogram range in the
+// projection (DepthProjection::histogramNearM), the result also carries the receivers'
+// view-depth histogram (ReceiverDepthRange::histogram) for histogram-driven splits. After a camera
+// cut call invalidate(): every result recorded before it is dropped (read returns nothing) and the
+// splits fall back to the full range until a new one arrives. Not thread-safe.
 #pragma once
 
 #include <vulkan/vulkan.h>
@@ -33,6 +35,13 @@ struct DepthProjection {
   float p22 = -1.0f;
   float p32 = -0.1f;
   float clearDepth = 1.0f;
+  /// The receivers' view-depth histogram (csm::ReceiverDepthHistogram, for
+  /// ReceiverSplitScheme::kHistogram): kDepthHistogramBins log-spaced bins over
+  /// [histogramNearM, histogramFarM), e.g. the camera's near plane and the shadow distance; depths
+  /// outside count in the end bins. histogramNearM = 0 (the default): no histogram.
+  /// 0 < histogramNearM < histogramFarM, finite, when set.
+  float histogramNearM = 0.0f;
+  float histogramFarM = 0.0f;
 };
 
 class DepthRangeReducer {
@@ -57,7 +66,7 @@ class DepthRangeReducer {
 
   /// The range last recorded into `slot`, valid once that submission has completed; nothing if
   /// the slot was never recorded, was recorded before the last invalidate(), or saw no
-  /// receiver pixel.
+  /// receiver pixel. Its histogram is present when the slot was recorded with a histogram range.
   [[nodiscard]] std::optional<ReceiverDepthRange> read(std::uint32_t slot) const;
 
   /// A camera cut: drops every result recorded so far.
@@ -81,6 +90,8 @@ class DepthRangeReducer {
   std::uint32_t slots_ = 0;
   std::uint64_t generation_ = 1;
   std::uint64_t slotGeneration_[kMaxSlots]{};
+  float slotHistogramNearM_[kMaxSlots]{};  // the histogram range each slot was recorded with
+  float slotHistogramFarM_[kMaxSlots]{};
   VkDescriptorSetLayout setLayout_ = VK_NULL_HANDLE;
   VkPipelineLayout pipelineLayout_ = VK_NULL_HANDLE;
   VkPipeline pipeline_ = VK_NULL_HANDLE;
