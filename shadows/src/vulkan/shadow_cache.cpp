@@ -424,7 +424,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
 
   const bool wasUndefined = countRecord();
   uniforms_ = packFrameUniforms(frame);
-  uniforms_.counts.w = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
+  uniforms_.wrappedLayers = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
   std::array<TexelRect, kMaxCascades> boxes{};
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     const Cascade& c = frame.cascades[i];
@@ -434,8 +434,8 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
     const std::int64_t bx = std::llround(centerLs.x / w.texel) - res / 2;
     const std::int64_t by = std::llround(centerLs.y / w.texel) - res / 2;
     boxes[i] = {bx, by, bx + res, by + res};
-    uniforms_.cascades[i].wrapInfo.x = float(floorMod(bx - w.anchorX, res));
-    uniforms_.cascades[i].wrapInfo.y = float(floorMod(by - w.anchorY, res));
+    uniforms_.cascades[i].wrapOffset.x = float(floorMod(bx - w.anchorX, res));
+    uniforms_.cascades[i].wrapOffset.y = float(floorMod(by - w.anchorY, res));
   }
   recordCachedBegin(cmd, wasUndefined);
 
@@ -458,7 +458,7 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
           casterLod(inst, schedule, w.texel, options_.lodMaxErrorTexels))];
       if (mesh.indexCount == 0) continue;
       bindMeshBuffers(cmd, mesh, bound, layout_.indexType);
-      const DepthPush push{anchorTransform(w, res, basisT, inst), cascade};
+      const DepthPushPerLayer push{anchorTransform(w, res, basisT, inst), cascade};
       vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                          &push);
       vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, 0);
