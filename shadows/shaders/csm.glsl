@@ -31,21 +31,37 @@
 
 // Mirrors csm::CsmCascadeGpu / csm::CsmUniforms (std140; offsets pinned by static_assert there).
 struct CsmCascade {
-  mat4 viewProjCr;  // camera-relative world -> shadow clip (xy in [-1, 1], z depth in [0, 1])
-  vec4 splitTexel;  // x split near (m), y split far (m), z texel size (m), w kernel scale
-  vec4 depthInfo;   // x blend band start (view depth, m), y metres per unit of stored depth,
-                    // zw world-grid index of texel (0, 0) mod CSM_WORLD_TEXEL_PERIOD
-  vec4 wrapInfo;    // xy cached cascades: wrap offset (texels) of the box's texel (0, 0)
+  mat4 viewProjCr;        // camera-relative world -> shadow clip (xy in [-1, 1], z depth in [0, 1])
+  float splitNearM;       // split range (view depth, m)
+  float splitFarM;
+  float texelSizeM;       // side of one texel (m)
+  float kernelScale;      // PCF tap spacing (texels)
+  float blendStartM;      // view depth where the blend band toward the next cascade starts (m)
+  float depthRangeM;      // metres of light-space depth per unit of stored depth
+  vec2 worldTexelOrigin;  // world-grid index of texel (0, 0) mod CSM_WORLD_TEXEL_PERIOD
+  vec2 wrapOffset;        // cached cascades: wrap offset (texels) of the box's texel (0, 0)
+  vec2 cascadeReserved;   // unused (std140 padding)
 };
 
 layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniformBlock {
   CsmCascade cascades[CSM_MAX_CASCADES];
-  vec4 cameraForward;   // xyz camera forward, w shadow far (m)
-  vec4 lightDirection;  // xyz direction the light travels
-  vec4 params;          // x blend band, y normal offset (texels), z resolution, w 1 / resolution
-  uvec4 counts;         // x cascade count, y non-empty mask, z debug mode, w wrapped (cache)
-  vec4 biasParams;      // x depth floor (texels), y depth floor (units of stored depth)
-  vec4 softParams;      // x tan(light angular diameter / 2), y largest penumbra radius (m)
+  vec3 cameraForwardWs;      // camera forward (world axes)
+  float shadowFarM;          // how far shadows reach along the view (m)
+  vec4 lightDirection;       // xyz direction the light travels
+  float blendBand;           // fraction of a cascade's depth range
+  float normalOffsetTexels;  // receiver's normal offset (texels)
+  float resolution;          // shadow-map side (texels)
+  float invResolution;       // 1 / resolution
+  uint cascadeCount;
+  uint nonEmptyMask;         // bit i: cascade i is not empty
+  uint debugMode;            // CSM_DEBUG_*
+  uint wrappedLayers;        // 1: layers addressed toroidally (cached cascades, wrapOffset)
+  float depthFloorTexels;    // depth floor (texels of the receiver's cascade)
+  float depthFloorQuantum;   // depth floor (units of stored depth: the format's quantum)
+  vec2 biasReserved;         // unused
+  float tanHalfLightAngle;   // PCSS: tan(light angular diameter / 2)
+  float maxPenumbraRadiusM;  // PCSS: largest penumbra radius (m)
+  vec2 softReserved;         // unused
 } csmU;
 
 #ifndef CSM_UNIFORMS_ONLY
@@ -65,28 +81,28 @@ struct CsmSelection {
 };
 
 /// View depth of a camera-relative position (distance along the camera's forward axis).
-float csmViewDepth(vec3 posCr) { return dot(posCr, csmU.cameraForward.xyz); }
+float csmViewDepth(vec3 posCr) { return dot(posCr, csmU.cameraForwardWs); }
 
 /// The run-time debug mode (CSM_DEBUG_*).
-uint csmDebugMode() { return csmU.counts.z; }
+uint csmDebugMode() { return csmU.debugMode; }
 
 /// Cascade i covers [split_i, split_i+1); in the last blendBand of its range the next cascade is
 /// blended in linearly if it exists and is not empty. Outside every non-empty cascade: -1.
 CsmSelection csmSelectCascade(float viewDepth) {
   CsmSelection sel = CsmSelection(-1, -1, 0.0);
-  const uint count = min(csmU.counts.x, uint(CSM_MAX_CASCADES));
-  const uint nonEmpty = csmU.counts.y;
+  const uint count = min(csmU.cascadeCount, uint(CSM_MAX_CASCADES));
+  const uint nonEmpty = csmU.nonEmptyMask;
   for (uint i = 0u; i < count; ++i) {
-    const vec4 st = csmU.cascades[i].splitTexel;
-    if ((nonEmpty & (1u << i)) != 0u && viewDepth >= st.x && viewDepth < st.y) {
+    if ((nonEmpty & (1u << i)) != 0u && viewDepth >= csmU.cascades[i].splitNearM &&
+        viewDepth < csmU.cascades[i].splitFarM) {
       sel.index = int(i);
       break;
     }
   }
   if (sel.index < 0) return sel;
   const uint next = uint(sel.index) + 1u;
-  const float bandStart = csmU.cascades[sel.index].depthInfo.x;
-  const float splitFar = csmU.cascades[sel.index].splitTexel.y;
+  const float bandStart = csmU.cascades[sel.index].blendStartM;
+  const float splitFar = csmU.cascades[sel.index].splitFarM;
   if (next < count && (nonEmpty & (1u << next)) != 0u && bandStart < splitFar &&
       viewDepth >= bandStart) {
     sel.blendIndex = int(next);
@@ -105,12 +121,12 @@ float csmKernelRadius() {
   return CSM_KERNEL_RADIUS_1TAP;
 }
 
-/// Cached cascades (CsmUniforms.counts.w != 0) address each layer toroidally: texel t of the
-/// cascade's box lives at layer texel t + wrap offset (wrapInfo.xy), modulo the resolution, and
+/// Cached cascades (CsmUniforms.wrappedLayers != 0) address each layer toroidally: texel t of the
+/// cascade's box lives at layer texel t + wrap offset (wrapOffset), modulo the resolution, and
 /// the samplers REPEAT. Box texel coordinates -> layer uv; identity when not cached.
 vec2 csmWrapUv(vec2 t, int cascade) {
-  const vec2 offset = csmU.counts.w != 0u ? csmU.cascades[cascade].wrapInfo.xy : vec2(0.0);
-  return (t + offset) * csmU.params.w;
+  const vec2 offset = csmU.wrappedLayers != 0u ? csmU.cascades[cascade].wrapOffset : vec2(0.0);
+  return (t + offset) * csmU.invResolution;
 }
 
 /// One bilinear comparison tap at shadow-map texel coordinates `t` (texel centres at i + 0.5).
@@ -118,8 +134,8 @@ vec2 csmWrapUv(vec2 t, int cascade) {
 /// cascade's box read lit (depth 1, the border of the unwrapped map): in a wrapped layer a tap
 /// that straddles the box's edge is filtered by hand from a gather, its outside texels lit.
 float csmTap(vec2 t, float layer, float depth) {
-  if (csmU.counts.w != 0u) {
-    const float res = csmU.params.z;
+  if (csmU.wrappedLayers != 0u) {
+    const float res = csmU.resolution;
     const vec2 f = t - 0.5;
     const vec2 i0 = floor(f);
     if (any(lessThan(i0, vec2(0.0))) || any(greaterThan(i0 + 1.0, vec2(res - 1.0)))) {
@@ -139,7 +155,8 @@ float csmTap(vec2 t, float layer, float depth) {
     return textureGrad(csmShadowMap, vec4(csmWrapUv(t, int(layer)), layer, depth), vec2(0.0),
                        vec2(0.0));
   }
-  return textureGrad(csmShadowMap, vec4(t * csmU.params.w, layer, depth), vec2(0.0), vec2(0.0));
+  return textureGrad(csmShadowMap, vec4(t * csmU.invResolution, layer, depth), vec2(0.0),
+                     vec2(0.0));
 }
 
 // Tent kernels from bilinear comparison taps (weights and positions: "Optimized PCF",
@@ -238,8 +255,8 @@ vec2 csmPcssDepthSlope(int i, vec3 normalWs) {
   const vec3 nLs = vec3(dot(normalWs, rightWs), dot(normalWs, upWs),
                         dot(normalWs, csmU.lightDirection.xyz));
   const float nz = min(nLs.z, -0.125);
-  const float texelM = csmU.cascades[i].splitTexel.z;
-  const float metresPerDepth = max(csmU.cascades[i].depthInfo.y, 1e-6);
+  const float texelM = csmU.cascades[i].texelSizeM;
+  const float metresPerDepth = max(csmU.cascades[i].depthRangeM, 1e-6);
   return -(nLs.xy / nz) * (texelM / metresPerDepth);
 }
 
@@ -247,7 +264,7 @@ vec2 csmPcssDepthSlope(int i, vec3 normalWs) {
 /// texel index plus the world-grid index of its texel 0), so the pattern stays on the ground when
 /// the camera moves and the stabilised map slides by whole texels.
 float csmPcssAngle(int i, vec2 t) {
-  const vec2 g = mod(floor(t) + csmU.cascades[i].depthInfo.zw, CSM_WORLD_TEXEL_PERIOD);
+  const vec2 g = mod(floor(t) + csmU.cascades[i].worldTexelOrigin, CSM_WORLD_TEXEL_PERIOD);
   uint h = uint(g.x) * 0x8da6b343u ^ uint(g.y) * 0xd8163841u ^ uint(i) * 0xcb1ab31fu;
   h ^= h >> 16;
   h *= 0x7feb352du;
@@ -269,8 +286,8 @@ vec2 csmVogel(int k, int n, float a) {
 /// the far plane (no blocker, lit), as the border of an unwrapped map does.
 vec4 csmPcssGather(int i, vec2 base) {
   const vec4 d = textureGather(csmDepthMap, vec3(csmWrapUv(base + 1.0, i), float(i)));
-  if (csmU.counts.w == 0u) return d;
-  const float res = csmU.params.z;
+  if (csmU.wrappedLayers == 0u) return d;
+  const float res = csmU.resolution;
   const bvec2 in0 =
       bvec2(base.x >= 0.0 && base.x <= res - 1.0, base.y >= 0.0 && base.y <= res - 1.0);
   const bvec2 in1 = bvec2(base.x + 1.0 >= 0.0 && base.x + 1.0 <= res - 1.0,
@@ -304,12 +321,12 @@ float csmPcssTap(int i, vec3 c, vec2 slope, vec2 p) {
 /// texels of t (raw depths, 2x2 texels per gather) whose penumbra reaches t; negative when there
 /// is none.
 float csmPcssBlockerDistance(int i, vec3 c, vec2 slope, float radius, float angle) {
-  const float metresPerDepth = csmU.cascades[i].depthInfo.y;
+  const float metresPerDepth = csmU.cascades[i].depthRangeM;
   // Texels of penumbra radius per metre between blocker and receiver.
-  const float reachPerMetre = csmU.softParams.x / max(csmU.cascades[i].splitTexel.z, 1e-9);
+  const float reachPerMetre = csmU.tanHalfLightAngle / max(csmU.cascades[i].texelSizeM, 1e-9);
   // A blocker must lie a texel's width (in metres) above the plane: the raster bias keeps the
   // receiver's own surface behind it, this keeps curved receivers from finding themselves.
-  const float minGap = csmU.cascades[i].splitTexel.z / max(metresPerDepth, 1e-6);
+  const float minGap = csmU.cascades[i].texelSizeM / max(metresPerDepth, 1e-6);
   float count = 0.0;
   float sum = 0.0;
   for (int k = 0; k < csmPcssTaps; ++k) {
@@ -336,27 +353,27 @@ float csmPcssBlockerDistance(int i, vec3 c, vec2 slope, float radius, float angl
 /// less the bias. Every comparison is against the receiver's plane texel by texel (csmPcssTap),
 /// so a plane needs no offset to clear its own texels; what remains is a second surface rising
 /// from the plane (the foot of a lit wall), whose first texels lie above the plane's
-/// extrapolation. So the plane is lifted along the normal by params.y x texel x sin(theta), as
+/// extrapolation. So the plane is lifted along the normal by normalOffsetTexels x texel x sin(theta), as
 /// the normal offset lifts it for the single tap (the same leak bound at contacts), but only in
-/// depth (params.y texels of the plane's slope): the receiver is not moved sideways, and the
+/// depth (normalOffsetTexels texels of the plane's slope): the receiver is not moved sideways, and the
 /// shadow edge stays where the caster puts it (a normal offset moves every edge toward its
-/// caster, by params.y x texel x sin^2(theta)). Plus the depth floor, as csmShadowCoord.
+/// caster, by normalOffsetTexels x texel x sin^2(theta)). Plus the depth floor, as csmShadowCoord.
 vec3 csmPcssCoord(int i, vec3 posCr, vec2 slope) {
-  const vec4 st = csmU.cascades[i].splitTexel;
   const vec4 clip = csmU.cascades[i].viewProjCr * vec4(posCr, 1.0);
-  const float metresPerDepth = max(csmU.cascades[i].depthInfo.y, 1e-30);
-  const float floorDepth = csmU.biasParams.x * st.z / metresPerDepth + csmU.biasParams.y;
-  const float lift = csmU.params.y * length(slope);
-  return vec3((clip.xy * 0.5 + 0.5) * csmU.params.z, clip.z - floorDepth - lift);
+  const float metresPerDepth = max(csmU.cascades[i].depthRangeM, 1e-30);
+  const float floorDepth =
+      csmU.depthFloorTexels * csmU.cascades[i].texelSizeM / metresPerDepth + csmU.depthFloorQuantum;
+  const float lift = csmU.normalOffsetTexels * length(slope);
+  return vec3((clip.xy * 0.5 + 0.5) * csmU.resolution, clip.z - floorDepth - lift);
 }
 
 /// PCSS shadow factor of cascade i at a receiver.
 float csmPcss(int i, vec3 posCr, vec3 normalWs) {
   const vec2 slope = csmPcssDepthSlope(i, normalWs);
   const vec3 c = csmPcssCoord(i, posCr, slope);
-  const float texelM = max(csmU.cascades[i].splitTexel.z, 1e-9);
-  const float tanHalf = csmU.softParams.x;
-  const float maxRadiusM = csmU.softParams.y;
+  const float texelM = max(csmU.cascades[i].texelSizeM, 1e-9);
+  const float tanHalf = csmU.tanHalfLightAngle;
+  const float maxRadiusM = csmU.maxPenumbraRadiusM;
   const float angle = csmPcssAngle(i, c.xy);
   // Search as far as the widest penumbra: the setting, in metres. (Not the distance to the near
   // side of the cascade's depth range: that moves in steps as the camera turns, and the search
@@ -382,26 +399,28 @@ float csmPcss(int i, vec3 posCr, vec3 normalWs) {
 
 /// Shadow-map coordinates of a receiver in cascade i, bias applied: xy in texels, z the depth to
 /// compare. The bias needs no tuning per scene, light angle, resolution or depth format:
-///  - normal offset: the receiver moves along its normal by params.y x reach x texel x sin(theta)
-///    (theta: angle between normal and light; reach: how far the kernel reads, in texels). That
-///    puts it reach x texel x tan(theta) in front of its own plane along the light, which is how
-///    much the plane's stored depth varies over the texels the kernel reads; moved sideways by at
-///    most reach x texel (bounded even at grazing light, unlike a depth-only tan(theta) bias);
-///  - depth floor: biasParams.x texels of the cascade (metres) plus biasParams.y units of stored
-///    depth (the format's quantum: a D16 step or 16 ulp of D32), toward the light. It is all that
-///    remains when the light hits a surface head-on (theta = 0).
+///  - normal offset: the receiver moves along its normal by normalOffsetTexels x reach x texel x
+///    sin(theta) (theta: angle between normal and light; reach: how far the kernel reads, in
+///    texels). That puts it reach x texel x tan(theta) in front of its own plane along the light,
+///    which is how much the plane's stored depth varies over the texels the kernel reads; moved
+///    sideways by at most reach x texel (bounded even at grazing light, unlike a depth-only
+///    tan(theta) bias);
+///  - depth floor: depthFloorTexels texels of the cascade (metres) plus depthFloorQuantum units of
+///    stored depth (the format's quantum: a D16 step or 16 ulp of D32), toward the light. It is
+///    all that remains when the light hits a surface head-on (theta = 0).
 /// Receivers facing away from the light (cos theta <= 0) get the largest normal offset; csmShadow
 /// does not sample for them at all. Usable by any kernel (the offset follows csmKernelRadius()).
 vec3 csmShadowCoord(int i, vec3 posCr, vec3 normalWs) {
-  const vec4 st = csmU.cascades[i].splitTexel;
+  const float texelM = csmU.cascades[i].texelSizeM;
   const float cosTheta = clamp(dot(normalWs, -csmU.lightDirection.xyz), 0.0, 1.0);
   const float sinTheta = sqrt(max(1.0 - cosTheta * cosTheta, 0.0));
-  const float reachTexels = max(csmKernelRadius() * st.w, 1.0);
-  const float offsetM = csmU.params.y * st.z * reachTexels * sinTheta;
+  const float reachTexels = max(csmKernelRadius() * csmU.cascades[i].kernelScale, 1.0);
+  const float offsetM = csmU.normalOffsetTexels * texelM * reachTexels * sinTheta;
   const vec4 clip = csmU.cascades[i].viewProjCr * vec4(posCr + normalWs * offsetM, 1.0);
-  const float metresPerDepth = max(csmU.cascades[i].depthInfo.y, 1e-30);
-  const float floorDepth = csmU.biasParams.x * st.z / metresPerDepth + csmU.biasParams.y;
-  return vec3((clip.xy * 0.5 + 0.5) * csmU.params.z, clip.z - floorDepth);
+  const float metresPerDepth = max(csmU.cascades[i].depthRangeM, 1e-30);
+  const float floorDepth =
+      csmU.depthFloorTexels * texelM / metresPerDepth + csmU.depthFloorQuantum;
+  return vec3((clip.xy * 0.5 + 0.5) * csmU.resolution, clip.z - floorDepth);
 }
 
 /// The geometric (facet) normal of the triangle a receiver lies on, for the bias: what the shadow
@@ -428,7 +447,7 @@ float csmSampleCascade(int i, vec3 posCr, vec3 normalWs, vec2 pixel) {
   if (csmKernel == CSM_KERNEL_PCSS) return csmPcss(i, posCr, normalWs);
   const vec3 c = csmShadowCoord(i, posCr, normalWs);
   const float layer = float(i);
-  const float scale = csmU.cascades[i].splitTexel.w;
+  const float scale = csmU.cascades[i].kernelScale;
   if (csmKernel == CSM_KERNEL_1TAP) return csmTap(c.xy, layer, c.z);
   if (csmKernel == CSM_KERNEL_POISSON16) return csmPcfPoisson(c.xy, scale, layer, c.z, pixel);
   return csmPcfTent(c.xy, scale, layer, c.z);
@@ -473,15 +492,14 @@ vec3 csmDebugColor(vec3 posCr, vec3 normalWs, vec2 pixel, float shadow, vec3 sha
       mode == CSM_DEBUG_DEPTH_DIFF) {
     if (sel.index < 0) return vec3(0.0);
     const vec3 c = csmShadowCoord(sel.index, posCr, normalWs);
-    const vec2 uv = c.xy * csmU.params.w;
+    const vec2 uv = c.xy * csmU.invResolution;
     if (mode == CSM_DEBUG_LIGHT_COORDS) return vec3(uv, c.z);
     const float stored =
         textureLod(csmDepthMap, vec3(csmWrapUv(c.xy, sel.index), float(sel.index)), 0.0).r;
     if (mode == CSM_DEBUG_SAMPLED_DEPTH) return vec3(stored);
     // Depth difference in texels of this cascade: red behind the stored depth, green in front.
-    const vec4 st = csmU.cascades[sel.index].splitTexel;
-    const float diffTexels =
-        (c.z - stored) * csmU.cascades[sel.index].depthInfo.y / max(st.z, 1e-6);
+    const float diffTexels = (c.z - stored) * csmU.cascades[sel.index].depthRangeM /
+                             max(csmU.cascades[sel.index].texelSizeM, 1e-6);
     const float v = clamp(0.25 + abs(diffTexels) / 8.0, 0.0, 1.0);
     return diffTexels > 0.0 ? vec3(v, 0.0, 0.0) : vec3(0.0, v, 0.0);
   }

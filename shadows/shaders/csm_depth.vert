@@ -6,10 +6,11 @@
 
 layout(location = 0) in vec3 inPositionMs;
 
-// 68 bytes (CSM_DEPTH_PUSH_SIZE): model -> shadow clip, then the cascade index (unused here).
+// 68 bytes (CSM_DEPTH_PUSH_SIZE, C++ DepthPushPerLayer): model -> shadow clip, then the cascade
+// index (unused here).
 layout(push_constant) uniform CsmDepthPush {
-  mat4 modelToClip;
-  uint cascadeOrMask;
+  mat4 modelToShadowClip;
+  uint cascade;
 } pc;
 
-void main() { gl_Position = pc.modelToClip * vec4(inPositionMs, 1.0); }
+void main() { gl_Position = pc.modelToShadowClip * vec4(inPositionMs, 1.0); }

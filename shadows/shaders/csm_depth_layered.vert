@@ -11,16 +11,17 @@
 
 layout(location = 0) in vec3 inPositionMs;
 
+// 68 bytes (CSM_DEPTH_PUSH_SIZE, C++ DepthPushLayered).
 layout(push_constant) uniform CsmDepthPush {
-  mat4 modelCr;
-  uint cascadeOrMask;
+  mat4 modelToCameraRelative;
+  uint cascadeMask;
 } pc;
 
 void main() {
   uint n = uint(gl_InstanceIndex);
   int layer = 0;
   for (int i = 0; i < CSM_MAX_CASCADES; ++i) {
-    if ((pc.cascadeOrMask & (1u << uint(i))) != 0u) {
+    if ((pc.cascadeMask & (1u << uint(i))) != 0u) {
       if (n == 0u) {
         layer = i;
         break;
@@ -29,5 +30,6 @@ void main() {
     }
   }
   gl_Layer = layer;
-  gl_Position = csmU.cascades[layer].viewProjCr * (pc.modelCr * vec4(inPositionMs, 1.0));
+  gl_Position =
+      csmU.cascades[layer].viewProjCr * (pc.modelToCameraRelative * vec4(inPositionMs, 1.0));
 }

@@ -36,13 +36,13 @@ TEST(ShadowCacheSampling, WrappedLayersAgreeWithAnalyticShadowWhileTheCameraMove
       EXPECT_GT(a.shadowed, 400u);
       EXPECT_GE(a.ratio(), 0.995) << csm::kernelName(kernel);
       for (std::uint32_t c = 0; c < 4; ++c) {
-        const glm::vec4 d = scene.renderer().uniforms().cascades[c].wrapInfo;
+        const glm::vec2 d = scene.renderer().uniforms().cascades[c].wrapOffset;
         wrapped = wrapped || d.x != 0.0f || d.y != 0.0f;
       }
       if (f == 23) scene.saveArtefact(r.image, "shadow_cache_wrapped_f23");
     }
     EXPECT_TRUE(wrapped) << "the camera should have moved the layers' wrap offsets";
-    EXPECT_EQ(scene.renderer().uniforms().counts.w, 1u);
+    EXPECT_EQ(scene.renderer().uniforms().wrappedLayers, 1u);
   }
   EXPECT_EQ(validationMessages(), 0u);
 }

@@ -382,8 +382,8 @@ TEST(ShadowView, CachedAndUncachedPassesPackTheDepthFormatsQuantum) {
       options.cache = cache;
       CSM_ASSERT_OK(scene.update(testSettings(4, 512), options));
       (void)scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
-      EXPECT_EQ(scene.renderer().uniforms().biasParams.y, csm::depthQuantum(16));
-      EXPECT_EQ(scene.renderer().uniforms().counts.w, cache ? 1u : 0u);
+      EXPECT_EQ(scene.renderer().uniforms().depthFloorQuantum, csm::depthQuantum(16));
+      EXPECT_EQ(scene.renderer().uniforms().wrappedLayers, cache ? 1u : 0u);
     }
   }
   EXPECT_EQ(validationMessages(), 0u);

@@ -239,7 +239,7 @@ TEST_P(StabilityExtremes, RendersFiniteAccurateAndStable) {
     EXPECT_TRUE(csm_measure::frameIsFinite(frame));
     const csm::CsmUniforms uniforms = csm::packUniforms(frame, settings);
     const auto* u = reinterpret_cast<const float*>(&uniforms);
-    for (size_t i = 0; i < offsetof(csm::CsmUniforms, counts) / sizeof(float); ++i) {
+    for (size_t i = 0; i < offsetof(csm::CsmUniforms, cascadeCount) / sizeof(float); ++i) {
       ASSERT_TRUE(std::isfinite(u[i])) << "uniform float " << i;
     }
     engine::CpuImage image;

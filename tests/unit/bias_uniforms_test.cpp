@@ -1,6 +1,6 @@
-// The bias data packed for csm.glsl (biasParams) and the depth quantum per format: what the
-// shader's depth floor is made of. The floor must exceed one D16 step and the float noise of D32
-// at every cascade, and nothing that is not finite may reach the GPU.
+// The bias data packed for csm.glsl (depthFloorTexels, depthFloorQuantum) and the depth quantum per
+// format: what the shader's depth floor is made of. The floor must exceed one D16 step and the
+// float noise of D32 at every cascade, and nothing that is not finite may reach the GPU.
 #include <gtest/gtest.h>
 
 #include <csm/core.hpp>
@@ -12,9 +12,11 @@
 namespace {
 
 TEST(BiasUniforms, BiasParamsIsAppendedAfterCountsAndSoftParamsCanFollow) {
-  EXPECT_EQ(offsetof(csm::CsmUniforms, biasParams), offsetof(csm::CsmUniforms, counts) + 16);
-  EXPECT_EQ(offsetof(csm::CsmUniforms, softParams), offsetof(csm::CsmUniforms, biasParams) + 16);
-  EXPECT_EQ(sizeof(csm::CsmUniforms), offsetof(csm::CsmUniforms, softParams) + 16);
+  EXPECT_EQ(offsetof(csm::CsmUniforms, depthFloorTexels),
+            offsetof(csm::CsmUniforms, cascadeCount) + 16);
+  EXPECT_EQ(offsetof(csm::CsmUniforms, tanHalfLightAngle),
+            offsetof(csm::CsmUniforms, depthFloorTexels) + 16);
+  EXPECT_EQ(sizeof(csm::CsmUniforms), offsetof(csm::CsmUniforms, tanHalfLightAngle) + 16);
 }
 
 TEST(BiasUniforms, DepthQuantumIsOneD16StepAndSixteenD32UlpsAtDepthOne) {
@@ -32,14 +34,14 @@ TEST(BiasUniforms, PackUniformsCarriesTheFloorAndTheFormatQuantum) {
   csm::UniformOptions o;
   o.depthBits = 16;
   csm::CsmUniforms u = csm::packUniforms(frame, s, o);
-  EXPECT_FLOAT_EQ(u.biasParams.x, 0.4f);
-  EXPECT_FLOAT_EQ(u.biasParams.y, csm::depthQuantum(16));
-  EXPECT_EQ(u.biasParams.z, 0.0f);
-  EXPECT_EQ(u.biasParams.w, 0.0f);
+  EXPECT_FLOAT_EQ(u.depthFloorTexels, 0.4f);
+  EXPECT_FLOAT_EQ(u.depthFloorQuantum, csm::depthQuantum(16));
+  EXPECT_EQ(u.biasReserved.x, 0.0f);
+  EXPECT_EQ(u.biasReserved.y, 0.0f);
   o.depthBits = 32;
   u = csm::packUniforms(frame, s, o);
-  EXPECT_FLOAT_EQ(u.biasParams.y, csm::depthQuantum(32));
-  EXPECT_FLOAT_EQ(u.params.y, s.normalOffsetTexels);
+  EXPECT_FLOAT_EQ(u.depthFloorQuantum, csm::depthQuantum(32));
+  EXPECT_FLOAT_EQ(u.normalOffsetTexels, s.normalOffsetTexels);
 }
 
 TEST(BiasUniforms, DefaultsAreValidAndNeedNoRasterSlopeBias) {

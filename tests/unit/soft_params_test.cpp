@@ -1,6 +1,7 @@
 // The data PCSS reads from the uniform block: the light's size and the penumbra bound
-// (softParams), and each cascade's world-grid texel origin (depthInfo.zw), which makes a
-// receiver's world texel index the same in every frame of a stabilised view.
+// (tanHalfLightAngle, maxPenumbraRadiusM), and each cascade's world-grid texel origin
+// (worldTexelOrigin), which makes a receiver's world texel index the same in every frame of a
+// stabilised view.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -19,13 +20,13 @@ TEST(SoftParams, PackedFromTheSettings) {
   const auto frame = computeCascades(s, c, l);
   ASSERT_TRUE(frame.ok());
   CsmUniforms u = packUniforms(frame.value(), s);
-  EXPECT_FLOAT_EQ(u.softParams.x, float(std::tan(glm::radians(0.5 * 0.53))));
-  EXPECT_FLOAT_EQ(u.softParams.y, 0.25f);
+  EXPECT_FLOAT_EQ(u.tanHalfLightAngle, float(std::tan(glm::radians(0.5 * 0.53))));
+  EXPECT_FLOAT_EQ(u.maxPenumbraRadiusM, 0.25f);
   s.lightAngularDiameterDeg = 2.0;
   s.maxPenumbraM = 3.0;
   u = packUniforms(frame.value(), s);
-  EXPECT_FLOAT_EQ(u.softParams.x, float(std::tan(glm::radians(1.0))));
-  EXPECT_FLOAT_EQ(u.softParams.y, 1.5f);
+  EXPECT_FLOAT_EQ(u.tanHalfLightAngle, float(std::tan(glm::radians(1.0))));
+  EXPECT_FLOAT_EQ(u.maxPenumbraRadiusM, 1.5f);
   EXPECT_EQ(std::string(kernelName(PcfKernel::kPcss)), "pcss");
 }
 
@@ -58,7 +59,7 @@ TEST(SoftParams, WorldTexelOfAFixedPointDoesNotChangeAsTheCameraMoves) {
         const double period = CSM_WORLD_TEXEL_PERIOD;
         glm::ivec2 w;
         for (int a = 0; a < 2; ++a) {
-          const double v = std::floor(t[a]) + double(g.cascades[i].depthInfo[2 + a]);
+          const double v = std::floor(t[a]) + double(g.cascades[i].worldTexelOrigin[a]);
           w[a] = int(v - period * std::floor(v / period));
         }
         if (f == 0) {

@@ -43,10 +43,10 @@ void main() {
   if (sel.index >= 0) {
     const vec3 c = csmShadowCoord(sel.index, posCr, normalWs);
     const vec2 base = floor(c.xy);
-    const float metresPerDepth = csmU.cascades[sel.index].depthInfo.y;
+    const float metresPerDepth = csmU.cascades[sel.index].depthRangeM;
     for (int dy = -2; dy <= 2; ++dy) {
       for (int dx = -2; dx <= 2; ++dx) {
-        const vec2 uv = (base + vec2(dx, dy) + 0.5) * csmU.params.w;
+        const vec2 uv = (base + vec2(dx, dy) + 0.5) * csmU.invResolution;
         const float stored = textureLod(csmDepthMap, vec3(uv, float(sel.index)), 0.0).r;
         gapM = min(gapM, abs(c.z - stored) * metresPerDepth);
       }

@@ -45,44 +45,70 @@ enum class PcfKernel : std::uint32_t {
 /// centre: the radius the normal offset is scaled by. Mirrors csmKernelRadius() in csm.glsl.
 [[nodiscard]] float kernelRadiusTexels(PcfKernel kernel) noexcept;
 
-/// One cascade as the shader sees it (std140 array element, 112 bytes).
+/// One cascade as the shader sees it (std140 array element, 112 bytes; csm.glsl's CsmCascade).
 struct CsmCascadeGpu {
   /// Camera-relative world position -> shadow clip space (x, y in [-1, 1], z depth in [0, 1]).
   glm::mat4 viewProjCr{1.0f};
-  /// x: split near (m, view depth), y: split far (m), z: texel size (m), w: kernel scale (tap
-  /// spacing in texels; 1, or texel_0 / texel_i for kernels of constant world size).
-  glm::vec4 splitTexel{0.0f};
-  /// x: view depth where the blend band toward the next cascade starts (m; = y of splitTexel when
-  /// there is no band), y: metres of light-space depth per unit of stored depth, z, w: index of
-  /// the map's texel (0, 0) on the world-anchored texel grid, modulo CSM_WORLD_TEXEL_PERIOD
-  /// (stabilised cascades; PCSS rotates its taps by a hash of the world texel, so that the noise
-  /// stays on the ground when the map moves).
-  glm::vec4 depthInfo{0.0f};
-  /// x, y: with cached cascades (counts.w = 1) the wrap offset in texels of the box's texel
-  /// (0, 0) in the toroidally addressed layer (RendererOptions::cache), else 0; z, w: 0.
-  glm::vec4 wrapInfo{0.0f};
+  /// The cascade's split range: view depth (m) where it starts and where it ends.
+  float splitNearM = 0.0f;
+  float splitFarM = 0.0f;
+  /// Side of one shadow-map texel (m).
+  float texelSizeM = 0.0f;
+  /// Tap spacing of the PCF kernel in texels: 1, or texel_0 / texel_i for kernels of constant
+  /// world size (UniformOptions::worldSpaceKernel).
+  float kernelScale = 0.0f;
+  /// View depth (m) where the blend band toward the next cascade starts (= splitFarM when there
+  /// is no band).
+  float blendStartM = 0.0f;
+  /// Metres of light-space depth per unit of stored depth (the depth window's length).
+  float depthRangeM = 0.0f;
+  /// Index of the map's texel (0, 0) on the world-anchored texel grid, modulo
+  /// CSM_WORLD_TEXEL_PERIOD (stabilised cascades; PCSS rotates its taps by a hash of the world
+  /// texel, so that the noise stays on the ground when the map moves).
+  glm::vec2 worldTexelOrigin{0.0f};
+  /// With cached cascades (CsmUniforms::wrappedLayers = 1) the wrap offset in texels of the box's
+  /// texel (0, 0) in the toroidally addressed layer (RendererOptions::cache), else 0.
+  glm::vec2 wrapOffset{0.0f};
+  /// Unused (0): pads the element to std140's 16-byte multiple.
+  glm::vec2 cascadeReserved{0.0f};
 };
 
 /// The whole block (std140, set CSM_SET, binding CSM_BINDING_UNIFORMS in csm.glsl).
 struct CsmUniforms {
   CsmCascadeGpu cascades[CSM_MAX_CASCADES];
-  /// xyz: camera forward (world axes; camera-relative space shares them), w: shadow far (m).
-  glm::vec4 cameraForward{0.0f, 0.0f, -1.0f, 0.0f};
+  /// Camera forward (world axes; camera-relative space shares them).
+  glm::vec3 cameraForwardWs{0.0f, 0.0f, -1.0f};
+  /// How far shadows reach along the view (m).
+  float shadowFarM = 0.0f;
   /// xyz: normalised direction the light travels (world axes), w: 0.
   glm::vec4 lightDirection{0.0f, -1.0f, 0.0f, 0.0f};
-  /// x: blend band (fraction of a cascade's depth range), y: normal offset (texels), z: shadow
-  /// map resolution (texels), w: 1 / resolution.
-  glm::vec4 params{0.0f};
-  /// x: cascade count, y: bit mask of non-empty cascades, z: debug mode (DebugMode), w: 1 when
-  /// the layers are addressed toroidally (cached cascades), else 0.
-  glm::uvec4 counts{0u};
-  /// Bias of the shadow test beyond the normal offset (params.y): x depth floor in texels of the
-  /// receiver's cascade (ShadowSettings::depthFloorTexels), y depth floor in units of stored
-  /// depth (the depth format's quantum, depthQuantum()), z, w: 0.
-  glm::vec4 biasParams{0.0f};
-  /// Soft shadows (PCSS): x tan(light angular diameter / 2) (penumbra radius per metre between
-  /// blocker and receiver), y largest penumbra radius (m; maxPenumbraM / 2), z, w: 0.
-  glm::vec4 softParams{0.0f};
+  /// Blend band (fraction of a cascade's depth range).
+  float blendBand = 0.0f;
+  /// Normal offset of the receiver (texels; ShadowSettings::normalOffsetTexels).
+  float normalOffsetTexels = 0.0f;
+  /// Shadow-map side (texels) and its inverse.
+  float resolution = 0.0f;
+  float invResolution = 0.0f;
+  /// Cascades in the frame, and the bit mask of the non-empty ones.
+  std::uint32_t cascadeCount = 0;
+  std::uint32_t nonEmptyMask = 0;
+  /// Run-time debug output (DebugMode, CSM_DEBUG_*).
+  std::uint32_t debugMode = 0;
+  /// 1 when the layers are addressed toroidally (cached cascades: wrapOffset applies), else 0.
+  std::uint32_t wrappedLayers = 0;
+  /// Bias of the shadow test beyond the normal offset: the depth floor in texels of the
+  /// receiver's cascade (ShadowSettings::depthFloorTexels) plus one in units of stored depth (the
+  /// depth format's quantum, depthQuantum()).
+  float depthFloorTexels = 0.0f;
+  float depthFloorQuantum = 0.0f;
+  /// Unused (0).
+  glm::vec2 biasReserved{0.0f};
+  /// Soft shadows (PCSS): tan(light angular diameter / 2) (penumbra radius per metre between
+  /// blocker and receiver), and the largest penumbra radius (m; maxPenumbraM / 2).
+  float tanHalfLightAngle = 0.0f;
+  float maxPenumbraRadiusM = 0.0f;
+  /// Unused (0).
+  glm::vec2 softReserved{0.0f};
 };
 
 /// Per-frame choices that go into the block besides the cascades and the settings.

@@ -7,7 +7,7 @@
 // the stored depth need the raw value, which a comparison sampler cannot return.
 #define CSM_BINDING_SHADOW_DEPTH 2
 
-// Debug outputs of csm.glsl, chosen at run time through CsmUniforms.counts.z.
+// Debug outputs of csm.glsl, chosen at run time through CsmUniforms.debugMode.
 #define CSM_DEBUG_NONE 0         // normal shading
 #define CSM_DEBUG_NORMAL 1       // world normal * 0.5 + 0.5
 #define CSM_DEBUG_SHADOW 2       // shadow factor as grey (1 lit, 0 shadowed)
@@ -33,12 +33,13 @@
 #error "csm/gpu_shared.h: one CSM_TINT_i per cascade (CSM_MAX_CASCADES)"
 #endif
 
-// Period of the world-anchored texel index in CsmUniforms cascades[i].depthInfo.zw: a power of
+// Period of the world-anchored texel index in CsmUniforms cascades[i].worldTexelOrigin: a power of
 // two (the index stays exact in float and wraps cleanly) far above any kernel's reach.
 #define CSM_WORLD_TEXEL_PERIOD 4096.0
 
-// Depth-pass push constants (csm_depth.vert): camera-relative model matrix (64 bytes) then the
-// cascade index (per-layer mode) or the mask of cascades to replicate into (layered mode).
+// Depth-pass push constants, the same size in both render modes: per-layer (csm_depth.vert) the
+// model -> shadow clip matrix (64 bytes) then the cascade index; layered (csm_depth_layered.vert)
+// the model -> camera-relative world matrix then the mask of cascades to replicate into.
 #define CSM_DEPTH_PUSH_SIZE 68
 
 #endif

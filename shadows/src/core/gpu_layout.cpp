@@ -9,16 +9,33 @@ namespace csm {
 // without the same change there (or the reverse) breaks these asserts or the GPU tests.
 static_assert(sizeof(CsmCascadeGpu) == 112);
 static_assert(offsetof(CsmCascadeGpu, viewProjCr) == 0);
-static_assert(offsetof(CsmCascadeGpu, splitTexel) == 64);
-static_assert(offsetof(CsmCascadeGpu, depthInfo) == 80);
-static_assert(offsetof(CsmCascadeGpu, wrapInfo) == 96);
+static_assert(offsetof(CsmCascadeGpu, splitNearM) == 64);
+static_assert(offsetof(CsmCascadeGpu, splitFarM) == 68);
+static_assert(offsetof(CsmCascadeGpu, texelSizeM) == 72);
+static_assert(offsetof(CsmCascadeGpu, kernelScale) == 76);
+static_assert(offsetof(CsmCascadeGpu, blendStartM) == 80);
+static_assert(offsetof(CsmCascadeGpu, depthRangeM) == 84);
+static_assert(offsetof(CsmCascadeGpu, worldTexelOrigin) == 88);  // vec2: 8-aligned in std140
+static_assert(offsetof(CsmCascadeGpu, wrapOffset) == 96);
+static_assert(offsetof(CsmCascadeGpu, cascadeReserved) == 104);
 static_assert(offsetof(CsmUniforms, cascades) == 0);
-static_assert(offsetof(CsmUniforms, cameraForward) == 112 * CSM_MAX_CASCADES);
+static_assert(offsetof(CsmUniforms, cameraForwardWs) == 112 * CSM_MAX_CASCADES);
+static_assert(offsetof(CsmUniforms, shadowFarM) == 112 * CSM_MAX_CASCADES + 12);  // after a vec3
 static_assert(offsetof(CsmUniforms, lightDirection) == 112 * CSM_MAX_CASCADES + 16);
-static_assert(offsetof(CsmUniforms, params) == 112 * CSM_MAX_CASCADES + 32);
-static_assert(offsetof(CsmUniforms, counts) == 112 * CSM_MAX_CASCADES + 48);
-static_assert(offsetof(CsmUniforms, biasParams) == 112 * CSM_MAX_CASCADES + 64);
-static_assert(offsetof(CsmUniforms, softParams) == 112 * CSM_MAX_CASCADES + 80);
+static_assert(offsetof(CsmUniforms, blendBand) == 112 * CSM_MAX_CASCADES + 32);
+static_assert(offsetof(CsmUniforms, normalOffsetTexels) == 112 * CSM_MAX_CASCADES + 36);
+static_assert(offsetof(CsmUniforms, resolution) == 112 * CSM_MAX_CASCADES + 40);
+static_assert(offsetof(CsmUniforms, invResolution) == 112 * CSM_MAX_CASCADES + 44);
+static_assert(offsetof(CsmUniforms, cascadeCount) == 112 * CSM_MAX_CASCADES + 48);
+static_assert(offsetof(CsmUniforms, nonEmptyMask) == 112 * CSM_MAX_CASCADES + 52);
+static_assert(offsetof(CsmUniforms, debugMode) == 112 * CSM_MAX_CASCADES + 56);
+static_assert(offsetof(CsmUniforms, wrappedLayers) == 112 * CSM_MAX_CASCADES + 60);
+static_assert(offsetof(CsmUniforms, depthFloorTexels) == 112 * CSM_MAX_CASCADES + 64);
+static_assert(offsetof(CsmUniforms, depthFloorQuantum) == 112 * CSM_MAX_CASCADES + 68);
+static_assert(offsetof(CsmUniforms, biasReserved) == 112 * CSM_MAX_CASCADES + 72);
+static_assert(offsetof(CsmUniforms, tanHalfLightAngle) == 112 * CSM_MAX_CASCADES + 80);
+static_assert(offsetof(CsmUniforms, maxPenumbraRadiusM) == 112 * CSM_MAX_CASCADES + 84);
+static_assert(offsetof(CsmUniforms, softReserved) == 112 * CSM_MAX_CASCADES + 88);
 static_assert(sizeof(CsmUniforms) == 112 * CSM_MAX_CASCADES + 96);
 static_assert(sizeof(CsmUniforms) <= 16384, "must fit the minimum maxUniformBufferRange");
 static_assert(sizeof(CsmUniforms) % 4 == 0, "vkCmdUpdateBuffer needs a multiple of 4 bytes");
@@ -93,24 +110,33 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
     double scale = 1.0;
     if (options.worldSpaceKernel && texel > 0.0 && texel0 > 0.0) scale = texel0 / texel;
     g.viewProjCr = c.viewProjCr;
-    g.splitTexel = glm::vec4(finiteOr0(nearM), finiteOr0(farM), finiteOr0(texel), finiteOr0(scale));
-    const glm::vec2 texelOrigin = worldTexelOrigin(c, frame);
-    g.depthInfo = glm::vec4(finiteOr0(farM - band * (farM - nearM)),
-                            finiteOr0(c.depthFarLs - c.depthNearLs), texelOrigin.x, texelOrigin.y);
+    g.splitNearM = finiteOr0(nearM);
+    g.splitFarM = finiteOr0(farM);
+    g.texelSizeM = finiteOr0(texel);
+    g.kernelScale = finiteOr0(scale);
+    g.blendStartM = finiteOr0(farM - band * (farM - nearM));
+    g.depthRangeM = finiteOr0(c.depthFarLs - c.depthNearLs);
+    g.worldTexelOrigin = worldTexelOrigin(c, frame);
   }
   const glm::dvec3 fwd = frame.cameraForwardWs;
   const glm::dvec3 dir = frame.lightDirectionWs;
-  u.cameraForward =
-      glm::vec4(finiteOr0(fwd.x), finiteOr0(fwd.y), finiteOr0(fwd.z), finiteOr0(frame.shadowFarM));
+  u.cameraForwardWs = glm::vec3(finiteOr0(fwd.x), finiteOr0(fwd.y), finiteOr0(fwd.z));
+  u.shadowFarM = finiteOr0(frame.shadowFarM);
   u.lightDirection = glm::vec4(finiteOr0(dir.x), finiteOr0(dir.y), finiteOr0(dir.z), 0.0f);
   const double res = frame.resolution > 0 ? frame.resolution : settings.resolution;
-  u.params = glm::vec4(finiteOr0(band), settings.normalOffsetTexels, finiteOr0(res),
-                       res > 0.0 ? finiteOr0(1.0 / res) : 0.0f);
-  u.counts = glm::uvec4(count, nonEmpty, static_cast<std::uint32_t>(options.debugMode), 0u);
-  u.biasParams = glm::vec4(settings.depthFloorTexels, depthQuantum(options.depthBits), 0.0f, 0.0f);
+  u.blendBand = finiteOr0(band);
+  u.normalOffsetTexels = settings.normalOffsetTexels;
+  u.resolution = finiteOr0(res);
+  u.invResolution = res > 0.0 ? finiteOr0(1.0 / res) : 0.0f;
+  u.cascadeCount = count;
+  u.nonEmptyMask = nonEmpty;
+  u.debugMode = static_cast<std::uint32_t>(options.debugMode);
+  u.wrappedLayers = 0u;
+  u.depthFloorTexels = settings.depthFloorTexels;
+  u.depthFloorQuantum = depthQuantum(options.depthBits);
   const double halfAngleRad = glm::radians(0.5 * settings.lightAngularDiameterDeg);
-  u.softParams = glm::vec4(finiteOr0(std::tan(halfAngleRad)),
-                           finiteOr0(0.5 * settings.maxPenumbraM), 0.0f, 0.0f);
+  u.tanHalfLightAngle = finiteOr0(std::tan(halfAngleRad));
+  u.maxPenumbraRadiusM = finiteOr0(0.5 * settings.maxPenumbraM);
   return u;
 }
 

@@ -480,7 +480,7 @@ struct ShadowRenderer::CachedPass {
         casterLod(inst, r.options_.cascadeLod[cascade], w.texel, r.options_.lodMaxErrorTexels))];
     if (mesh.indexCount == 0) return 0;
     bindMeshBuffers(cmd, mesh, bound, r.layout_.indexType);
-    const DepthPush push{anchorTransform(w, res, basisT, inst), cascade};
+    const DepthPushPerLayer push{anchorTransform(w, res, basisT, inst), cascade};
     vkCmdPushConstants(cmd, r.pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                        &push);
     r.drawIndexedCaster(cmd, inst, mesh, 1);
@@ -582,7 +582,7 @@ Status ShadowRenderer::checkCacheWindows(const CascadeFrame& frame) const {
 void ShadowRenderer::packCachedUniforms(const CascadeFrame& frame, CachedPass& pass) {
   const std::int64_t res = resolution_;
   uniforms_ = packFrameUniforms(frame);
-  uniforms_.counts.w = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
+  uniforms_.wrappedLayers = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     const Cascade& c = frame.cascades[i];
     if (c.empty) continue;
@@ -591,14 +591,17 @@ void ShadowRenderer::packCachedUniforms(const CascadeFrame& frame, CachedPass& p
       // Deferred across a change of light: its world-grid origin in the basis it shows.
       CascadeFrame old = frame;
       old.lightBasisWs = shown_[i].basis;
-      uniforms_.cascades[i].depthInfo = packFrameUniforms(old).cascades[i].depthInfo;
+      const CsmCascadeGpu shown = packFrameUniforms(old).cascades[i];
+      uniforms_.cascades[i].blendStartM = shown.blendStartM;
+      uniforms_.cascades[i].depthRangeM = shown.depthRangeM;
+      uniforms_.cascades[i].worldTexelOrigin = shown.worldTexelOrigin;
     }
     const glm::dvec3 centerLs = glm::transpose(shown_[i].basis) * c.boxCenterWs;
     const std::int64_t bx = std::llround(centerLs.x / w.texel) - res / 2;
     const std::int64_t by = std::llround(centerLs.y / w.texel) - res / 2;
     pass.boxes[i] = {bx, by, bx + res, by + res};
-    uniforms_.cascades[i].wrapInfo.x = float(floorMod(bx - w.anchorX, res));
-    uniforms_.cascades[i].wrapInfo.y = float(floorMod(by - w.anchorY, res));
+    uniforms_.cascades[i].wrapOffset.x = float(floorMod(bx - w.anchorX, res));
+    uniforms_.cascades[i].wrapOffset.y = float(floorMod(by - w.anchorY, res));
   }
 }
 

@@ -170,11 +170,11 @@ const char* errorCodeName(ErrorCode code) noexcept {
 
 void CascadeDrawContext::setTransform(const glm::dvec3& translationWs,
                                       const glm::mat3& linearWs) const {
-  const DepthPush push{frame != nullptr
-                           ? modelToShadowClip(frame->cascades[cascade], frame->lightBasisWs,
-                                               translationWs, linearWs)
-                           : glm::mat4(1.0f),
-                       cascade};
+  const DepthPushPerLayer push{frame != nullptr
+                                   ? modelToShadowClip(frame->cascades[cascade],
+                                                       frame->lightBasisWs, translationWs, linearWs)
+                                   : glm::mat4(1.0f),
+                               cascade};
   vkCmdPushConstants(cmd, pipelineLayout, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                      &push);
 }
@@ -262,7 +262,8 @@ Status ShadowRenderer::createSetLayouts() {
   return {};
 }
 
-// The depth pipelines' layout: the depth set and the push constants (DepthPush).
+// The depth pipelines' layout: the depth set and the push constants (DepthPushPerLayer or
+// DepthPushLayered, CSM_DEPTH_PUSH_SIZE bytes either way).
 Status ShadowRenderer::createPipelineLayout() {
   VkDevice dev = device_.device;
   VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE};
@@ -1187,7 +1188,9 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
   };
   const glm::dvec3 cam = frame.cameraPositionWs;
   const MeshDraw* bound = nullptr;
-  auto drawCaster = [&](std::uint32_t index, std::uint32_t meshIndex, std::uint32_t cascadeOrMask,
+  // Draws instance `index` with mesh `meshIndex`: per-layer into cascade `cascades` (an index),
+  // layered instanced into the cascades of the mask `cascades`, `copies` of them.
+  auto drawCaster = [&](std::uint32_t index, std::uint32_t meshIndex, std::uint32_t cascades,
                         std::uint32_t copies) {
     const CasterInstance& inst = casters.instances[index];
     const MeshDraw& mesh = casters.meshes[meshIndex];
@@ -1195,13 +1198,18 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
     bindMeshBuffers(cmd, mesh, bound, layout_.indexType);
     // Per-layer: the exact, camera-independent transform. Layered: one draw serves several
     // cascades, so the shader applies each cascade's camera-relative matrix.
-    const DepthPush push{resolvedMode_ == RenderMode::kLayered
-                             ? modelCameraRelative(inst.translationWs, inst.linearWs, cam)
-                             : modelToShadowClip(frame.cascades[cascadeOrMask], frame.lightBasisWs,
-                                                 inst.translationWs, inst.linearWs),
-                         cascadeOrMask};
-    vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
-                       &push);
+    if (resolvedMode_ == RenderMode::kLayered) {
+      const DepthPushLayered push{modelCameraRelative(inst.translationWs, inst.linearWs, cam),
+                                  cascades};
+      vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
+                         &push);
+    } else {
+      const DepthPushPerLayer push{modelToShadowClip(frame.cascades[cascades], frame.lightBasisWs,
+                                                     inst.translationWs, inst.linearWs),
+                                   cascades};
+      vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
+                         &push);
+    }
     drawIndexedCaster(cmd, inst, mesh, copies);
   };
 

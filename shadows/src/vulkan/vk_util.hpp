@@ -89,12 +89,24 @@ inline glm::mat4 scaledAffine(const glm::dmat3& linear, const glm::dvec3& t,
 
 static_assert(CSM_DEPTH_PUSH_SIZE == sizeof(glm::mat4) + sizeof(std::uint32_t));
 
-/// The depth pass's push constants (csm_depth.vert, csm_depth_layered.vert).
-struct DepthPush {
-  glm::mat4 model;  // per-layer: model -> shadow clip; layered: model -> camera-relative world
-  std::uint32_t cascadeOrMask;
+/// Push constants of the per-layer depth pass (csm_depth.vert): one cascade per render pass.
+struct DepthPushPerLayer {
+  /// Model -> the cascade's shadow clip space, composed in double (modelToShadowClip).
+  glm::mat4 modelToShadowClip;
+  /// The cascade drawn (not read by the shader; kept for the shared layout and for debuggers).
+  std::uint32_t cascade;
 };
-static_assert(offsetof(DepthPush, cascadeOrMask) == 64);
+/// Push constants of the layered depth pass (csm_depth_layered.vert): every cascade in one pass.
+struct DepthPushLayered {
+  /// Model -> camera-relative world; the shader applies each cascade's viewProjCr.
+  glm::mat4 modelToCameraRelative;
+  /// The cascades this caster is instanced into: instance n draws into the n-th set bit.
+  std::uint32_t cascadeMask;
+};
+static_assert(sizeof(DepthPushPerLayer) == CSM_DEPTH_PUSH_SIZE);
+static_assert(sizeof(DepthPushLayered) == CSM_DEPTH_PUSH_SIZE);
+static_assert(offsetof(DepthPushPerLayer, cascade) == 64);
+static_assert(offsetof(DepthPushLayered, cascadeMask) == 64);
 
 }  // namespace csm::vk
 
