@@ -82,38 +82,6 @@ MeshData finishMesh(const std::vector<glm::vec3>& positions,
   return fromOpenMesh(mesh);
 }
 
-MeshData decimate(const MeshData& in, double targetFraction) {
-  OmMesh mesh;
-  mesh.request_vertex_status();
-  mesh.request_edge_status();
-  mesh.request_halfedge_status();
-  mesh.request_face_status();
-  toOpenMesh(in.positions, in.indices, mesh);
-  // Boundary vertices stay: terrain chunks keep matching edges (no cracks between LODs of
-  // neighbours), open pieces keep their outline.
-  for (const auto vh : mesh.vertices()) {
-    if (mesh.is_boundary(vh)) mesh.status(vh).set_locked(true);
-  }
-  mesh.request_face_normals();
-  mesh.update_face_normals();
-  using Decimater = OpenMesh::Decimater::DecimaterT<OmMesh>;
-  Decimater decimater(mesh);
-  OpenMesh::Decimater::ModQuadricT<OmMesh>::Handle quadric;
-  OpenMesh::Decimater::ModNormalFlippingT<OmMesh>::Handle flipping;
-  decimater.add(quadric);
-  decimater.add(flipping);
-  decimater.module(quadric).unset_max_err();
-  decimater.module(flipping).set_max_normal_deviation(75.0);
-  if (!decimater.initialize()) return in;
-  const auto target = static_cast<std::size_t>(
-      std::max(4.0, std::floor(static_cast<double>(mesh.n_vertices()) * targetFraction)));
-  decimater.decimate_to(target);
-  mesh.garbage_collection();
-  MeshData out = fromOpenMesh(mesh);
-  if (out.indices.empty()) return in;
-  return out;
-}
-
 namespace {
 
 // One error-bounded Decimater run: quadric error orders the collapses; a collapse is legal only

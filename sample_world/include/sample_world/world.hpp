@@ -150,10 +150,6 @@ struct WorldError {
 [[nodiscard]] std::optional<MeshData> loadMeshFile(const std::string& path, double sizeM,
                                                    WorldError* error);
 
-/// Simplifies `mesh` with OpenMesh's Decimater (quadric error, no normal flips, boundary
-/// locked) toward `targetFraction` of its vertices; normals recomputed by OpenMesh.
-[[nodiscard]] MeshData decimate(const MeshData& mesh, double targetFraction);
-
 /// Simplifies `mesh` with OpenMesh's Decimater as far as it goes while the result stays within
 /// `maxErrorM` of it: collapses ordered by quadric error, each legal only while the removed
 /// vertices stay within the bound of the new surface (ModHausdorffT), no normal turning over 60
