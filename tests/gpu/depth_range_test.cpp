@@ -194,7 +194,7 @@ TEST_F(DepthRangeTest, HistogramOfAnAnalyticGroundPlane) {
   engine::uploadImage(ctx(), depth, engine::asBytes(std::span<const float>(scene.depth)),
                       VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   csm::vk::Status status;
-  auto reducer = csm::vk::DepthRangeReducer::create(world::shadowDeviceInfo(ctx()), 2, &status);
+  auto reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), 2, &status);
   ASSERT_TRUE(reducer) << status.message();
   ctx().submitAndWait([&](VkCommandBuffer cmd) {
     ASSERT_TRUE(
