@@ -38,19 +38,6 @@ Difference compareImages(const ShadowScene& scene, const engine::CpuImage& unsha
   return d;
 }
 
-// The casters' world bounds in the order ShadowScene gives them to its view: the ground plane,
-// the spheres, the boxes.
-std::vector<csm::AabbWs> casterBounds(const ShadowScene& scene) {
-  std::vector<csm::AabbWs> bounds;
-  bounds.push_back({scene.planeCenterWs - glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM),
-                    scene.planeCenterWs + glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM)});
-  for (const SphereWs& sp : scene.spheres) {
-    bounds.push_back({sp.centerWs - glm::dvec3(sp.radiusM), sp.centerWs + glm::dvec3(sp.radiusM)});
-  }
-  for (const csm::AabbWs& b : scene.boxes) bounds.push_back(b);
-  return bounds;
-}
-
 // Appends a mesh with no triangles (an "empty LOD") and returns its index.
 std::uint32_t withEmptyMesh(std::vector<csm::vk::MeshDraw>& meshes) {
   meshes.push_back(csm::vk::MeshDraw{});  // indexCount 0: draws nothing
@@ -243,7 +230,7 @@ TEST(ShadowView, CascadesDrawTheLodTheSettingsName) {
                                                    view.instances().end());
     const std::uint32_t empty = withEmptyMesh(meshes);
     for (std::size_t i = 1; i < instances.size(); ++i) instances[i].lodMeshes[0] = empty;
-    const std::vector<csm::AabbWs> bounds = casterBounds(scene);
+    const std::vector<csm::AabbWs>& bounds = scene.casterBounds();
     CSM_ASSERT_OK(view.setCasters(meshes, instances, bounds));
 
     std::vector<csm::vk::RenderMode> modes = {csm::vk::RenderMode::kPerLayer};
@@ -322,7 +309,7 @@ TEST(ShadowView, CascadesDrawTheLodTheirTexelErrorBudgetAllows) {
       instances[i].lodMeshes[0] = empty;
       instances[i].lodErrorM[0] = errorM;
     }
-    const std::vector<csm::AabbWs> bounds = casterBounds(scene);
+    const std::vector<csm::AabbWs>& bounds = scene.casterBounds();
     CSM_ASSERT_OK(view.setCasters(meshes, instances, bounds));
 
     std::vector<csm::vk::RenderMode> modes = {csm::vk::RenderMode::kPerLayer};
