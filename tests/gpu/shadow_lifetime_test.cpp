@@ -25,16 +25,13 @@ struct Difference {
 Difference compareImages(const ShadowScene& scene, const engine::CpuImage& unshadowed,
                          const engine::CpuImage& shadowed) {
   Difference d;
-  for (uint32_t y = 0; y < shadowed.height; ++y) {
-    for (uint32_t x = 0; x < shadowed.width; ++x) {
-      const ShadowScene::Hit hit = scene.trace(x, y);
-      if (!hit.hit || !hit.plane) continue;
-      ++d.plane;
-      const int a = unshadowed.at(x, y)[0], b = shadowed.at(x, y)[0];
-      d.darker += b < a - 10 ? 1 : 0;
-      d.brighter += b > a + 2 ? 1 : 0;
-    }
-  }
+  scene.forEachGroundPixel(shadowed.width, shadowed.height,
+                           [&](uint32_t x, uint32_t y, const glm::dvec3&) {
+                             ++d.plane;
+                             const int a = unshadowed.at(x, y)[0], b = shadowed.at(x, y)[0];
+                             d.darker += b < a - 10 ? 1 : 0;
+                             d.brighter += b > a + 2 ? 1 : 0;
+                           });
   return d;
 }
 
@@ -52,17 +49,13 @@ struct PerCascade {
 };
 PerCascade shadowedPerCascade(const ShadowScene& scene, const Rendered& r) {
   PerCascade c;
-  for (uint32_t y = 0; y < r.image.height; ++y) {
-    for (uint32_t x = 0; x < r.image.width; ++x) {
-      const ShadowScene::Hit hit = scene.trace(x, y);
-      if (!hit.hit || !hit.plane) continue;
-      const csm::CascadeSelection sel = csm::selectCascade(
-          r.frame, csm::viewDepthM(r.frame, hit.posWs), scene.settings().blendBand);
-      if (sel.index < 0 || sel.index >= 3 || sel.blendIndex >= 0) continue;
-      c.dark[sel.index] += r.image.at(x, y)[0] < 128 ? 1 : 0;
-      c.analytic[sel.index] += scene.shadowedAnalytic(hit.posWs) ? 1 : 0;
-    }
-  }
+  scene.forEachGroundPixel(r.image.width, r.image.height,
+                           [&](uint32_t x, uint32_t y, const glm::dvec3& posWs) {
+                             const csm::CascadeSelection sel = scene.selection(r.frame, posWs);
+                             if (sel.index < 0 || sel.index >= 3 || sel.blendIndex >= 0) return;
+                             c.dark[sel.index] += r.image.at(x, y)[0] < 128 ? 1 : 0;
+                             c.analytic[sel.index] += scene.shadowedAnalytic(posWs) ? 1 : 0;
+                           });
   return c;
 }
 

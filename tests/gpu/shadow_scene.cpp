@@ -208,24 +208,20 @@ std::string ShadowScene::saveArtefact(const engine::CpuImage& image,
 
 Agreement compareWithAnalytic(const ShadowScene& scene, const Rendered& r) {
   Agreement a;
-  for (uint32_t y = 0; y < r.image.height; ++y) {
-    for (uint32_t x = 0; x < r.image.width; ++x) {
-      const ShadowScene::Hit hit = scene.trace(x, y);
-      if (!hit.hit || !hit.plane) continue;
-      const csm::CascadeSelection sel = csm::selectCascade(
-          r.frame, csm::viewDepthM(r.frame, hit.posWs), scene.settings().blendBand);
-      if (sel.index < 0) continue;
-      double texel = r.frame.cascades[sel.index].texelSizeM();
-      if (sel.blendIndex >= 0)
-        texel = std::max(texel, r.frame.cascades[sel.blendIndex].texelSizeM());
-      if (!scene.farFromEdge(hit.posWs, 2.0 * texel, r.frame)) continue;
-      const bool analytic = scene.shadowedAnalytic(hit.posWs);
-      const bool gpu = r.image.at(x, y)[0] < 128;
-      ++a.compared;
-      a.shadowed += analytic ? 1 : 0;
-      a.agreed += analytic == gpu ? 1 : 0;
-    }
-  }
+  scene.forEachGroundPixel(
+      r.image.width, r.image.height, [&](uint32_t x, uint32_t y, const glm::dvec3& posWs) {
+        const csm::CascadeSelection sel = scene.selection(r.frame, posWs);
+        if (sel.index < 0) return;
+        double texel = r.frame.cascades[sel.index].texelSizeM();
+        if (sel.blendIndex >= 0)
+          texel = std::max(texel, r.frame.cascades[sel.blendIndex].texelSizeM());
+        if (!scene.farFromEdge(posWs, 2.0 * texel, r.frame)) return;
+        const bool analytic = scene.shadowedAnalytic(posWs);
+        const bool gpu = r.image.at(x, y)[0] < 128;
+        ++a.compared;
+        a.shadowed += analytic ? 1 : 0;
+        a.agreed += analytic == gpu ? 1 : 0;
+      });
   return a;
 }
 

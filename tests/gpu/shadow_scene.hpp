@@ -91,6 +91,22 @@ class ShadowScene {
     glm::dvec3 posWs{0.0};
   };
   [[nodiscard]] Hit trace(uint32_t x, uint32_t y) const;
+  /// Calls f(x, y, posWs) for every pixel of a `width` x `height` view whose camera ray meets
+  /// the ground plane first (the receivers the analytic comparisons look at).
+  template <class F>
+  void forEachGroundPixel(uint32_t width, uint32_t height, F&& f) const {
+    for (uint32_t y = 0; y < height; ++y) {
+      for (uint32_t x = 0; x < width; ++x) {
+        const Hit hit = trace(x, y);
+        if (hit.hit && hit.plane) f(x, y, hit.posWs);
+      }
+    }
+  }
+  /// The cascade (and blend) that csm.glsl selects at `posWs` in `frame` (settings' blend band).
+  [[nodiscard]] csm::CascadeSelection selection(const csm::CascadeFrame& frame,
+                                                const glm::dvec3& posWs) const {
+    return csm::selectCascade(frame, csm::viewDepthM(frame, posWs), settings().blendBand);
+  }
   /// Whether the ray from `posWs` toward the light hits a caster.
   [[nodiscard]] bool shadowedAnalytic(const glm::dvec3& posWs) const;
   /// Whether every point within `radiusM` of `posWs` across the light direction has the same

@@ -15,6 +15,7 @@
 #include <glue/lit_pass.hpp>
 #include <glue/shadow_host.hpp>
 #include <glue/shadow_probe.hpp>
+#include <glue/vk_util.hpp>
 
 #include <algorithm>
 #include <chrono>
@@ -27,12 +28,7 @@
 namespace csm_measure {
 namespace {
 
-template <class T>
-T vkStruct(VkStructureType type) {
-  T v{};
-  v.sType = type;
-  return v;
-}
+using glue::detail::vkStruct;
 
 // stability_accuracy.frag's constant_id: the bias uses the shading normal (1) or the facet's.
 constexpr uint32_t kSpecBiasFromShadingNormal = 16;
@@ -48,43 +44,6 @@ constexpr VkFormat kPositionFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kNormalFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kFootprintFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
-
-engine::DeviceHandle<VkDescriptorPool> makePool(VkDevice dev, VkDescriptorType type, uint32_t n,
-                                                const char* name) {
-  VkDescriptorPoolSize size{type, n};
-  auto pi = vkStruct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-  pi.maxSets = 1;
-  pi.poolSizeCount = 1;
-  pi.pPoolSizes = &size;
-  VkDescriptorPool pool = VK_NULL_HANDLE;
-  ENGINE_VK_CHECK(vkCreateDescriptorPool(dev, &pi, nullptr, &pool));
-  engine::setDebugName(dev, pool, name);
-  return engine::DeviceHandle<VkDescriptorPool>(dev, pool, vkDestroyDescriptorPool);
-}
-
-VkDescriptorSet allocateSet(VkDevice dev, VkDescriptorPool pool, VkDescriptorSetLayout layout,
-                            const char* name) {
-  auto ai = vkStruct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
-  ai.descriptorPool = pool;
-  ai.descriptorSetCount = 1;
-  ai.pSetLayouts = &layout;
-  VkDescriptorSet set = VK_NULL_HANDLE;
-  ENGINE_VK_CHECK(vkAllocateDescriptorSets(dev, &ai, &set));
-  engine::setDebugName(dev, set, name);
-  return set;
-}
-
-void writeBuffer(VkDevice dev, VkDescriptorSet set, uint32_t binding, VkDescriptorType type,
-                 VkBuffer buffer) {
-  VkDescriptorBufferInfo info{buffer, 0, VK_WHOLE_SIZE};
-  auto w = vkStruct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
-  w.dstSet = set;
-  w.dstBinding = binding;
-  w.descriptorCount = 1;
-  w.descriptorType = type;
-  w.pBufferInfo = &info;
-  vkUpdateDescriptorSets(dev, 1, &w, 0, nullptr);
-}
 
 }  // namespace
 
@@ -268,13 +227,15 @@ void Harness::ensureAccuracyTargets(VkExtent2D extent) {
                                          VK_SHADER_STAGE_VERTEX_BIT, nullptr};
     accuracy_->layout =
         engine::createDescriptorSetLayout(dev, std::span(&b, 1), "measure.accuracy.layout");
-    accuracy_->pool = makePool(dev, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, "measure.accuracy.pool");
-    accuracy_->set = allocateSet(dev, accuracy_->pool, accuracy_->layout, "measure.accuracy.set");
+    accuracy_->pool = glue::detail::makeDescriptorPool(dev, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1,
+                                                       "measure.accuracy.pool");
+    accuracy_->set = glue::detail::allocateDescriptorSet(dev, accuracy_->pool, accuracy_->layout,
+                                                         "measure.accuracy.set");
     accuracy_->frameUniforms =
         engine::Buffer(*ctx_, sizeof(glm::mat4), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                        engine::MemoryUsage::Upload, "measure.accuracy.frameUniforms");
-    writeBuffer(dev, accuracy_->set, 0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
-                accuracy_->frameUniforms.handle());
+    glue::detail::writeBufferDescriptor(dev, accuracy_->set, 0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
+                                        accuracy_->frameUniforms.handle());
   }
   if (accuracy_->extent.width == extent.width && accuracy_->extent.height == extent.height) return;
   ctx_->waitIdle();
