@@ -69,6 +69,8 @@ double boxDistance(const csm::AabbWs& b, const glm::dvec3& p) {
   return glm::length(d);
 }
 
+constexpr VkClearColorValue kSkyColor{{0.55f, 0.68f, 0.86f, 1.0f}};
+
 }  // namespace
 
 WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat colorFormat,
@@ -289,7 +291,7 @@ std::uint64_t WorldRenderer::clusterTriangles(std::uint32_t lod) const {
 
 void WorldRenderer::buildLitPipeline() {
   const auto kernel = static_cast<std::uint32_t>(settings_.kernel);
-  if (litPipelines_.count(kernel)) return;
+  const std::uint32_t key = kernel | (settings_.depthPrepass ? kLitAfterPrepass : 0u);
   const VkVertexInputBindingDescription bindings[] = {
       engine::MeshStore::bindingDescription(),
       {1, sizeof(Instance), VK_VERTEX_INPUT_RATE_INSTANCE}};
@@ -300,18 +302,32 @@ void WorldRenderer::buildLitPipeline() {
     attrs.push_back({2 + k, 1, VK_FORMAT_R32G32B32A32_SFLOAT,
                      static_cast<std::uint32_t>(k * sizeof(glm::vec4))});
   }
+  if (settings_.depthPrepass && !depthPrepass_.pipeline) {
+    // The same vertex shader (gl_Position is invariant) and vertex input as the lit pipeline, no
+    // fragment shader and no colour attachment: the depths the lit pass tests EQUAL against.
+    engine::GraphicsPipelineBuilder d;
+    d.vertexShader(worldVert_)
+        .vertexInput(bindings, attrs)
+        .depthFormat(depthFormat_)
+        .depthTest(true, true, VK_COMPARE_OP_LESS)
+        .descriptorSetLayout(frameLayout_.get());
+    depthPrepass_ = d.build(*ctx_, "world.depthPrepass");
+  }
+  if (litPipelines_.count(key)) return;
   engine::GraphicsPipelineBuilder b;
   b.vertexShader(worldVert_)
       .fragmentShader(worldFrag_)
       .vertexInput(bindings, attrs)
       .colorFormat(colorFormat_)
       .depthFormat(depthFormat_)
-      .depthTest(true, true, VK_COMPARE_OP_LESS)
+      .depthTest(true, !settings_.depthPrepass,
+                 settings_.depthPrepass ? VK_COMPARE_OP_EQUAL : VK_COMPARE_OP_LESS)
       .descriptorSetLayout(frameLayout_.get())
       .descriptorSetLayout(shadow_->lightingSetLayout())
       .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_KERNEL, kernel)
       .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, 1u);
-  litPipelines_[kernel] = b.build(*ctx_, std::string("world.lit.") + kernelKey(settings_.kernel));
+  litPipelines_[key] = b.build(*ctx_, std::string("world.lit.") + kernelKey(settings_.kernel) +
+                                          (settings_.depthPrepass ? ".afterPrepass" : ""));
 }
 
 std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
@@ -570,10 +586,64 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
   }
 }
 
+void WorldRenderer::bindWorldGeometry(VkCommandBuffer cmd, Slot& slot) const {
+  const VkBuffer buffers[2] = {meshes_->vertexBuffer(), slot.instances.handle()};
+  const VkDeviceSize offsets[2] = {0, 0};
+  vkCmdBindVertexBuffers(cmd, 0, 2, buffers, offsets);
+  vkCmdBindIndexBuffer(cmd, meshes_->indexBuffer(), 0, VK_INDEX_TYPE_UINT32);
+}
+
+void WorldRenderer::drawBuckets(VkCommandBuffer cmd) const {
+  for (const Bucket& b : buckets_) {
+    const engine::MeshRange& r = assetRanges_[b.mesh][b.lod];
+    vkCmdDrawIndexed(cmd, r.indexCount, b.count, r.firstIndex, r.vertexOffset, b.first);
+  }
+}
+
+void WorldRenderer::recordDepthPrepass(const engine::Frame& f, Slot& slot,
+                                       engine::GpuTimer& timer) {
+  VkCommandBuffer cmd = f.cmd;
+  // A rendering of its own: on a binning rasteriser (lavapipe) the work happens when a
+  // rendering ends, so the "prepass" scope holds the pre-pass's rasterisation, not the lit pass's.
+  timer.begin(cmd, "prepass");
+  VkRenderingAttachmentInfo depth{};
+  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  depth.imageView = f.depthView;
+  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  depth.clearValue.depthStencil = {1.0f, 0};
+  VkRenderingInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
+  info.renderArea = {{0, 0}, f.extent};
+  info.layerCount = 1;
+  info.pDepthAttachment = &depth;
+  vkCmdBeginRendering(cmd, &info);
+  {
+    engine::ScopedLabel label(cmd, "world depth pre-pass", {0.5f, 0.5f, 0.5f, 1.0f});
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, depthPrepass_.pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, depthPrepass_.layout, 0, 1,
+                            &slot.frameSet, 0, nullptr);
+    engine::setViewportAndScissor(cmd, f.extent);
+    bindWorldGeometry(cmd, slot);
+    drawBuckets(cmd);
+  }
+  vkCmdEndRendering(cmd);
+  // The pre-pass's depth writes before the lit pass's depth tests (same layout).
+  engine::imageBarrier(
+      cmd, f.depthImage, VK_IMAGE_ASPECT_DEPTH_BIT,
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+  timer.end(cmd, "prepass");
+}
+
 void WorldRenderer::recordLitPass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer,
                                   bool overlay) {
   VkCommandBuffer cmd = f.cmd;
-  const VkBuffer vb = meshes_->vertexBuffer();
   // ---- Lit pass ---------------------------------------------------------------------------------
   WorldFrameGpu gpu{};
   gpu.viewProjCr = camera_.viewProjectionCr();
@@ -585,24 +655,47 @@ void WorldRenderer::recordLitPass(const engine::Frame& f, Slot& slot, engine::Gp
   std::memcpy(slot.frameUniforms.mapped(), &gpu, sizeof(gpu));
   std::memcpy(slot.instances.mapped(), instances_.data(), instances_.size() * sizeof(Instance));
 
+  const bool prepass = settings_.depthPrepass && f.depthView != VK_NULL_HANDLE;
+  if (prepass) recordDepthPrepass(f, slot, timer);
   timer.begin(cmd, "lit");
-  engine::beginRendering(f, VkClearColorValue{{0.55f, 0.68f, 0.86f, 1.0f}});
+  if (prepass) {
+    // Colour cleared, the pre-pass's depth kept.
+    VkRenderingAttachmentInfo color{};
+    color.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+    color.imageView = f.colorView;
+    color.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    color.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    color.clearValue.color = kSkyColor;
+    VkRenderingAttachmentInfo depth{};
+    depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+    depth.imageView = f.depthView;
+    depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    depth.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+    depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    VkRenderingInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
+    info.renderArea = {{0, 0}, f.extent};
+    info.layerCount = 1;
+    info.colorAttachmentCount = 1;
+    info.pColorAttachments = &color;
+    info.pDepthAttachment = &depth;
+    vkCmdBeginRendering(cmd, &info);
+    engine::setViewportAndScissor(cmd, f.extent);
+  } else {
+    engine::beginRendering(f, kSkyColor);
+  }
   {
     engine::ScopedLabel label(cmd, "world lit pass", {0.9f, 0.8f, 0.3f, 1.0f});
-    const engine::GraphicsPipeline& p =
-        litPipelines_.at(static_cast<std::uint32_t>(settings_.kernel));
+    const std::uint32_t key =
+        static_cast<std::uint32_t>(settings_.kernel) | (prepass ? kLitAfterPrepass : 0u);
+    const engine::GraphicsPipeline& p = litPipelines_.at(key);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.pipeline);
     const VkDescriptorSet sets[2] = {slot.frameSet, shadow_->lightingSet()};
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 2, sets, 0, nullptr);
     engine::setViewportAndScissor(cmd, f.extent);
-    const VkBuffer buffers[2] = {vb, slot.instances.handle()};
-    const VkDeviceSize offsets[2] = {0, 0};
-    vkCmdBindVertexBuffers(cmd, 0, 2, buffers, offsets);
-    vkCmdBindIndexBuffer(cmd, meshes_->indexBuffer(), 0, VK_INDEX_TYPE_UINT32);
-    for (const Bucket& b : buckets_) {
-      const engine::MeshRange& r = assetRanges_[b.mesh][b.lod];
-      vkCmdDrawIndexed(cmd, r.indexCount, b.count, r.firstIndex, r.vertexOffset, b.first);
-    }
+    bindWorldGeometry(cmd, slot);
+    drawBuckets(cmd);
   }
   timer.end(cmd, "lit");
 }

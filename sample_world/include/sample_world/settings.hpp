@@ -60,6 +60,10 @@ struct AppSettings {
   bool overlayChecker = true;
   bool overlayThumbnails = true;
   bool overlayMap = true;
+  /// Depth pre-pass: the visible world drawn depth-only first, then the lit pass with depth test
+  /// EQUAL and no depth writes, so the lit fragment shader (the shadow lookup) runs about once per
+  /// pixel instead of once per rasterised fragment.
+  bool depthPrepass = true;
   /// View (window size at start, or the headless image).
   std::uint32_t width = 1280;
   std::uint32_t height = 720;

@@ -69,7 +69,8 @@ class WorldRenderer {
   std::optional<std::string> prepare(const engine::Camera& camera, FrameStats& stats);
 
   /// Records the frame prepared last into `frame`: shadow pass, lit pass, overlay 2D geometry
-  /// when `overlay`. GPU scopes: "shadow", "shadow c<i>", "lit", "overlay".
+  /// when `overlay`. GPU scopes: "shadow", "shadow c<i>", "prepass" (settings.depthPrepass),
+  /// "lit", "overlay".
   void record(const engine::Frame& frame, engine::GpuTimer& timer, bool overlay, FrameStats& stats);
 
   const csm::CascadeFrame& cascades() const { return shadow_->frame(); }
@@ -114,6 +115,11 @@ class WorldRenderer {
   // pass and the overlay.
   void recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& timer, FrameStats& stats);
   void recordLitPass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer, bool overlay);
+  // The depth pre-pass (settings.depthPrepass): the visible instances depth-only, in a rendering
+  // of its own, so that the lit pass shades each pixel once (depth test EQUAL, no writes).
+  void recordDepthPrepass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer);
+  void bindWorldGeometry(VkCommandBuffer cmd, Slot& slot) const;
+  void drawBuckets(VkCommandBuffer cmd) const;
   void recordOverlay(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer);
   void buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& tris,
                     std::vector<OverlayVertex>& lines) const;
@@ -143,7 +149,11 @@ class WorldRenderer {
   engine::DeviceHandle<VkDescriptorPool> pool_;
   std::array<Slot, engine::kFramesInFlight> slots_;
   engine::DeviceHandle<VkShaderModule> worldVert_, worldFrag_, overlayVert_, overlayFrag_;
-  std::map<std::uint32_t, engine::GraphicsPipeline> litPipelines_;  // by kernel
+  // By kernel | kLitAfterPrepass: the lit pipeline, with depth LESS and writes, or after the
+  // depth pre-pass (EQUAL, no writes).
+  std::map<std::uint32_t, engine::GraphicsPipeline> litPipelines_;
+  static constexpr std::uint32_t kLitAfterPrepass = 1u << 16;
+  engine::GraphicsPipeline depthPrepass_;  // world.vert only, depth LESS and writes
   engine::GraphicsPipeline overlayTris_, overlayLines_;
 
   // Dynamic shadow casters (vehicles, a swinging crane jib): unit cubes moved every frame,
