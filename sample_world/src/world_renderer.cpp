@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <stdexcept>
 
 #include "csm/gpu_layout.hpp"
@@ -78,6 +79,7 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
     : ctx_(&ctx), world_(&world), colorFormat_(colorFormat), depthFormat_(depthFormat) {
   uploadMeshes(world);
   buildViewGroups(world);
+  buildClosedMeshes(world);
   setUpShadowView(world);
   createFrameResources();
   createPipelines();
@@ -112,6 +114,61 @@ void WorldRenderer::uploadMeshes(const World& world) {
     }
     clusterRanges_.push_back(r);
   }
+}
+
+// True when the mesh is closed and outward: welded by position, every directed edge has exactly
+// one reverse and no duplicate, and its signed volume is positive (counter-clockwise outside).
+bool closedOutward(const MeshData& m) {
+  if (m.indices.empty()) return false;
+  std::map<std::array<float, 3>, std::uint32_t> weld;
+  std::vector<std::uint32_t> id(m.positions.size());
+  for (std::size_t i = 0; i < m.positions.size(); ++i) {
+    const glm::vec3& p = m.positions[i];
+    id[i] =
+        weld.emplace(std::array<float, 3>{p.x, p.y, p.z}, std::uint32_t(weld.size())).first->second;
+  }
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
+  double volume = 0.0;
+  for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+    const std::uint32_t v[3] = {id[m.indices[t]], id[m.indices[t + 1]], id[m.indices[t + 2]]};
+    if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) return false;
+    for (int e = 0; e < 3; ++e) {
+      if (++edges[{v[e], v[(e + 1) % 3]}] > 1) return false;
+    }
+    const glm::dvec3 a(m.positions[m.indices[t]]), b(m.positions[m.indices[t + 1]]),
+        c(m.positions[m.indices[t + 2]]);
+    volume += glm::dot(a, glm::cross(b, c));
+  }
+  for (const auto& [e, n] : edges) {
+    if (!edges.count({e.second, e.first})) return false;
+  }
+  return volume > 0.0;
+}
+
+void WorldRenderer::buildClosedMeshes(const World& world) {
+  closedMesh_.assign(assetRanges_.size(), false);
+  // Terrain chunks are open heightfields: not checked (the check is a map over every edge).
+  std::vector<bool> terrain(world.meshes.size(), false);
+  for (const Object& ob : world.objects) {
+    if (ob.kind == Kind::kTerrain) terrain[ob.mesh] = true;
+  }
+  for (std::size_t a = 0; a < world.meshes.size(); ++a) {
+    if (terrain[a]) continue;
+    bool closed = true;
+    for (const MeshData& m : world.meshes[a].lods) closed = closed && closedOutward(m);
+    closedMesh_[a] = closed;
+  }
+  // A placement that mirrors (negative determinant) turns the winding: draw both faces.
+  for (const Object& ob : world.objects) {
+    if (glm::determinant(ob.linear) <= 0.0f) closedMesh_[ob.mesh] = false;
+  }
+  closedMesh_[cubeMesh_] = closedOutward([&] {
+    MeshData m;
+    std::vector<engine::Vertex> v;
+    engine::makeCube(v, m.indices);
+    for (const engine::Vertex& x : v) m.positions.push_back(x.position);
+    return m;
+  }());
 }
 
 void WorldRenderer::buildViewGroups(const World& world) {
@@ -303,31 +360,44 @@ void WorldRenderer::buildLitPipeline() {
                      static_cast<std::uint32_t>(k * sizeof(glm::vec4))});
   }
   if (settings_.depthPrepass && !depthPrepass_.pipeline) {
-    // The same vertex shader (gl_Position is invariant) and vertex input as the lit pipeline, no
+    // The same vertex shader (gl_Position is precise) and vertex input as the lit pipeline, no
     // fragment shader and no colour attachment: the depths the lit pass tests EQUAL against.
-    engine::GraphicsPipelineBuilder d;
-    d.vertexShader(worldVert_)
-        .vertexInput(bindings, attrs)
-        .depthFormat(depthFormat_)
-        .depthTest(true, true, VK_COMPARE_OP_LESS)
-        .descriptorSetLayout(frameLayout_.get());
-    depthPrepass_ = d.build(*ctx_, "world.depthPrepass");
+    for (int cull = 0; cull < 2; ++cull) {
+      engine::GraphicsPipelineBuilder d;
+      d.vertexShader(worldVert_)
+          .vertexInput(bindings, attrs)
+          .depthFormat(depthFormat_)
+          .depthTest(true, true, VK_COMPARE_OP_LESS)
+          .cullMode(cull ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE)
+          .descriptorSetLayout(frameLayout_.get());
+      (cull ? depthPrepassCullBack_ : depthPrepass_) =
+          d.build(*ctx_, cull ? "world.depthPrepass.cullBack" : "world.depthPrepass");
+    }
   }
   if (litPipelines_.count(key)) return;
-  engine::GraphicsPipelineBuilder b;
-  b.vertexShader(worldVert_)
-      .fragmentShader(worldFrag_)
-      .vertexInput(bindings, attrs)
-      .colorFormat(colorFormat_)
-      .depthFormat(depthFormat_)
-      .depthTest(true, !settings_.depthPrepass,
-                 settings_.depthPrepass ? VK_COMPARE_OP_EQUAL : VK_COMPARE_OP_LESS)
-      .descriptorSetLayout(frameLayout_.get())
-      .descriptorSetLayout(shadow_->lightingSetLayout())
-      .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_KERNEL, kernel)
-      .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, 1u);
-  litPipelines_[key] = b.build(*ctx_, std::string("world.lit.") + kernelKey(settings_.kernel) +
-                                          (settings_.depthPrepass ? ".afterPrepass" : ""));
+  for (int cull = 0; cull < 2; ++cull) {
+    engine::GraphicsPipelineBuilder b;
+    b.vertexShader(worldVert_)
+        .fragmentShader(worldFrag_)
+        .vertexInput(bindings, attrs)
+        .colorFormat(colorFormat_)
+        .depthFormat(depthFormat_)
+        .depthTest(true, !settings_.depthPrepass,
+                   settings_.depthPrepass ? VK_COMPARE_OP_EQUAL : VK_COMPARE_OP_LESS)
+        .descriptorSetLayout(frameLayout_.get())
+        .descriptorSetLayout(shadow_->lightingSetLayout())
+        .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_KERNEL, kernel)
+        .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, 1u)
+        .cullMode(cull ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE);
+    litPipelines_[key | (cull ? kLitCullBack : 0u)] = b.build(
+        *ctx_, std::string("world.lit.") + kernelKey(settings_.kernel) +
+                   (settings_.depthPrepass ? ".afterPrepass" : "") + (cull ? ".cullBack" : ""));
+  }
+}
+
+const engine::GraphicsPipeline& WorldRenderer::litPipeline(bool prepass, bool cullBack) const {
+  return litPipelines_.at(static_cast<std::uint32_t>(settings_.kernel) |
+                          (prepass ? kLitAfterPrepass : 0u) | (cullBack ? kLitCullBack : 0u));
 }
 
 std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
@@ -420,6 +490,7 @@ std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, 
     bucket.mesh = b / kLodCount;
     bucket.lod = b % kLodCount;
     bucket.first = static_cast<std::uint32_t>(instances_.size());
+    bucket.cullBack = settings_.cullBackFaces && closedMesh_[bucket.mesh];
     for (std::uint32_t k : bucketObjects_[b]) {
       const Object& ob = world_->objects[k];
       const glm::vec3 t(ob.translationWs - camera.positionWs);
@@ -439,6 +510,7 @@ std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, 
     Bucket bucket;
     bucket.mesh = cubeMesh_;
     bucket.lod = 0;
+    bucket.cullBack = settings_.cullBackFaces && closedMesh_[cubeMesh_];
     bucket.first = static_cast<std::uint32_t>(instances_.size());
     instances_.insert(instances_.end(), moverInstances_.begin(), moverInstances_.end());
     bucket.count = static_cast<std::uint32_t>(moverInstances_.size());
@@ -593,8 +665,16 @@ void WorldRenderer::bindWorldGeometry(VkCommandBuffer cmd, Slot& slot) const {
   vkCmdBindIndexBuffer(cmd, meshes_->indexBuffer(), 0, VK_INDEX_TYPE_UINT32);
 }
 
-void WorldRenderer::drawBuckets(VkCommandBuffer cmd) const {
+void WorldRenderer::drawBuckets(VkCommandBuffer cmd, const engine::GraphicsPipeline& both,
+                                const engine::GraphicsPipeline& cullBack) const {
+  // The two pipelines' layouts are identical, hence compatible: the bound sets stay valid.
+  int bound = -1;
   for (const Bucket& b : buckets_) {
+    if (int(b.cullBack) != bound) {
+      bound = int(b.cullBack);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                        b.cullBack ? cullBack.pipeline : both.pipeline);
+    }
     const engine::MeshRange& r = assetRanges_[b.mesh][b.lod];
     vkCmdDrawIndexed(cmd, r.indexCount, b.count, r.firstIndex, r.vertexOffset, b.first);
   }
@@ -626,7 +706,7 @@ void WorldRenderer::recordDepthPrepass(const engine::Frame& f, Slot& slot,
                             &slot.frameSet, 0, nullptr);
     engine::setViewportAndScissor(cmd, f.extent);
     bindWorldGeometry(cmd, slot);
-    drawBuckets(cmd);
+    drawBuckets(cmd, depthPrepass_, depthPrepassCullBack_);
   }
   vkCmdEndRendering(cmd);
   // The pre-pass's depth writes before the lit pass's depth tests (same layout).
@@ -687,15 +767,13 @@ void WorldRenderer::recordLitPass(const engine::Frame& f, Slot& slot, engine::Gp
   }
   {
     engine::ScopedLabel label(cmd, "world lit pass", {0.9f, 0.8f, 0.3f, 1.0f});
-    const std::uint32_t key =
-        static_cast<std::uint32_t>(settings_.kernel) | (prepass ? kLitAfterPrepass : 0u);
-    const engine::GraphicsPipeline& p = litPipelines_.at(key);
+    const engine::GraphicsPipeline& p = litPipeline(prepass, false);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.pipeline);
     const VkDescriptorSet sets[2] = {slot.frameSet, shadow_->lightingSet()};
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 2, sets, 0, nullptr);
     engine::setViewportAndScissor(cmd, f.extent);
     bindWorldGeometry(cmd, slot);
-    drawBuckets(cmd);
+    drawBuckets(cmd, p, litPipeline(prepass, true));
   }
   timer.end(cmd, "lit");
 }

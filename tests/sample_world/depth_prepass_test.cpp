@@ -1,7 +1,9 @@
-// The fly-through's depth pre-pass (view.depthPrepass): the lit pass after a depth-only draw of
-// the same instances (depth test EQUAL, no writes) shows the image of the lit pass alone, with
-// validation on. The only pixels allowed to differ are depth ties: where two surfaces rasterise
-// to the same depth value, depth test LESS keeps the first drawn and EQUAL the last drawn.
+// The fly-through's depth pre-pass (view.depthPrepass) and back-face culling of closed meshes
+// (view.cullBackFaces), both on by default: the lit pass after a depth-only draw of the same
+// instances (depth test EQUAL, no writes) shows the image of the lit pass alone with both faces
+// drawn (the renderer before either), with validation on. The only pixels allowed to differ are
+// depth ties: where two surfaces rasterise to the same depth value, depth test LESS keeps the
+// first drawn and EQUAL the last drawn (a back face culled no longer ties).
 #include <gtest/gtest.h>
 
 #define STB_IMAGE_IMPLEMENTATION
@@ -37,14 +39,16 @@ Image loadPng(const fs::path& file) {
   return im;
 }
 
-json runFlight(const std::string& path, bool prepass, const fs::path& out) {
+json runFlight(const std::string& path, bool newFrame, const fs::path& out) {
   fs::remove_all(out);
   // Small on purpose (lavapipe): 320x180 views, 1024^2 cascades, screenshots at 0, 4, 8, 11.
   const ProcessResult r = runApp("--headless --frames 12 --shot-every 4 --validation --path " +
                                  path + " --out " + out.string() +
                                  " --set view.width=320 --set view.height=180"
-                                 " --set shadow.resolution=1024 --set view.depthPrepass=" +
-                                 (prepass ? "true" : "false"));
+                                 " --set shadow.resolution=1024" +
+                                 (newFrame ? std::string()
+                                           : std::string(" --set view.depthPrepass=false"
+                                                         " --set view.cullBackFaces=false")));
   EXPECT_EQ(r.exitCode, 0) << r.output;
   std::ifstream in(out / "report.json");
   if (!in) {
@@ -58,7 +62,7 @@ json runFlight(const std::string& path, bool prepass, const fs::path& out) {
 
 class Prepass : public ::testing::TestWithParam<std::string> {};
 
-TEST_P(Prepass, SameImageAsLitPassAloneValidationClean) {
+TEST_P(Prepass, PrepassAndCullingSameImageAsLitPassAloneValidationClean) {
   const std::string path = GetParam();
   const fs::path base = fs::path(CSM_TEST_ARTEFACT_DIR) / "depth_prepass" / path;
   const json on = runFlight(path, true, base / "on");
@@ -69,7 +73,9 @@ TEST_P(Prepass, SameImageAsLitPassAloneValidationClean) {
     EXPECT_EQ((*rep)["validation"]["messages"].get<std::uint64_t>(), 0u);
   }
   EXPECT_TRUE(on["settings"]["view.depthPrepass"].get<bool>());
+  EXPECT_TRUE(on["settings"]["view.cullBackFaces"].get<bool>());
   EXPECT_FALSE(off["settings"]["view.depthPrepass"].get<bool>());
+  EXPECT_FALSE(off["settings"]["view.cullBackFaces"].get<bool>());
   // The pre-pass has its own GPU scope (a rendering of its own); without it there is none.
   for (const json& f : on["per_frame"]) {
     ASSERT_TRUE(f["gpu_ms"].contains("prepass"));
@@ -99,15 +105,17 @@ TEST_P(Prepass, SameImageAsLitPassAloneValidationClean) {
       }
       // Per image: depth ties are a few pixels of distant, overlapping foliage. A pre-pass whose
       // depths differ from the lit pass's (no `precise`, another vertex shader) fails EQUAL on
-      // whole surfaces and shows the sky there.
+      // whole surfaces and shows the sky there; culling the front faces of a mesh, or the back
+      // faces of an open one, shows what lies behind it.
       EXPECT_LE(here, a.rgba.size() / 4 / 500)
           << path << " " << name << ": " << here << " pixels differ";
       differing += here;
       total += a.rgba.size() / 4;
     }
   }
-  std::printf("%s: %llu of %llu pixels differ with the pre-pass (depth ties)\n", path.c_str(),
-              static_cast<unsigned long long>(differing), static_cast<unsigned long long>(total));
+  std::printf("%s: %llu of %llu pixels differ with the pre-pass and culling (depth ties)\n",
+              path.c_str(), static_cast<unsigned long long>(differing),
+              static_cast<unsigned long long>(total));
   // Over all images of the flight: under 0.1 %.
   EXPECT_LE(differing * 1000, total);
 }

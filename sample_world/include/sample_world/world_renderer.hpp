@@ -86,6 +86,7 @@ class WorldRenderer {
   struct Bucket {
     std::uint32_t mesh = 0, lod = 0;
     std::uint32_t first = 0, count = 0;
+    bool cullBack = false;  // a closed mesh drawn with its back faces culled
   };
   struct Instance {
     glm::vec4 rows[3];
@@ -119,7 +120,10 @@ class WorldRenderer {
   // of its own, so that the lit pass shades each pixel once (depth test EQUAL, no writes).
   void recordDepthPrepass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer);
   void bindWorldGeometry(VkCommandBuffer cmd, Slot& slot) const;
-  void drawBuckets(VkCommandBuffer cmd) const;
+  // Draws every bucket; binds `cullBack` or `both` (each bound with `layout`'s sets) as the
+  // buckets' back-face culling changes.
+  void drawBuckets(VkCommandBuffer cmd, const engine::GraphicsPipeline& both,
+                   const engine::GraphicsPipeline& cullBack) const;
   void recordOverlay(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer);
   void buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& tris,
                     std::vector<OverlayVertex>& lines) const;
@@ -153,7 +157,12 @@ class WorldRenderer {
   // depth pre-pass (EQUAL, no writes).
   std::map<std::uint32_t, engine::GraphicsPipeline> litPipelines_;
   static constexpr std::uint32_t kLitAfterPrepass = 1u << 16;
-  engine::GraphicsPipeline depthPrepass_;  // world.vert only, depth LESS and writes
+  static constexpr std::uint32_t kLitCullBack = 1u << 17;
+  engine::GraphicsPipeline depthPrepass_, depthPrepassCullBack_;  // world.vert only
+  // Per mesh asset: every LOD is closed and outward (settings.cullBackFaces culls its back faces).
+  std::vector<bool> closedMesh_;
+  void buildClosedMeshes(const World& world);
+  const engine::GraphicsPipeline& litPipeline(bool prepass, bool cullBack) const;
   engine::GraphicsPipeline overlayTris_, overlayLines_;
 
   // Dynamic shadow casters (vehicles, a swinging crane jib): unit cubes moved every frame,
