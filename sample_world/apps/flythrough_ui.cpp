@@ -132,6 +132,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
     changed = true;
   }
   changed |= ImGui::Checkbox("receiver splits", &s.receiverSplits);
+  changed |= ImGui::Checkbox("thin casters widened", &s.thinCasters);
   changed |= ImGui::Checkbox("caster LODs", &s.casterLods);
   // One row: the label, then one narrow slider per cascade, each after the previous with the
   // default spacing (SameLine(-1) placed them at x = -1, over the checkbox).

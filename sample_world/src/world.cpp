@@ -706,6 +706,7 @@ void WorldBuilder::statisticsAndClusters() {
     c.originWs = o + glm::dvec3((chunk % n) * desc.chunkM, 0.0, (chunk / n) * desc.chunkM);
     c.boundsWs = {glm::dvec3(std::numeric_limits<double>::max()),
                   glm::dvec3(-std::numeric_limits<double>::max())};
+    c.thin = m % kGroups == 2;
     for (std::uint32_t k : members[m]) {
       const Object& ob = w.objects[k];
       const glm::vec3 offset(ob.translationWs - c.originWs);
