@@ -116,6 +116,8 @@ json summaryJson(const std::vector<json>& framesJson, const world::AppSettings& 
     return v[v.size() / 2];
   };
   summary["shadow_cache"] = settings.shadowCache;
+  summary["thin_casters"] = settings.thinCasters;
+  summary["thin_widen_texels"] = settings.thinWidenTexels;
   summary["shadow_cache_bytes"] = lastStats.cacheBytes;
   summary["shadow_cache_budget_texels"] = settings.cacheBudgetTexels;
   summary["gpu_shadow_ms_median"] =

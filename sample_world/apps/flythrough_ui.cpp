@@ -132,6 +132,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
     changed = true;
   }
   changed |= ImGui::Checkbox("receiver splits", &s.receiverSplits);
+  changed |= ImGui::Checkbox("thin casters widened", &s.thinCasters);
   changed |= ImGui::Checkbox("caster LODs", &s.casterLods);
   changed |= ImGui::Checkbox("depth pre-pass", &s.depthPrepass);
   changed |= ImGui::Checkbox("cull back faces", &s.cullBackFaces);

@@ -198,6 +198,9 @@ const std::vector<Entry>& table() {
                     [](AppSettings& s) -> float& { return s.shadow.normalOffsetTexels; }),
       boolean("shadow.stabilize", [](AppSettings& s) -> bool& { return s.shadow.stabilize; }),
       boolean("shadow.cache", [](AppSettings& s) -> bool& { return s.shadowCache; }),
+      boolean("shadow.thinCasters", [](AppSettings& s) -> bool& { return s.thinCasters; }),
+      number<float>("shadow.thinWiden", "texels in [0, 4]", 0, 4, false,
+                    [](AppSettings& s) -> float& { return s.thinWidenTexels; }),
       number<std::uint64_t>(
           "shadow.cacheBudgetTexels",
           "an integer in [0, 2^40]: 0 = no cap, else at least shadow.resolution^2", 0,

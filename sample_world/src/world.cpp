@@ -723,6 +723,7 @@ void WorldBuilder::statisticsAndClusters() {
         o + glm::dvec3((cell % cells) * desc.clusterM, 0.0, (cell / cells) * desc.clusterM);
     c.boundsWs = {glm::dvec3(std::numeric_limits<double>::max()),
                   glm::dvec3(-std::numeric_limits<double>::max())};
+    c.thin = m % kGroups == 2;
     for (std::uint32_t k : members[m]) {
       const Object& ob = w.objects[k];
       const glm::vec3 offset(ob.translationWs - c.originWs);

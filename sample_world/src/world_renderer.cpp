@@ -213,6 +213,7 @@ void WorldRenderer::setUpShadowView(const World& world) {
     csm::vk::CasterInstance in;
     in.mesh = static_cast<std::uint32_t>(draws.size());
     in.translationWs = world.clusters[k].originWs;
+    in.thin = world.clusters[k].thin;
     for (std::uint32_t l = 1; l < kLodCount; ++l) {
       in.lodErrorM[l - 1] = world.clusters[k].lodErrorM[l];
     }
@@ -409,6 +410,7 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   // mode renders every frame in full instead of being refused.
   options.cache = settings.shadowCache && settings.shadow.stabilize;
   options.cacheBudgetTexels = settings.cacheBudgetTexels;
+  options.thinCasterWidenTexels = settings.thinCasters ? settings.thinWidenTexels : 0.0f;
   if (settings.casterLods) {
     for (std::uint32_t c = 0; c < csm::kMaxCascades; ++c) {
       options.cascadeLod[c] = std::min(settings.cascadeLod[c], kLodCount - 1);

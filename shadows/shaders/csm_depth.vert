@@ -5,6 +5,9 @@
 #version 450
 
 layout(location = 0) in vec3 inPositionMs;
+// Layer 0 of the one-layer view, for the thin casters' geometry stage (csm_depth_thin.geom);
+// without a geometry stage nothing reads it.
+layout(location = 0) flat out uint csmLayer;
 
 // 68 bytes (CSM_DEPTH_PUSH_SIZE, C++ DepthPushPerLayer): model -> shadow clip, then the cascade
 // index (unused here).
@@ -13,4 +16,7 @@ layout(push_constant) uniform CsmDepthPush {
   uint cascade;
 } pc;
 
-void main() { gl_Position = pc.modelToShadowClip * vec4(inPositionMs, 1.0); }
+void main() {
+  gl_Position = pc.modelToShadowClip * vec4(inPositionMs, 1.0);
+  csmLayer = 0u;
+}

@@ -10,6 +10,9 @@
 #include "csm.glsl"
 
 layout(location = 0) in vec3 inPositionMs;
+// The layer, for the thin casters' geometry stage (csm_depth_thin.geom), which must write
+// gl_Layer itself; without a geometry stage nothing reads it.
+layout(location = 0) flat out uint csmLayer;
 
 // 68 bytes (CSM_DEPTH_PUSH_SIZE, C++ DepthPushLayered).
 layout(push_constant) uniform CsmDepthPush {
@@ -30,6 +33,7 @@ void main() {
     }
   }
   gl_Layer = layer;
+  csmLayer = uint(layer);
   gl_Position =
       csmU.cascades[layer].viewProjCr * (pc.modelToCameraRelative * vec4(inPositionMs, 1.0));
 }

@@ -8,7 +8,9 @@
 // where it covers a texel the depth is what the plain pipeline writes; the rim only adds texels,
 // at depths of the triangle's own boundary. A triangle seen edge-on (a line in the map) becomes
 // a band 2 x kWidenTexels wide along it. Used where the device has geometry shaders and no
-// VK_EXT_conservative_rasterization (lavapipe).
+// VK_EXT_conservative_rasterization (lavapipe). Both depth vertex shaders hand over the layer
+// (csmLayer: 0 for the per-layer passes, the cascade for the layered pass, which picks it per
+// instance); it is forwarded to gl_Layer on every vertex.
 #version 450
 
 layout(triangles) in;
@@ -16,6 +18,8 @@ layout(triangle_strip, max_vertices = 24) out;
 
 layout(constant_id = 0) const float kWidenTexels = 0.5;
 layout(constant_id = 1) const float kResolution = 1024.0;
+
+layout(location = 0) flat in uint csmLayer[];
 
 // Outward normal (unit, texels) of edge a -> b for a triangle of orientation `s` (+1 counter-
 // clockwise); 0 for an edge of zero length.
@@ -26,6 +30,7 @@ vec2 edgeNormal(vec2 a, vec2 b, float s) {
 }
 
 void emitTexel(vec2 t, float z) {
+  gl_Layer = int(csmLayer[0]);
   gl_Position = vec4(t * (2.0 / kResolution), z, 1.0);
   EmitVertex();
 }
@@ -40,6 +45,7 @@ void main() {
   }
   // The triangle as the plain pipeline draws it.
   for (int i = 0; i < 3; ++i) {
+    gl_Layer = int(csmLayer[0]);
     gl_Position = gl_in[i].gl_Position;
     EmitVertex();
   }

@@ -40,6 +40,15 @@ struct AppSettings {
   std::uint64_t cacheBudgetTexels = 0;
   /// PCF kernel of constant size in metres across cascades.
   bool worldSpaceKernel = false;
+  /// Thin casters (the clusters of cables, fence segments and poles, World's CasterCluster::thin)
+  /// widened by thinWidenTexels on each side in the depth pass
+  /// (csm::vk::RendererOptions::thinCasterWidenTexels), so that 3 cm cables keep a continuous
+  /// shadow where they are thinner than a texel. Needs geometry shaders (or conservative
+  /// rasterisation) on the device; else drawn as is. One texel rather than the module's half:
+  /// the normal offset moves the lookup up to about a texel across the light, off a shadow only
+  /// one texel wide (StabilityThinCasters.SampleWorldCablesAndFencesKeepTheirShadowWhenFlagged).
+  bool thinCasters = true;
+  float thinWidenTexels = 1.0f;
   /// Sun direction: azimuth from +x toward +z, elevation above the horizon, degrees.
   double lightAzimuthDeg = 140.0;
   double lightElevationDeg = 32.0;

@@ -96,6 +96,9 @@ struct CasterCluster {
   std::array<float, kLodCount> lodErrorM{};
   csm::AabbWs boundsWs{};
   std::uint32_t objectCount = 0;
+  /// The cluster of a chunk's thin casters (cables, fence segments, poles): flagged
+  /// csm::vk::CasterInstance::thin (widened in the depth pass) when AppSettings::thinCasters.
+  bool thin = false;
 };
 
 /// How to generate a world.

@@ -646,7 +646,8 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
        settings.minCasterTexels != settings_.minCasterTexels ||
        options.cullMode != options_.cullMode || options.frontFace != options_.frontFace ||
        options.cascadeLod != options_.cascadeLod ||
-       options.lodMaxErrorTexels != options_.lodMaxErrorTexels)) {
+       options.lodMaxErrorTexels != options_.lodMaxErrorTexels ||
+       options.thinCasterWidenTexels != options_.thinCasterWidenTexels)) {
     invalidateAll();
   }
   if (s = updateThinPipeline(settings.resolution, options); !s.ok()) return s;

@@ -48,6 +48,8 @@ Status ShadowRenderer::checkThinOptions(const RendererOptions& options) {
 void ShadowRenderer::destroyThinPipeline() noexcept {
   vkDestroyPipeline(device_.device, thinPipeline_, nullptr);
   thinPipeline_ = VK_NULL_HANDLE;
+  vkDestroyPipeline(device_.device, thinLayeredPipeline_, nullptr);
+  thinLayeredPipeline_ = VK_NULL_HANDLE;
   vkDestroyShaderModule(device_.device, thinGeometryModule_, nullptr);
   thinGeometryModule_ = VK_NULL_HANDLE;
   thinResolution_ = 0;
@@ -61,12 +63,14 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
   const bool same = thinPipeline_ != VK_NULL_HANDLE && thinResolution_ == resolution &&
                     thinWidenTexels_ == widen && thinFormat_ == options.depthFormat;
   if (wanted && same) return {};
-  if (thinPipeline_ != VK_NULL_HANDLE) {  // in use by recorded frames: retire it
+  if (thinPipeline_ != VK_NULL_HANDLE) {  // in use by recorded frames: retire them
     Retired old;
     old.afterRecord = records_;
     old.pipelines[0] = thinPipeline_;
+    old.pipelines[1] = thinLayeredPipeline_;
     retired_.push_back(old);
     thinPipeline_ = VK_NULL_HANDLE;
+    thinLayeredPipeline_ = VK_NULL_HANDLE;
   }
   if (!wanted) return {};
   if (!conservative && thinGeometryModule_ == VK_NULL_HANDLE) {
@@ -168,14 +172,28 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
   ci.pColorBlendState = &cb;
   ci.pDynamicState = &dy;
   ci.layout = pipelineLayout_;
-  const VkResult r = vkCreateGraphicsPipelines(device_.device, device_.pipelineCache, 1, &ci,
-                                               nullptr, &thinPipeline_);
-  if (r != VK_SUCCESS) {
-    thinPipeline_ = VK_NULL_HANDLE;
-    return Status(ErrorCode::kVulkan,
-                  fmt("vkCreateGraphicsPipelines(csm depth, thin casters) failed: %d", int(r)), r);
+  // Per-layer (csm_depth.vert), and layered (csm_depth_layered.vert, its layer forwarded by the
+  // geometry stage) where the device has shaderOutputLayer.
+  for (int layered = 0; layered < 2; ++layered) {
+    if (layered == 1 && layeredModule_ == VK_NULL_HANDLE) break;
+    stages[0].module = layered ? layeredModule_ : vertexModule_;
+    VkPipeline& out = layered ? thinLayeredPipeline_ : thinPipeline_;
+    const VkResult r =
+        vkCreateGraphicsPipelines(device_.device, device_.pipelineCache, 1, &ci, nullptr, &out);
+    if (r != VK_SUCCESS) {
+      out = VK_NULL_HANDLE;
+      if (layered) {
+        vkDestroyPipeline(device_.device, thinPipeline_, nullptr);
+        thinPipeline_ = VK_NULL_HANDLE;
+      }
+      return Status(ErrorCode::kVulkan,
+                    fmt("vkCreateGraphicsPipelines(csm depth, thin casters%s) failed: %d",
+                        layered ? ", layered" : "", int(r)),
+                    r);
+    }
+    setName(std::uint64_t(out), VK_OBJECT_TYPE_PIPELINE,
+            layered ? "csm depth pipeline (thin, layered)" : "csm depth pipeline (thin)");
   }
-  setName(std::uint64_t(thinPipeline_), VK_OBJECT_TYPE_PIPELINE, "csm depth pipeline (thin)");
   thinResolution_ = resolution;
   thinWidenTexels_ = widen;
   thinFormat_ = options.depthFormat;
@@ -184,13 +202,16 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
 
 void ShadowRenderer::drawIndexedCaster(VkCommandBuffer cmd, const CasterInstance& instance,
                                        const MeshDraw& mesh, std::uint32_t copies) const {
-  // Per-layer passes only: the layered pass's vertex shader picks the layer, which a geometry
-  // stage would have to forward.
-  const bool widen =
-      instance.thin && thinPipeline_ != VK_NULL_HANDLE && resolvedMode_ == RenderMode::kPerLayer;
-  if (widen) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, thinPipeline_);
+  // The cached pass draws per layer (the cache refuses kLayered), so the render mode says which
+  // pipeline is bound and which widens.
+  const bool layered = resolvedMode_ == RenderMode::kLayered;
+  const VkPipeline thin = layered ? thinLayeredPipeline_ : thinPipeline_;
+  const bool widen = instance.thin && thin != VK_NULL_HANDLE;
+  if (widen) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, thin);
   vkCmdDrawIndexed(cmd, mesh.indexCount, copies, mesh.firstIndex, mesh.vertexOffset, 0);
-  if (widen) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
+  if (widen) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layered ? layeredPipeline_ : pipeline_);
+  }
 }
 
 }  // namespace csm::vk

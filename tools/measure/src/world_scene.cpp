@@ -5,7 +5,7 @@
 
 namespace csm_measure {
 
-WorldScene sceneFromWorld(const world::World& w) {
+WorldScene sceneFromWorld(const world::World& w, bool flagThin) {
   WorldScene out;
   Scene& scene = out.scene;
   auto convert = [](const world::MeshData& m, const std::string& name) {
@@ -55,7 +55,8 @@ WorldScene sceneFromWorld(const world::World& w) {
                        translation,
                        linear,
                        {0.6f, 0.65f, 0.5f, 1.0f},
-                       c.asset >= 0 ? InstanceKind::kGround : InstanceKind::kBuilding});
+                       c.asset >= 0 ? InstanceKind::kGround : InstanceKind::kBuilding,
+                       flagThin && c.thin});
     out.lodMeshes.push_back(std::move(lodMeshes));
     out.lodErrorM.emplace_back(c.lodErrorM.begin(), c.lodErrorM.end());
   }

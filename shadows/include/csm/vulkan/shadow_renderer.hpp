@@ -220,9 +220,8 @@ struct CasterInstance {
   /// triangles widened by RendererOptions::thinCasterWidenTexels in light space, so that its
   /// shadow does not break up where it covers no texel centre. Needs
   /// DeviceInfo::conservativeRasterizationEnabled or geometryShaderEnabled (else drawn as is);
-  /// per-layer passes (RenderMode::kPerLayer,
-  /// the cache's included) only. Flag what is under about a texel wide in the cascades it casts
-  /// into (a cable's diameter against the texel size).
+  /// every render mode (per-layer, layered, the cache's passes). Flag what is under about a
+  /// texel wide in the cascades it casts into (a cable's diameter against the texel size).
   bool thin = false;
 
   /// The mesh drawn for `lod`.
@@ -538,6 +537,7 @@ class ShadowRenderer {
   VkShaderModule layeredModule_ = VK_NULL_HANDLE;
   VkShaderModule thinGeometryModule_ = VK_NULL_HANDLE;  // csm_depth_thin.geom
   VkPipeline thinPipeline_ = VK_NULL_HANDLE;            // per-layer, widening thin casters
+  VkPipeline thinLayeredPipeline_ = VK_NULL_HANDLE;     // layered, widening thin casters
   std::uint32_t thinResolution_ = 0;
   float thinWidenTexels_ = 0.0f;
   VkFormat thinFormat_ = VK_FORMAT_UNDEFINED;

@@ -22,6 +22,9 @@ struct WorldScene {
   std::vector<std::vector<float>> lodErrorM;
 };
 
-WorldScene sceneFromWorld(const world::World& w);
+/// `flagThin`: the world's thin clusters (cables, fence segments, poles: CasterCluster::thin) are
+/// flagged Instance::thin, as the fly-through flags them by default (off here unless asked, so
+/// that the tools' measurements stay comparable with earlier runs).
+WorldScene sceneFromWorld(const world::World& w, bool flagThin = false);
 
 }  // namespace csm_measure
