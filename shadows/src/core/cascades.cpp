@@ -7,6 +7,7 @@
 #include "csm/frustum.hpp"
 #include "csm/ladder.hpp"
 #include "csm/light_space.hpp"
+#include "csm/receiver_bounds.hpp"
 
 namespace csm {
 namespace {
@@ -259,6 +260,10 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   // A box of whole texels whose half side leaves room for the half-texel snap:
   // h - texel / 2 >= e  <=>  h >= e * res / (res - 1).
   const double snapMargin = res / (res - 1.0);
+  // Receiver-driven boxes: the visible receivers' light-space bounds, when taken with this
+  // frame's splits and light basis.
+  const bool boundsApply = receivers != nullptr && settings.stabilize &&
+                           receiverBoundsApply(receivers->lightBounds, count, frame.splitsM, basis);
   for (std::uint32_t i = 0; i < count; ++i) {
     Cascade& c = frame.cascades[i];
     c.splitNearM = frame.splitsM[i];
@@ -291,6 +296,22 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
           centerLs.x = cameraLs.x + 0.5 * (lo.x + hi.x);
           centerLs.y = cameraLs.y + 0.5 * (lo.y + hi.y);
           c.tightFit = true;
+        }
+      }
+      // What the box must cover: a square, or the receivers' rectangle.
+      glm::dvec2 coverHalf(neededHalf / snapMargin);
+      if (boundsApply) {
+        if (const auto fit = fitBoxToReceivers(receivers->lightBounds, i, basis, camera.positionWs,
+                                               glm::dvec2(centerLs), coverHalf.x,
+                                               settings.receiverBoundsMargin)) {
+          const double fitHalf = std::max(fit->coverHalfLs.x, fit->coverHalfLs.y) * snapMargin;
+          if (fitHalf < neededHalf) {
+            neededHalf = fitHalf;
+            centerLs.x = fit->centerLs.x;
+            centerLs.y = fit->centerLs.y;
+            coverHalf = fit->coverHalfLs;
+            c.receiverFit = true;
+          }
         }
       }
       c.neededHalfExtentM = neededHalf;
@@ -348,9 +369,8 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
                         std::round(centerLs.y / texel) * texel);
       if (ladder && history != nullptr && history->boxTexelLs[i] == texel && cameraHeld) {
         const glm::dvec2 heldLs = history->boxCenterLs[i];
-        const double coverHalf = neededHalf / snapMargin;
-        if (std::abs(centerLs.x - heldLs.x) + coverHalf <= half &&
-            std::abs(centerLs.y - heldLs.y) + coverHalf <= half) {
+        if (std::abs(centerLs.x - heldLs.x) + coverHalf.x <= half &&
+            std::abs(centerLs.y - heldLs.y) + coverHalf.y <= half) {
           gridLs = heldLs;
         }
       }
