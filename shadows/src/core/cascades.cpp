@@ -103,6 +103,397 @@ void ladderSplits(SplitArray& splitsM, std::uint32_t count, double steps, double
   }
 }
 
+// Steps a size up the ladder with hysteresis against the history's rung (when given one);
+// counts the rung events.
+int rungUp(double lengthM, double steps, double hysteresis, int* previous,
+           std::uint32_t* events) noexcept {
+  const int prev = previous != nullptr ? *previous : kNoRung;
+  const int rung = ladderRungUpHysteretic(lengthM, steps, prev, hysteresis);
+  if (previous != nullptr) {
+    if (prev != kNoRung && prev != rung && events != nullptr) ++*events;
+    *previous = rung;
+  }
+  return rung;
+}
+
+// What every step of one computeCascades call shares.
+struct FrameInputs {
+  const ShadowSettings& settings;
+  const Camera& camera;
+  CascadeHistory* history = nullptr;
+  glm::dmat3 basis{1.0};
+  glm::dmat3 basisT{1.0};
+  // The ladder: every length that sets a size moves between its rungs only, with hysteresis.
+  bool ladder = false;
+  double steps = 0.0;
+  double hysteresis = 0.0;
+  double res = 0.0;
+  // A box of whole texels whose half side leaves room for the half-texel snap:
+  // h - texel / 2 >= e  <=>  h >= e * res / (res - 1).
+  double snapMargin = 0.0;
+  // The camera holds its position (see prepareHistory).
+  bool cameraHeld = false;
+  // The visible receivers' light-space bounds, when taken with this frame's splits and light
+  // basis (receiverBoundsApply); else null.
+  const ReceiverLightBounds* receiverBounds = nullptr;
+};
+
+// How far receivers reach along the view: the scene's depth interval (infinite without bounds).
+struct SceneDepth {
+  const AabbWs* bounds = nullptr;
+  std::array<glm::dvec3, 8> corners{};
+  double minM = -kInf;
+  double maxM = kInf;
+  // Some of the scene lies beyond the camera's near plane.
+  bool ahead = true;
+};
+
+// Resets what was quantised against a maximum or a cascade count that has changed (the rung
+// event counters and the held light direction carry on), counts the frame and returns whether
+// the camera holds its position.
+bool prepareHistory(CascadeHistory* history, double maxFarM, std::uint32_t count,
+                    const glm::dvec3& cameraWs) noexcept {
+  if (history == nullptr) return false;
+  if (history->shadowFarMaxM != maxFarM || history->cascadeCount != count) {
+    if (history->cascadeCount != count) {
+      history->sizeRung = detail::noRungs<kMaxCascades>();
+      history->depthRung = detail::noRungs<kMaxCascades>();
+      history->depthAnchorLs = {};
+      history->depthAnchorStepLs = {};
+      history->boxCenterLs = {};
+      history->boxTexelLs = {};
+      history->splitRung = detail::noRungs<kMaxCascades + 1>();
+    }
+    history->shadowFarM = 0.0;
+    history->depthNearLs = {};
+    history->shadowFarMaxM = maxFarM;
+    history->cascadeCount = count;
+  }
+  ++history->frames;
+  // The camera holds its position (a zoom, a resize, a turn; or the history's first frame): the
+  // depth window and the box may hold their grid points (fitStableBox). When the camera moves,
+  // every camera-relative position and the matrices change anyway, and the box takes the grid
+  // point nearest the sphere's centre (most slack).
+  const bool cameraHeld = history->frames == 1 || history->cameraPositionWs == cameraWs;
+  history->cameraPositionWs = cameraWs;
+  return cameraHeld;
+}
+
+SceneDepth sceneDepthInterval(const AabbWs* sceneBounds, const Camera& camera,
+                              const glm::dvec3& forwardWs) noexcept {
+  SceneDepth scene;
+  scene.bounds = sceneBounds;
+  if (sceneBounds != nullptr) {
+    scene.corners = aabbCorners(*sceneBounds);
+    scene.minM = kInf;
+    scene.maxM = -kInf;
+    for (const glm::dvec3& p : scene.corners) {
+      const double d = glm::dot(p - camera.positionWs, forwardWs);
+      scene.minM = std::min(scene.minM, d);
+      scene.maxM = std::max(scene.maxM, d);
+    }
+  }
+  scene.ahead = scene.maxM > camera.nearM;
+  return scene;
+}
+
+// Receiver-driven splits: start at the nearest visible receiver (widened, on the ladder, so the
+// range moving a little moves nothing) and end at the farthest. Returns the splits' near end;
+// sets receiverFarM (infinite without receivers).
+double receiverSplitNear(const FrameInputs& in, const ReceiverDepthRange* receivers, double maxFarM,
+                         double& receiverFarM) noexcept {
+  const ShadowSettings& settings = in.settings;
+  const Camera& camera = in.camera;
+  CascadeHistory* history = in.history;
+  double splitNearM = camera.nearM;
+  receiverFarM = kInf;
+  if (receivers == nullptr) {
+    if (history != nullptr) history->receiverNearRung = kNoRung;
+    return splitNearM;
+  }
+  const double margin = settings.receiverDepthMargin;
+  const double wantNearM = receivers->minM * (1.0 - margin);
+  receiverFarM = std::max(receivers->maxM * (1.0 + margin), 2.0 * camera.nearM);
+  // (If that range is thinner than kMinSpanRatio, the splits keep the camera's near.)
+  int rung = kNoRung;
+  if (wantNearM > camera.nearM) {
+    rung = ladderRungDownHysteretic(wantNearM, settings.ladderStepsPerOctave,
+                                    history != nullptr ? history->receiverNearRung : kNoRung,
+                                    settings.ladderHysteresisSteps);
+    const double rungNearM =
+        in.ladder ? ladderValue(rung, settings.ladderStepsPerOctave) : wantNearM;
+    // Keep at least 10% of depth for the splits, and never before the camera's near.
+    if (rungNearM > camera.nearM && rungNearM * kMinSpanRatio < std::min(receiverFarM, maxFarM)) {
+      splitNearM = rungNearM;
+    } else {
+      rung = kNoRung;
+    }
+  }
+  if (history != nullptr) history->receiverNearRung = rung;
+  return splitNearM;
+}
+
+// The split distances from splitNearM to frame.shadowFarM: practical or explicit, histogram-driven
+// interior splits where asked for, then on the ladder. Returns the splits' rungs.
+std::array<int, kMaxCascades + 1> splitDistances(const FrameInputs& in,
+                                                 const ReceiverDepthRange* receivers,
+                                                 double splitNearM, CascadeFrame& frame) {
+  const ShadowSettings& settings = in.settings;
+  CascadeHistory* history = in.history;
+  const std::uint32_t count = settings.cascadeCount;
+  frame.splitsM = settings.explicitSplits()
+                      ? explicitSplits(splitNearM, frame.shadowFarM, count, settings.splitPositions)
+                      : practicalSplits(splitNearM, frame.shadowFarM, count, settings.splitLambda);
+  // Histogram-driven interior splits (sample-distribution shadow maps): on the ladder's rungs
+  // by construction, kept while last frame's are within one rung's ratio of the best cost
+  // (times the hysteresis), so the rung hysteresis below is not applied on top.
+  double splitHysteresis = in.hysteresis;
+  if (receivers != nullptr && settings.receiverSplitScheme == ReceiverSplitScheme::kHistogram &&
+      !settings.explicitSplits()) {
+    const SliceBoxModel model{&in.camera, in.basisT,
+                              settings.stabilize && settings.boxFit == BoxFit::kTight};
+    SplitArray previous{};
+    bool havePrevious = in.ladder && history != nullptr;
+    for (std::uint32_t i = 1; havePrevious && i < count; ++i) {
+      if (history->splitRung[i] == kNoRung) havePrevious = false;
+      if (havePrevious) previous[i] = ladderValue(history->splitRung[i], in.steps);
+    }
+    if (histogramSplits(receivers->histogram, splitNearM, frame.shadowFarM, count, in.steps,
+                        SliceHalfExtent{&sliceBoxHalfExtent, &model},
+                        havePrevious ? &previous : nullptr,
+                        in.hysteresis * (std::exp2(1.0 / in.steps) - 1.0), frame.splitsM)) {
+      frame.histogramDriven = true;
+      splitHysteresis = 0.0;
+    }
+  }
+  std::array<int, kMaxCascades + 1> splitRungs = detail::noRungs<kMaxCascades + 1>();
+  if (in.ladder) {
+    ladderSplits(frame.splitsM, count, in.steps, splitHysteresis, history, splitRungs);
+  }
+  return splitRungs;
+}
+
+// The stable box's centre before snapping (light space about the world origin) and the half
+// side it needs: the sphere's, or the slice's own extent where that is smaller (sets
+// c.tightFit then), or the visible receivers' bounds where those are smaller still (sets
+// c.receiverFit).
+struct BoxNeed {
+  glm::dvec3 centerLs{0.0};
+  double half = 0.0;
+  // What the box must cover about centerLs: the square half / snapMargin, or the receivers'
+  // rectangle (c.receiverFit).
+  glm::dvec2 coverHalf{0.0};
+};
+
+BoxNeed boxNeed(const FrameInputs& in, std::uint32_t i, Cascade& c) noexcept {
+  BoxNeed need{in.basisT * c.sphereCenterWs, c.sphereRadiusM * in.snapMargin};
+  if (in.settings.boxFit == BoxFit::kTight) {
+    const auto corners = sliceCornersCr(in.camera, c.splitNearM, c.splitFarM);
+    glm::dvec2 lo(kInf), hi(-kInf);
+    for (const glm::dvec3& p : corners) {
+      const glm::dvec3 q = in.basisT * p;
+      lo = glm::min(lo, glm::dvec2(q));
+      hi = glm::max(hi, glm::dvec2(q));
+    }
+    const double tightHalf = 0.5 * std::max(hi.x - lo.x, hi.y - lo.y) * in.snapMargin;
+    if (tightHalf < need.half) {
+      need.half = tightHalf;
+      const glm::dvec3 cameraLs = in.basisT * in.camera.positionWs;
+      need.centerLs.x = cameraLs.x + 0.5 * (lo.x + hi.x);
+      need.centerLs.y = cameraLs.y + 0.5 * (lo.y + hi.y);
+      c.tightFit = true;
+    }
+  }
+  need.coverHalf = glm::dvec2(need.half / in.snapMargin);
+  // Receiver-driven: the visible receivers' rectangle, never larger than the above.
+  if (in.receiverBounds != nullptr) {
+    const auto fit = fitBoxToReceivers(*in.receiverBounds, i, in.basis, in.camera.positionWs,
+                                       glm::dvec2(need.centerLs), need.coverHalf.x,
+                                       in.settings.receiverBoundsMargin);
+    if (fit) {
+      const double fitHalf = std::max(fit->coverHalfLs.x, fit->coverHalfLs.y) * in.snapMargin;
+      if (fitHalf < need.half) {
+        need.half = fitHalf;
+        need.centerLs.x = fit->centerLs.x;
+        need.centerLs.y = fit->centerLs.y;
+        need.coverHalf = fit->coverHalfLs;
+        c.receiverFit = true;
+      }
+    }
+  }
+  return need;
+}
+
+// The box's half side and depth reach: on the ladder's rungs (with hysteresis), or the needed
+// lengths quantised up. Sets c's rungs and c.depthFarLs; returns the half side.
+double boxHalfSide(const FrameInputs& in, std::uint32_t i, double neededHalf, Cascade& c) {
+  CascadeHistory* history = in.history;
+  if (!in.ladder) {
+    c.depthFarLs = c.sphereRadiusM;
+    return quantizeLengthUp(neededHalf);
+  }
+  const int prev = history != nullptr ? history->sizeRung[i] : kNoRung;
+  c.sizeRung = rungUp(neededHalf, in.steps, in.hysteresis,
+                      history != nullptr ? &history->sizeRung[i] : nullptr,
+                      history != nullptr ? &history->sizeRungEvents[i] : nullptr);
+  c.sizeRungChanged = prev != kNoRung && prev != c.sizeRung;
+  const double half = ladderValue(c.sizeRung, in.steps);
+  c.depthRung = rungUp(c.sphereRadiusM, in.steps, in.hysteresis,
+                       history != nullptr ? &history->depthRung[i] : nullptr, nullptr);
+  c.depthFarLs = ladderValue(c.depthRung, in.steps);
+  return half;
+}
+
+// The depth window is world-anchored too: its origin (the box centre's light-space z) sits on a
+// grid of depthStep = depthFarLs / 8 about the world origin, in double, and holds while the
+// sphere stays inside the window (which gets one step of margin on each side); it moves to the
+// nearest grid point when the sphere leaves it or at a depth rung event. So between events no
+// stored or receiver depth is re-rounded (a depth origin that follows the sphere continuously
+// moves every depth by a fraction of a quantum each frame, and receivers on a depth tie, e.g.
+// ground at a caster's foot, flip).
+// (Held while the camera holds its position, with the ladder; a moving camera changes every
+// camera-relative position anyway, and the window follows the sphere's centre.)
+// Returns the window's origin; widens c.depthFarLs by the margin when anchored.
+double depthWindowOrigin(const FrameInputs& in, std::uint32_t i, double centerZ, Cascade& c) {
+  CascadeHistory* history = in.history;
+  double anchorZ = centerZ;
+  c.depthAnchored = in.ladder && in.cameraHeld;
+  if (c.depthAnchored) {
+    const double depthStep = c.depthFarLs * kDepthStepFraction;
+    anchorZ = std::round(centerZ / depthStep) * depthStep;
+    if (history->depthRung[i] == c.depthRung && history->depthAnchorStepLs[i] == depthStep &&
+        std::abs(centerZ - history->depthAnchorLs[i]) <= depthStep) {
+      anchorZ = history->depthAnchorLs[i];
+    }
+    c.depthAnchorMoved =
+        history->depthAnchorLs[i] != anchorZ || history->depthAnchorStepLs[i] != depthStep;
+    history->depthAnchorLs[i] = anchorZ;
+    history->depthAnchorStepLs[i] = depthStep;
+    c.depthFarLs += depthStep;
+  } else if (history != nullptr) {
+    history->depthAnchorStepLs[i] = 0.0;
+  }
+  return anchorZ;
+}
+
+// Snaps the centre on the light-space grid anchored at the world origin, in double. With the
+// ladder, the box holds last frame's grid point while the texel size is the same and what it
+// must cover (the sphere's disk, or the tight square) is still inside and the camera has not
+// moved: a snap moves the map by whole texels, but the casters are rasterised anew at the
+// shifted offset and every stored depth is re-rounded (a receiver on a depth tie, e.g. ground
+// at a caster's foot, flips). Between events the box then does not move at all.
+glm::dvec2 snappedBoxCenter(const FrameInputs& in, std::uint32_t i, const BoxNeed& need,
+                            double half, double texel) noexcept {
+  CascadeHistory* history = in.history;
+  const glm::dvec3& centerLs = need.centerLs;
+  glm::dvec2 gridLs(std::round(centerLs.x / texel) * texel, std::round(centerLs.y / texel) * texel);
+  if (in.ladder && history != nullptr && history->boxTexelLs[i] == texel && in.cameraHeld) {
+    const glm::dvec2 heldLs = history->boxCenterLs[i];
+    if (std::abs(centerLs.x - heldLs.x) + need.coverHalf.x <= half &&
+        std::abs(centerLs.y - heldLs.y) + need.coverHalf.y <= half) {
+      gridLs = heldLs;
+    }
+  }
+  if (history != nullptr) {
+    history->boxCenterLs[i] = gridLs;
+    history->boxTexelLs[i] = texel;
+  }
+  return gridLs;
+}
+
+// The stabilised box: needed size -> rung -> depth window -> snap. Returns the depth range's
+// near side (before the extension toward the light).
+double fitStableBox(const FrameInputs& in, std::uint32_t i, Cascade& c) {
+  const BoxNeed need = boxNeed(in, i, c);
+  c.neededHalfExtentM = need.half;
+  const double half = boxHalfSide(in, i, need.half, c);
+  const double texel = 2.0 * half / in.res;
+  c.halfExtentLs = glm::dvec2(half);
+  c.texelSizeLs = glm::dvec2(texel);
+  const double anchorZ = depthWindowOrigin(in, i, need.centerLs.z, c);
+  const glm::dvec2 gridLs = snappedBoxCenter(in, i, need, half, texel);
+  const glm::dvec3 snappedLs(gridLs.x, gridLs.y, anchorZ);
+  c.boxCenterWs = in.basis * snappedLs;
+  // Make the box centre's depth exactly the anchored one.
+  c.boxCenterWs += in.basis[2] * (anchorZ - glm::dot(in.basis[2], c.boxCenterWs));
+  c.depthOriginLs = anchorZ;
+  return -c.depthFarLs;
+}
+
+// Tight fit to the slice's light-space bounds; no snapping (the comparison mode). Returns the
+// depth range's near side (before the extension toward the light).
+double fitUnstableBox(const FrameInputs& in, Cascade& c) noexcept {
+  const auto corners = sliceCornersCr(in.camera, c.splitNearM, c.splitFarM);
+  glm::dvec3 lo(kInf), hi(-kInf);
+  for (const glm::dvec3& p : corners) {
+    const glm::dvec3 q = in.basisT * p;
+    lo = glm::min(lo, q);
+    hi = glm::max(hi, q);
+  }
+  const glm::dvec3 centerLs = 0.5 * (lo + hi);
+  c.boxCenterWs = in.camera.positionWs + in.basis * centerLs;
+  c.depthOriginLs = glm::dot(in.basis[2], c.boxCenterWs);
+  c.halfExtentLs = glm::max(glm::dvec2(0.5 * (hi - lo)), glm::dvec2(1e-9));
+  c.texelSizeLs = 2.0 * c.halfExtentLs / in.res;
+  c.depthFarLs = std::max(0.5 * (hi.z - lo.z), 1e-9);
+  c.neededHalfExtentM = std::max(c.halfExtentLs.x, c.halfExtentLs.y);
+  return -c.depthFarLs;
+}
+
+// Extends the depth range toward the light over the scene's casters, in steps of a quarter of
+// the box's depth, keeping last frame's extension while it still covers (hysteresis). Returns
+// the depth range's near side.
+double extendedDepthNear(const FrameInputs& in, const SceneDepth& scene, std::uint32_t i,
+                         const Cascade& c, double depthNearLs) noexcept {
+  if (scene.bounds == nullptr) return depthNearLs;
+  const glm::dvec3 lightZ = in.basis[2];
+  double sceneNearLs = kInf;
+  for (const glm::dvec3& p : scene.corners) {
+    sceneNearLs = std::min(sceneNearLs, c.depthAnchored ? glm::dot(lightZ, p) - c.depthOriginLs
+                                                        : glm::dot(lightZ, p - c.boxCenterWs));
+  }
+  if (sceneNearLs < depthNearLs) {
+    // (Steps of the depth range's own rung: the anchor's margin does not coarsen them.)
+    const double step =
+        0.5 * (c.depthAnchored ? c.depthFarLs / (1.0 + kDepthStepFraction) : c.depthFarLs);
+    const double needed = -std::ceil(-sceneNearLs / step) * step;
+    depthNearLs = needed;
+    if (in.history != nullptr) {
+      const double previous = in.history->depthNearLs[i];
+      if (previous <= sceneNearLs && previous >= needed - 2.0 * step) depthNearLs = previous;
+    }
+  }
+  return depthNearLs;
+}
+
+// One cascade: its slice's sphere, the box (stable or tight), the depth range, whether it has
+// receivers, and its matrix.
+void fitCascade(const FrameInputs& in, const SceneDepth& scene, const CascadeFrame& frame,
+                std::uint32_t i, int splitFarRung, Cascade& c) {
+  const Camera& camera = in.camera;
+  c.splitNearM = frame.splitsM[i];
+  c.splitFarM = frame.splitsM[i + 1];
+  c.splitFarRung = splitFarRung;
+
+  const SliceSphere sphere =
+      minimalSliceSphere(camera.fovYRad, camera.aspect, c.splitNearM, c.splitFarM);
+  c.sphereRadiusM = quantizeLengthUp(sphere.radiusM);
+  c.sphereCenterWs = camera.positionWs + frame.cameraForwardWs * sphere.centerDepthM;
+
+  double depthNearLs = in.settings.stabilize ? fitStableBox(in, i, c) : fitUnstableBox(in, c);
+  depthNearLs = extendedDepthNear(in, scene, i, c, depthNearLs);
+  if (in.history != nullptr) in.history->depthNearLs[i] = depthNearLs;
+  c.depthNearLs = depthNearLs;
+
+  // Empty: no receiver of the scene lies in this slice.
+  c.empty = !scene.ahead;
+  if (scene.bounds != nullptr && !c.empty) {
+    c.empty = !(c.splitFarM > scene.minM && c.splitNearM < scene.maxM) ||
+              !sphereTouchesAabb(c.sphereCenterWs, c.sphereRadiusM, *scene.bounds);
+  }
+  c.viewProjCr = cameraRelativeViewProj(in.basis, camera.positionWs, c);
+}
+
 }  // namespace
 
 Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camera& camera,
@@ -128,312 +519,45 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   frame.cameraPositionWs = camera.positionWs;
   const glm::dquat orientation = glm::normalize(camera.orientationWs);
   frame.cameraForwardWs = orientation * glm::dvec3(0.0, 0.0, -1.0);
-  const glm::dmat3& basis = frame.lightBasisWs;
-  const glm::dmat3 basisT = glm::transpose(basis);
 
-  // The ladder: every length that sets a size moves between its rungs only, with hysteresis.
-  const bool ladder = settings.stabilize && settings.sizeLadder;
-  const double steps = settings.ladderStepsPerOctave;
-  const double hysteresis = settings.ladderHysteresisSteps;
-  // Steps a size up with hysteresis against the history's rung; counts the events.
-  auto rungUp = [&](double lengthM, int* previous, std::uint32_t* events) {
-    const int prev = previous != nullptr ? *previous : kNoRung;
-    const int rung = ladderRungUpHysteretic(lengthM, steps, prev, hysteresis);
-    if (previous != nullptr) {
-      if (prev != kNoRung && prev != rung && events != nullptr) ++*events;
-      *previous = rung;
-    }
-    return rung;
-  };
+  FrameInputs in{settings, camera, history};
+  in.basis = frame.lightBasisWs;
+  in.basisT = glm::transpose(in.basis);
+  in.ladder = settings.stabilize && settings.sizeLadder;
+  in.steps = settings.ladderStepsPerOctave;
+  in.hysteresis = settings.ladderHysteresisSteps;
+  in.res = static_cast<double>(settings.resolution);
+  in.snapMargin = in.res / (in.res - 1.0);
 
   // The farthest shadows may reach is the host's setting, exact: where shadows end is not a
   // size (the last cascade's box is on the ladder), so dragging it moves no texel.
   const double maxFarM = std::min(settings.shadowDistanceM, camera.farM);
+  in.cameraHeld = prepareHistory(history, maxFarM, count, camera.positionWs);
 
-  // Reset what was quantised against a maximum or a cascade count that has changed (the rung
-  // event counters and the held light direction carry on).
-  if (history != nullptr && (history->shadowFarMaxM != maxFarM || history->cascadeCount != count)) {
-    if (history->cascadeCount != count) {
-      history->sizeRung = detail::noRungs<kMaxCascades>();
-      history->depthRung = detail::noRungs<kMaxCascades>();
-      history->depthAnchorLs = {};
-      history->depthAnchorStepLs = {};
-      history->boxCenterLs = {};
-      history->boxTexelLs = {};
-      history->splitRung = detail::noRungs<kMaxCascades + 1>();
-    }
-    history->shadowFarM = 0.0;
-    history->depthNearLs = {};
-    history->shadowFarMaxM = maxFarM;
-    history->cascadeCount = count;
-  }
-  if (history != nullptr) ++history->frames;
-  // The camera holds its position (a zoom, a resize, a turn; or the history's first frame): the
-  // depth window and the box may hold their grid points (below). When the camera moves, every
-  // camera-relative position and the matrices change anyway, and the box takes the grid point
-  // nearest the sphere's centre (most slack).
-  const bool cameraHeld = history != nullptr &&
-                          (history->frames == 1 || history->cameraPositionWs == camera.positionWs);
-  if (history != nullptr) history->cameraPositionWs = camera.positionWs;
-
-  // How far receivers reach along the view: the scene's depth interval.
-  double sceneMinDepthM = -kInf;
-  double sceneMaxDepthM = kInf;
-  std::array<glm::dvec3, 8> sceneCorners{};
-  if (sceneBounds != nullptr) {
-    sceneCorners = aabbCorners(*sceneBounds);
-    sceneMinDepthM = kInf;
-    sceneMaxDepthM = -kInf;
-    for (const glm::dvec3& p : sceneCorners) {
-      const double d = glm::dot(p - camera.positionWs, frame.cameraForwardWs);
-      sceneMinDepthM = std::min(sceneMinDepthM, d);
-      sceneMaxDepthM = std::max(sceneMaxDepthM, d);
-    }
-  }
-  const bool sceneAhead = sceneMaxDepthM > camera.nearM;
-  // Receiver-driven splits: start at the nearest visible receiver (widened, on the ladder, so
-  // the range moving a little moves nothing) and end at the farthest.
-  double splitNearM = camera.nearM;
+  const SceneDepth scene = sceneDepthInterval(sceneBounds, camera, frame.cameraForwardWs);
   double receiverFarM = kInf;
-  if (receivers != nullptr) {
-    const double margin = settings.receiverDepthMargin;
-    const double wantNearM = receivers->minM * (1.0 - margin);
-    receiverFarM = std::max(receivers->maxM * (1.0 + margin), 2.0 * camera.nearM);
-    // (If that range is thinner than kMinSpanRatio, the splits keep the camera's near.)
-    int rung = kNoRung;
-    if (wantNearM > camera.nearM) {
-      rung = ladderRungDownHysteretic(wantNearM, settings.ladderStepsPerOctave,
-                                      history != nullptr ? history->receiverNearRung : kNoRung,
-                                      settings.ladderHysteresisSteps);
-      const double rungNearM =
-          ladder ? ladderValue(rung, settings.ladderStepsPerOctave) : wantNearM;
-      // Keep at least 10% of depth for the splits, and never before the camera's near.
-      if (rungNearM > camera.nearM && rungNearM * kMinSpanRatio < std::min(receiverFarM, maxFarM)) {
-        splitNearM = rungNearM;
-      } else {
-        rung = kNoRung;
-      }
-    }
-    if (history != nullptr) history->receiverNearRung = rung;
-    frame.receiverDriven = true;
-  } else if (history != nullptr) {
-    history->receiverNearRung = kNoRung;
-  }
+  const double splitNearM = receiverSplitNear(in, receivers, maxFarM, receiverFarM);
+  frame.receiverDriven = receivers != nullptr;
   // Splits end at the scene's (or the visible receivers') far end, in quantised steps; never
   // closer than 2 x their near end.
   const double minFarM =
       std::min(maxFarM, (splitNearM > camera.nearM ? kMinSpanRatio : 2.0) * splitNearM);
   const double neededFarM =
-      std::min(sceneAhead ? std::min(maxFarM, sceneMaxDepthM) : maxFarM, receiverFarM);
+      std::min(scene.ahead ? std::min(maxFarM, scene.maxM) : maxFarM, receiverFarM);
   frame.shadowFarM = quantizedShadowFar(neededFarM, maxFarM, minFarM,
                                         history != nullptr ? history->shadowFarM : 0.0);
   if (history != nullptr) history->shadowFarM = frame.shadowFarM;
-  frame.splitsM = settings.explicitSplits()
-                      ? explicitSplits(splitNearM, frame.shadowFarM, count, settings.splitPositions)
-                      : practicalSplits(splitNearM, frame.shadowFarM, count, settings.splitLambda);
-  // Histogram-driven interior splits (sample-distribution shadow maps): on the ladder's rungs
-  // by construction, kept while last frame's are within one rung's ratio of the best cost
-  // (times the hysteresis), so the rung hysteresis below is not applied on top.
-  double splitHysteresis = hysteresis;
-  if (receivers != nullptr && settings.receiverSplitScheme == ReceiverSplitScheme::kHistogram &&
-      !settings.explicitSplits()) {
-    const SliceBoxModel model{&camera, basisT,
-                              settings.stabilize && settings.boxFit == BoxFit::kTight};
-    SplitArray previous{};
-    bool havePrevious = ladder && history != nullptr;
-    for (std::uint32_t i = 1; havePrevious && i < count; ++i) {
-      if (history->splitRung[i] == kNoRung) havePrevious = false;
-      if (havePrevious) previous[i] = ladderValue(history->splitRung[i], steps);
-    }
-    if (histogramSplits(receivers->histogram, splitNearM, frame.shadowFarM, count, steps,
-                        SliceHalfExtent{&sliceBoxHalfExtent, &model},
-                        havePrevious ? &previous : nullptr,
-                        hysteresis * (std::exp2(1.0 / steps) - 1.0), frame.splitsM)) {
-      frame.histogramDriven = true;
-      splitHysteresis = 0.0;
-    }
-  }
-  std::array<int, kMaxCascades + 1> splitRungs = detail::noRungs<kMaxCascades + 1>();
-  if (ladder) ladderSplits(frame.splitsM, count, steps, splitHysteresis, history, splitRungs);
+  const std::array<int, kMaxCascades + 1> splitRungs =
+      splitDistances(in, receivers, splitNearM, frame);
 
-  const double res = static_cast<double>(settings.resolution);
-  // A box of whole texels whose half side leaves room for the half-texel snap:
-  // h - texel / 2 >= e  <=>  h >= e * res / (res - 1).
-  const double snapMargin = res / (res - 1.0);
   // Receiver-driven boxes: the visible receivers' light-space bounds, when taken with this
   // frame's splits and light basis.
-  const bool boundsApply = receivers != nullptr && settings.stabilize &&
-                           receiverBoundsApply(receivers->lightBounds, count, frame.splitsM, basis);
+  if (receivers != nullptr && settings.stabilize &&
+      receiverBoundsApply(receivers->lightBounds, count, frame.splitsM, in.basis)) {
+    in.receiverBounds = &receivers->lightBounds;
+  }
   for (std::uint32_t i = 0; i < count; ++i) {
-    Cascade& c = frame.cascades[i];
-    c.splitNearM = frame.splitsM[i];
-    c.splitFarM = frame.splitsM[i + 1];
-    c.splitFarRung = i + 1 < count ? splitRungs[i + 1] : kNoRung;
-
-    const SliceSphere sphere =
-        minimalSliceSphere(camera.fovYRad, camera.aspect, c.splitNearM, c.splitFarM);
-    c.sphereRadiusM = quantizeLengthUp(sphere.radiusM);
-    c.sphereCenterWs = camera.positionWs + frame.cameraForwardWs * sphere.centerDepthM;
-
-    double depthNearLs = 0.0;
-    if (settings.stabilize) {
-      // The box's centre before snapping (light space about the world origin) and the half
-      // side it needs: the sphere's, or the slice's own extent where that is smaller.
-      glm::dvec3 centerLs = basisT * c.sphereCenterWs;
-      double neededHalf = c.sphereRadiusM * snapMargin;
-      if (settings.boxFit == BoxFit::kTight) {
-        const auto corners = sliceCornersCr(camera, c.splitNearM, c.splitFarM);
-        glm::dvec2 lo(kInf), hi(-kInf);
-        for (const glm::dvec3& p : corners) {
-          const glm::dvec3 q = basisT * p;
-          lo = glm::min(lo, glm::dvec2(q));
-          hi = glm::max(hi, glm::dvec2(q));
-        }
-        const double tightHalf = 0.5 * std::max(hi.x - lo.x, hi.y - lo.y) * snapMargin;
-        if (tightHalf < neededHalf) {
-          neededHalf = tightHalf;
-          const glm::dvec3 cameraLs = basisT * camera.positionWs;
-          centerLs.x = cameraLs.x + 0.5 * (lo.x + hi.x);
-          centerLs.y = cameraLs.y + 0.5 * (lo.y + hi.y);
-          c.tightFit = true;
-        }
-      }
-      // What the box must cover: a square, or the receivers' rectangle.
-      glm::dvec2 coverHalf(neededHalf / snapMargin);
-      if (boundsApply) {
-        if (const auto fit = fitBoxToReceivers(receivers->lightBounds, i, basis, camera.positionWs,
-                                               glm::dvec2(centerLs), coverHalf.x,
-                                               settings.receiverBoundsMargin)) {
-          const double fitHalf = std::max(fit->coverHalfLs.x, fit->coverHalfLs.y) * snapMargin;
-          if (fitHalf < neededHalf) {
-            neededHalf = fitHalf;
-            centerLs.x = fit->centerLs.x;
-            centerLs.y = fit->centerLs.y;
-            coverHalf = fit->coverHalfLs;
-            c.receiverFit = true;
-          }
-        }
-      }
-      c.neededHalfExtentM = neededHalf;
-      double half = 0.0;
-      if (ladder) {
-        const int prev = history != nullptr ? history->sizeRung[i] : kNoRung;
-        c.sizeRung = rungUp(neededHalf, history != nullptr ? &history->sizeRung[i] : nullptr,
-                            history != nullptr ? &history->sizeRungEvents[i] : nullptr);
-        c.sizeRungChanged = prev != kNoRung && prev != c.sizeRung;
-        half = ladderValue(c.sizeRung, steps);
-        c.depthRung =
-            rungUp(c.sphereRadiusM, history != nullptr ? &history->depthRung[i] : nullptr, nullptr);
-        c.depthFarLs = ladderValue(c.depthRung, steps);
-      } else {
-        half = quantizeLengthUp(neededHalf);
-        c.depthFarLs = c.sphereRadiusM;
-      }
-      const double texel = 2.0 * half / res;
-      c.halfExtentLs = glm::dvec2(half);
-      c.texelSizeLs = glm::dvec2(texel);
-      // The depth window is world-anchored too: its origin (the box centre's light-space z) sits
-      // on a grid of depthStep = depthFarLs / 8 about the world origin, in double, and holds
-      // while the sphere stays inside the window (which gets one step of margin on each side);
-      // it moves to the nearest grid point when the sphere leaves it or at a depth rung event.
-      // So between events no stored or receiver depth is re-rounded (a depth origin that follows
-      // the sphere continuously moves every depth by a fraction of a quantum each frame, and
-      // receivers on a depth tie, e.g. ground at a caster's foot, flip).
-      // (Held while the camera holds its position, with the ladder; a moving camera changes
-      // every camera-relative position anyway, and the window follows the sphere's centre.)
-      double anchorZ = centerLs.z;
-      c.depthAnchored = ladder && cameraHeld;
-      if (c.depthAnchored) {
-        const double depthStep = c.depthFarLs * kDepthStepFraction;
-        anchorZ = std::round(centerLs.z / depthStep) * depthStep;
-        if (history->depthRung[i] == c.depthRung && history->depthAnchorStepLs[i] == depthStep &&
-            std::abs(centerLs.z - history->depthAnchorLs[i]) <= depthStep) {
-          anchorZ = history->depthAnchorLs[i];
-        }
-        c.depthAnchorMoved =
-            history->depthAnchorLs[i] != anchorZ || history->depthAnchorStepLs[i] != depthStep;
-        history->depthAnchorLs[i] = anchorZ;
-        history->depthAnchorStepLs[i] = depthStep;
-        c.depthFarLs += depthStep;
-      } else if (history != nullptr) {
-        history->depthAnchorStepLs[i] = 0.0;
-      }
-      // Snap the centre on the light-space grid anchored at the world origin, in double. With
-      // the ladder, the box holds last frame's grid point while the texel size is the same and
-      // what it must cover (the sphere's disk, or the tight square) is still inside and the
-      // camera has not moved: a snap
-      // moves the map by whole texels, but the casters are rasterised anew at the shifted
-      // offset and every stored depth is re-rounded (a receiver on a depth tie, e.g. ground at
-      // a caster's foot, flips). Between events the box then does not move at all.
-      glm::dvec2 gridLs(std::round(centerLs.x / texel) * texel,
-                        std::round(centerLs.y / texel) * texel);
-      if (ladder && history != nullptr && history->boxTexelLs[i] == texel && cameraHeld) {
-        const glm::dvec2 heldLs = history->boxCenterLs[i];
-        if (std::abs(centerLs.x - heldLs.x) + coverHalf.x <= half &&
-            std::abs(centerLs.y - heldLs.y) + coverHalf.y <= half) {
-          gridLs = heldLs;
-        }
-      }
-      if (history != nullptr) {
-        history->boxCenterLs[i] = gridLs;
-        history->boxTexelLs[i] = texel;
-      }
-      const glm::dvec3 snappedLs(gridLs.x, gridLs.y, anchorZ);
-      c.boxCenterWs = basis * snappedLs;
-      // Make the box centre's depth exactly the anchored one.
-      c.boxCenterWs += basis[2] * (anchorZ - glm::dot(basis[2], c.boxCenterWs));
-      c.depthOriginLs = anchorZ;
-      depthNearLs = -c.depthFarLs;
-    } else {
-      // Tight fit to the slice's light-space bounds; no snapping (the comparison mode).
-      const auto corners = sliceCornersCr(camera, c.splitNearM, c.splitFarM);
-      glm::dvec3 lo(kInf), hi(-kInf);
-      for (const glm::dvec3& p : corners) {
-        const glm::dvec3 q = basisT * p;
-        lo = glm::min(lo, q);
-        hi = glm::max(hi, q);
-      }
-      const glm::dvec3 centerLs = 0.5 * (lo + hi);
-      c.boxCenterWs = camera.positionWs + basis * centerLs;
-      c.depthOriginLs = glm::dot(basis[2], c.boxCenterWs);
-      c.halfExtentLs = glm::max(glm::dvec2(0.5 * (hi - lo)), glm::dvec2(1e-9));
-      c.texelSizeLs = 2.0 * c.halfExtentLs / res;
-      c.depthFarLs = std::max(0.5 * (hi.z - lo.z), 1e-9);
-      c.neededHalfExtentM = std::max(c.halfExtentLs.x, c.halfExtentLs.y);
-      depthNearLs = -c.depthFarLs;
-    }
-
-    // Extend the depth range toward the light over the scene's casters, in steps of a quarter
-    // of the box's depth, keeping last frame's extension while it still covers (hysteresis).
-    if (sceneBounds != nullptr) {
-      double sceneNearLs = kInf;
-      for (const glm::dvec3& p : sceneCorners) {
-        sceneNearLs =
-            std::min(sceneNearLs, c.depthAnchored ? glm::dot(basis[2], p) - c.depthOriginLs
-                                                  : glm::dot(basis[2], p - c.boxCenterWs));
-      }
-      if (sceneNearLs < depthNearLs) {
-        // (Steps of the depth range's own rung: the anchor's margin does not coarsen them.)
-        const double step =
-            0.5 * (c.depthAnchored ? c.depthFarLs / (1.0 + kDepthStepFraction) : c.depthFarLs);
-        const double needed = -std::ceil(-sceneNearLs / step) * step;
-        depthNearLs = needed;
-        if (history != nullptr) {
-          const double previous = history->depthNearLs[i];
-          if (previous <= sceneNearLs && previous >= needed - 2.0 * step) depthNearLs = previous;
-        }
-      }
-    }
-    if (history != nullptr) history->depthNearLs[i] = depthNearLs;
-    c.depthNearLs = depthNearLs;
-
-    // Empty: no receiver of the scene lies in this slice.
-    c.empty = !sceneAhead;
-    if (sceneBounds != nullptr && !c.empty) {
-      c.empty = !(c.splitFarM > sceneMinDepthM && c.splitNearM < sceneMaxDepthM) ||
-                !sphereTouchesAabb(c.sphereCenterWs, c.sphereRadiusM, *sceneBounds);
-    }
-    c.viewProjCr = cameraRelativeViewProj(basis, camera.positionWs, c);
+    fitCascade(in, scene, frame, i, i + 1 < count ? splitRungs[i + 1] : kNoRung, frame.cascades[i]);
   }
   return frame;
 }
