@@ -47,8 +47,7 @@ struct FitConfig {
 void retimeInterleaved(csm_measure::Harness& harness, std::span<const FitConfig> configs,
                        const world::AppSettings& app,
                        std::span<const std::optional<csm::ReceiverDepthRange>> ranges,
-                       const csm::Camera& cam,
-                       const csm::DirectionalLight& light, VkExtent2D view,
+                       const csm::Camera& cam, const csm::DirectionalLight& light, VkExtent2D view,
                        std::vector<nlohmann::json>& poseRows) {
   for (int round = 0; round < 3; ++round) {
     for (std::size_t k = 0; k < configs.size(); ++k) {
