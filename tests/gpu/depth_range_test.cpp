@@ -313,7 +313,7 @@ TEST_F(DepthRangeTest, LightSpaceBoundsOfAnAnalyticGroundPlane) {
       pts.push_back(cam.positionWs + rot * (glm::dvec3(vx, vy, -1.0) * d));
     }
   }
-  const csm::ReceiverLightBounds truth = csm::receiverLightBounds(frame, pts);
+  const csm::ReceiverLightBounds truth = csm::receiverLightBounds(frame, cam, pts);
 
   engine::ImageDesc desc;
   desc.format = VK_FORMAT_D32_SFLOAT;
@@ -328,7 +328,7 @@ TEST_F(DepthRangeTest, LightSpaceBoundsOfAnAnalyticGroundPlane) {
   ctx().submitAndWait([&](VkCommandBuffer cmd) {
     ASSERT_TRUE(reducer
                     ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH},
-                             proj, 0, {&frame, cam.orientationWs})
+                             proj, 0, {&frame, &cam})
                     .ok());
     // Without bounds inputs: no bounds.
     ASSERT_TRUE(
@@ -378,7 +378,7 @@ TEST_F(DepthRangeTest, LightSpaceBoundsOfAnAnalyticGroundPlane) {
   ctx().submitAndWait([&](VkCommandBuffer cmd) {
     ASSERT_TRUE(reducer
                     ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH},
-                             proj, 0, {&h0.value(), cam.orientationWs})
+                             proj, 0, {&h0.value(), &cam})
                     .ok());
   });
   auto r2 = reducer->read(0);

@@ -147,7 +147,7 @@ int runFitStudy(const Options& o) {
           harness.setReceiverRange(cfgRange);
           csm::CascadeHistory hb;
           const csm::CascadeFrame splitFrame = harness.computeFrame(accCam, light, hb);
-          cfgRange->lightBounds = csm::receiverLightBounds(splitFrame, receiverPosWs);
+          cfgRange->lightBounds = csm::receiverLightBounds(splitFrame, accCam, receiverPosWs);
         }
         ranges.push_back(cfgRange);
         harness.setReceiverRange(cfgRange);

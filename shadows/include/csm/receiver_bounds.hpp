@@ -10,9 +10,11 @@
 
 namespace csm {
 
-/// Empty bounds for `frame` (its cascade count, splits, light basis and camera position; every
-/// cascade minLs = +inf, maxLs = -inf), to be grown with addReceiver().
-[[nodiscard]] ReceiverLightBounds emptyReceiverLightBounds(const CascadeFrame& frame) noexcept;
+/// Empty bounds for `frame` drawn with `camera` (its cascade count, splits, light basis and the
+/// camera's position, orientation and field of view; every cascade minLs = +inf,
+/// maxLs = -inf), to be grown with addReceiver().
+[[nodiscard]] ReceiverLightBounds emptyReceiverLightBounds(const CascadeFrame& frame,
+                                                           const Camera& camera) noexcept;
 
 /// Adds one visible receiver (world position, double) to the bounds: it goes to the cascade
 /// whose view-depth interval [splitsM[i], splitsM[i + 1]) holds its depth along `forwardWs`
@@ -21,15 +23,15 @@ namespace csm {
 int addReceiver(ReceiverLightBounds& bounds, const glm::dvec3& forwardWs,
                 const glm::dvec3& posWs) noexcept;
 
-/// The bounds of a set of receivers seen in `frame`.
+/// The bounds of a set of receivers seen in `frame` drawn with `camera`.
 [[nodiscard]] ReceiverLightBounds receiverLightBounds(const CascadeFrame& frame,
+                                                      const Camera& camera,
                                                       std::span<const glm::dvec3> posWs);
 
-/// The bounds apply to a frame with this cascade count, these splits and this light basis:
-/// all equal bit for bit (the ladder holds them between rung events, so bounds taken a few
-/// frames earlier usually apply; after a rung event or a light step they do not).
+/// The bounds apply to a frame with this cascade count and this light basis, both equal bit for
+/// bit (the light step holds the basis; after a step they do not); each cascade then checks its
+/// own interval (fitBoxToReceivers).
 [[nodiscard]] bool receiverBoundsApply(const ReceiverLightBounds& bounds, std::uint32_t count,
-                                       const SplitArray& splitsM,
                                        const glm::dmat3& lightBasisWs) noexcept;
 
 /// A cascade's box from the receivers' bounds, light space about the world origin.
@@ -39,16 +41,18 @@ struct ReceiverBoxFit {
   glm::dvec2 coverHalfLs{0.0};
 };
 
-/// Fits cascade `i`'s box to the receivers: their rectangle, widened by the camera's light-space
-/// x, y motion since the bounds were taken (the rectangle and its copy moved by it), pushed out
-/// on every side by margin x `todayHalfM`, then clipped to the square the box covers without
-/// bounds (centre `todayCenterLs`, half side `todayHalfM`), so never larger. Nothing (keep
-/// today's box) when the cascade saw no receiver, when the camera moved more than `todayHalfM`
-/// in light-space x, y (a cut), or when the rectangle misses today's square. `cameraWs` is this
-/// frame's camera; `lightBasisWs` the frame's (the bounds' own, see receiverBoundsApply).
+/// Fits cascade `i` (view depths [nearM, farM] this frame) to the receivers: their rectangle,
+/// widened by the camera's light-space x, y motion since the bounds were taken (the rectangle
+/// and its copy moved by it), pushed out on every side by margin x `todayHalfM`, then clipped to
+/// the square the box covers without bounds (centre `todayCenterLs`, half side `todayHalfM`), so
+/// never larger. Nothing (keep today's box) when the cascade's interval then did not hold
+/// [nearM, farM], when it saw no receiver, when the camera has turned or changed its field of view
+/// since (new receivers at a grazing angle may lie anywhere along the slice), when it moved more
+/// than `todayHalfM` in light-space x, y (a cut), or when the rectangle misses today's square.
+/// `camera` is this frame's; `lightBasisWs` the frame's (the bounds' own, see receiverBoundsApply).
 [[nodiscard]] std::optional<ReceiverBoxFit> fitBoxToReceivers(
     const ReceiverLightBounds& bounds, std::uint32_t i, const glm::dmat3& lightBasisWs,
-    const glm::dvec3& cameraWs, const glm::dvec2& todayCenterLs, double todayHalfM,
-    double margin) noexcept;
+    const Camera& camera, double nearM, double farM, const glm::dvec2& todayCenterLs,
+    double todayHalfM, double margin) noexcept;
 
 }  // namespace csm

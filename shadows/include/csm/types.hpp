@@ -158,15 +158,21 @@ struct ReceiverDepthHistogram {
 /// into a cascade by its view depth against that frame's splits, then the min and max of its
 /// light-space x, y about the world origin (transpose(lightBasisWs) * posWs, in double).
 /// computeCascades sizes each cascade's box to them (never larger than without them) only when
-/// they were taken with this frame's cascade count, splits and light basis, exactly; otherwise
-/// (and for a cascade with no receiver, minLs > maxLs) the box is as without them. The camera
-/// position they were taken from widens them by the camera's light-space motion since.
+/// they were taken with this frame's cascade count and light basis, exactly, and the cascade's
+/// view-depth interval then held this frame's (a split that moved outward, or any other
+/// change, falls back); otherwise (and for a cascade with no receiver, minLs > maxLs) the box is
+/// as without them, and also once the camera has turned or changed its field of view since; its
+/// light-space motion since widens them.
 /// cascadeCount = 0: no bounds.
 struct ReceiverLightBounds {
   std::uint32_t cascadeCount = 0;
   std::array<double, kMaxCascades + 1> splitsM{};
   glm::dmat3 lightBasisWs{1.0};
   glm::dvec3 cameraPositionWs{0.0};
+  /// The camera's orientation (camera to world) and field of view when they were taken.
+  glm::dquat cameraOrientationWs{1.0, 0.0, 0.0, 0.0};
+  double fovYRad = 0.0;
+  double aspect = 0.0;
   std::array<glm::dvec2, kMaxCascades> minLs{};
   std::array<glm::dvec2, kMaxCascades> maxLs{};
 

@@ -307,8 +307,8 @@ BoxNeed boxNeed(const FrameInputs& in, std::uint32_t i, Cascade& c) noexcept {
   need.coverHalf = glm::dvec2(need.half / in.snapMargin);
   // Receiver-driven: the visible receivers' rectangle, never larger than the above.
   if (in.receiverBounds != nullptr) {
-    const auto fit = fitBoxToReceivers(*in.receiverBounds, i, in.basis, in.camera.positionWs,
-                                       glm::dvec2(need.centerLs), need.coverHalf.x,
+    const auto fit = fitBoxToReceivers(*in.receiverBounds, i, in.basis, in.camera, c.splitNearM,
+                                       c.splitFarM, glm::dvec2(need.centerLs), need.coverHalf.x,
                                        in.settings.receiverBoundsMargin);
     if (fit) {
       const double fitHalf = std::max(fit->coverHalfLs.x, fit->coverHalfLs.y) * in.snapMargin;
@@ -553,7 +553,7 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   // Receiver-driven boxes: the visible receivers' light-space bounds, when taken with this
   // frame's splits and light basis.
   if (receivers != nullptr && settings.stabilize &&
-      receiverBoundsApply(receivers->lightBounds, count, frame.splitsM, in.basis)) {
+      receiverBoundsApply(receivers->lightBounds, count, in.basis)) {
     in.receiverBounds = &receivers->lightBounds;
   }
   for (std::uint32_t i = 0; i < count; ++i) {

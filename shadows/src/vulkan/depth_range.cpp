@@ -10,6 +10,7 @@
 
 #include <csm_shaders/csm_depth_range.comp.spv.h>
 
+#include "csm/receiver_bounds.hpp"
 #include "vk_util.hpp"
 
 namespace csm::vk {
@@ -262,6 +263,10 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
                   "layout (DEPTH_READ_ONLY, DEPTH_STENCIL_READ_ONLY, READ_ONLY or "
                   "SHADER_READ_ONLY) are required");
   }
+  if ((bounds.frame != nullptr) != (bounds.camera != nullptr)) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "DepthRangeReducer::record: bounds.frame and bounds.camera go together");
+  }
   if (bounds.frame != nullptr &&
       (!std::isfinite(projection.p00) || !std::isfinite(projection.p11) ||
        !std::isfinite(projection.p20) || !std::isfinite(projection.p21) || projection.p00 == 0.0f ||
@@ -342,7 +347,7 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
   slotBounds_[slot] = ReceiverLightBounds{};
   if (bounds.frame != nullptr) {
     const CascadeFrame& f = *bounds.frame;
-    const glm::dmat3 r = glm::mat3_cast(glm::normalize(bounds.cameraOrientationWs));
+    const glm::dmat3 r = glm::mat3_cast(glm::normalize(bounds.camera->orientationWs));
     for (int j = 0; j < 3; ++j) {
       push.lsX[j] = float(glm::dot(f.lightBasisWs[0], r[j]));
       push.lsY[j] = float(glm::dot(f.lightBasisWs[1], r[j]));
@@ -353,11 +358,7 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
     push.pOff[1] = projection.p21;
     push.boundsCount = f.cascadeCount;
     for (std::uint32_t i = 0; i <= f.cascadeCount; ++i) push.splits[i] = float(f.splitsM[i]);
-    ReceiverLightBounds& b = slotBounds_[slot];
-    b.cascadeCount = f.cascadeCount;
-    b.splitsM = f.splitsM;
-    b.lightBasisWs = f.lightBasisWs;
-    b.cameraPositionWs = f.cameraPositionWs;
+    slotBounds_[slot] = emptyReceiverLightBounds(f, *bounds.camera);
   }
   vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
   vkCmdDispatch(cmd, (extent.width + kGroup - 1) / kGroup, (extent.height + kGroup - 1) / kGroup,

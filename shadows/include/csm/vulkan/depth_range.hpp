@@ -57,10 +57,10 @@ struct DepthProjection {
 
 /// What the reduction needs to bound the receivers in light space per cascade: the cascades the
 /// depth buffer's frame was drawn with (cascadeCount, splitsM, lightBasisWs, cameraPositionWs)
-/// and the camera's orientation (camera to world, csm::Camera::orientationWs).
+/// and its camera (orientation, field of view and aspect).
 struct ReceiverBoundsInputs {
   const CascadeFrame* frame = nullptr;
-  glm::dquat cameraOrientationWs{1.0, 0.0, 0.0, 0.0};
+  const Camera* camera = nullptr;
 };
 
 class DepthRangeReducer {
