@@ -17,6 +17,12 @@ layout(std140, set = 0, binding = 0) uniform WorldFrame {
   uvec4 overlay;        // x cascade tint, y texel checker
 } frame;
 
+// The depth pre-pass runs this shader without a fragment stage and the lit pass tests its
+// depths EQUAL: the position must be computed identically in both pipelines. `precise` (no
+// contraction into fused multiply-adds, every operation that feeds gl_Position) gives that
+// without `invariant`, whose decoration on the gl_PerVertex block Mesa's SPIR-V reader warns about.
+precise gl_Position;
+
 layout(location = 0) out vec3 outPositionCr;
 layout(location = 1) out vec3 outNormalWs;
 layout(location = 2) out vec4 outColor;

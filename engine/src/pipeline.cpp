@@ -121,12 +121,11 @@ Builder& Builder::descriptorSetLayout(VkDescriptorSetLayout layout) {
   return *this;
 }
 
-GraphicsPipeline Builder::build(const Context& ctx, std::string_view name) const {
-  const std::string base(name);
+void Builder::requireFeatures(const Context& ctx, const std::string& name) const {
   const DeviceFeatures& features = ctx.features();
   auto need = [&](bool wanted, bool enabled, const char* feature) {
     if (wanted && !enabled)
-      throw std::invalid_argument("pipeline " + base + " needs the " + feature +
+      throw std::invalid_argument("pipeline " + name + " needs the " + feature +
                                   " feature, which the device does not enable");
   };
   need(depthClamp_, features.depthClamp, "depthClamp");
@@ -136,9 +135,11 @@ GraphicsPipeline Builder::build(const Context& ctx, std::string_view name) const
   need(viewMask_ != 0, features.multiview, "multiview");
   bool hasVertex = false;
   for (const Stage& s : stages_) hasVertex |= s.stage == VK_SHADER_STAGE_VERTEX_BIT;
-  if (!hasVertex) throw std::invalid_argument("pipeline " + base + " has no vertex shader");
+  if (!hasVertex) throw std::invalid_argument("pipeline " + name + " has no vertex shader");
+}
 
-  VkDevice device = ctx.device();
+DeviceHandle<VkPipelineLayout> Builder::createLayout(VkDevice device,
+                                                     const std::string& name) const {
   auto layoutInfo =
       detail::vkStruct<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
   layoutInfo.setLayoutCount = static_cast<uint32_t>(setLayouts_.size());
@@ -147,20 +148,25 @@ GraphicsPipeline Builder::build(const Context& ctx, std::string_view name) const
   layoutInfo.pPushConstantRanges = pushRanges_.data();
   VkPipelineLayout rawLayout = VK_NULL_HANDLE;
   ENGINE_VK_CHECK(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &rawLayout));
-  GraphicsPipeline result;
-  result.layout = DeviceHandle<VkPipelineLayout>(device, rawLayout, vkDestroyPipelineLayout);
-  setDebugName(device, rawLayout, base + ".layout");
+  DeviceHandle<VkPipelineLayout> layout(device, rawLayout, vkDestroyPipelineLayout);
+  setDebugName(device, rawLayout, name + ".layout");
+  return layout;
+}
 
-  // Specialisation data per stage (each stage sees the constants given for it).
-  struct StageSpec {
-    std::vector<VkSpecializationMapEntry> entries;
-    std::vector<uint32_t> data;
-    VkSpecializationInfo info{};
-  };
-  std::vector<StageSpec> stageSpecs(stages_.size());
-  std::vector<VkPipelineShaderStageCreateInfo> stageInfos;
+// Specialisation data per stage (each stage sees the constants given for it).
+struct Builder::StageSpec {
+  std::vector<VkSpecializationMapEntry> entries;
+  std::vector<uint32_t> data;
+  VkSpecializationInfo info{};
+};
+
+// `specs` (one per stage) holds what the returned infos point to.
+std::vector<VkPipelineShaderStageCreateInfo> Builder::stageInfos(
+    std::vector<StageSpec>& specs) const {
+  specs.resize(stages_.size());
+  std::vector<VkPipelineShaderStageCreateInfo> infos;
   for (size_t i = 0; i < stages_.size(); ++i) {
-    StageSpec& ss = stageSpecs[i];
+    StageSpec& ss = specs[i];
     for (const Spec& sp : specs_)
       if (sp.stages & stages_[i].stage) {
         ss.entries.push_back(
@@ -177,52 +183,70 @@ GraphicsPipeline Builder::build(const Context& ctx, std::string_view name) const
     si.module = stages_[i].module;
     si.pName = stages_[i].entry;
     si.pSpecializationInfo = ss.entries.empty() ? nullptr : &ss.info;
-    stageInfos.push_back(si);
+    infos.push_back(si);
   }
+  return infos;
+}
 
-  auto vertexInput = detail::vkStruct<VkPipelineVertexInputStateCreateInfo>(
+// Filled in place (blend and dynamic point into the vectors beside them): not copied or moved.
+struct Builder::FixedState {
+  VkPipelineVertexInputStateCreateInfo vertexInput{};
+  VkPipelineInputAssemblyStateCreateInfo inputAssembly{};
+  VkPipelineViewportStateCreateInfo viewport{};
+  VkPipelineRasterizationStateCreateInfo raster{};
+  VkPipelineMultisampleStateCreateInfo multisample{};
+  VkPipelineDepthStencilStateCreateInfo depth{};
+  std::vector<VkPipelineColorBlendAttachmentState> blends;
+  VkPipelineColorBlendStateCreateInfo blend{};
+  std::vector<VkDynamicState> dynamicStates;
+  VkPipelineDynamicStateCreateInfo dynamic{};
+  VkPipelineRenderingCreateInfo rendering{};
+};
+
+void Builder::fillFixedState(FixedState& st) const {
+  st.vertexInput = detail::vkStruct<VkPipelineVertexInputStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
-  vertexInput.vertexBindingDescriptionCount = static_cast<uint32_t>(bindings_.size());
-  vertexInput.pVertexBindingDescriptions = bindings_.data();
-  vertexInput.vertexAttributeDescriptionCount = static_cast<uint32_t>(attributes_.size());
-  vertexInput.pVertexAttributeDescriptions = attributes_.data();
+  st.vertexInput.vertexBindingDescriptionCount = static_cast<uint32_t>(bindings_.size());
+  st.vertexInput.pVertexBindingDescriptions = bindings_.data();
+  st.vertexInput.vertexAttributeDescriptionCount = static_cast<uint32_t>(attributes_.size());
+  st.vertexInput.pVertexAttributeDescriptions = attributes_.data();
 
-  auto inputAssembly = detail::vkStruct<VkPipelineInputAssemblyStateCreateInfo>(
+  st.inputAssembly = detail::vkStruct<VkPipelineInputAssemblyStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
-  inputAssembly.topology = topology_;
+  st.inputAssembly.topology = topology_;
 
-  auto viewport = detail::vkStruct<VkPipelineViewportStateCreateInfo>(
+  st.viewport = detail::vkStruct<VkPipelineViewportStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO);
-  viewport.viewportCount = 1;
-  viewport.scissorCount = 1;
+  st.viewport.viewportCount = 1;
+  st.viewport.scissorCount = 1;
 
-  auto raster = detail::vkStruct<VkPipelineRasterizationStateCreateInfo>(
+  st.raster = detail::vkStruct<VkPipelineRasterizationStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO);
-  raster.depthClampEnable = depthClamp_;
-  raster.polygonMode = polygonMode_;
-  raster.cullMode = cull_;
-  raster.frontFace = front_;
-  raster.depthBiasEnable = depthBias_;
-  raster.depthBiasConstantFactor = biasConstant_;
-  raster.depthBiasSlopeFactor = biasSlope_;
-  raster.depthBiasClamp = biasClamp_;
-  raster.lineWidth = 1.0f;
+  st.raster.depthClampEnable = depthClamp_;
+  st.raster.polygonMode = polygonMode_;
+  st.raster.cullMode = cull_;
+  st.raster.frontFace = front_;
+  st.raster.depthBiasEnable = depthBias_;
+  st.raster.depthBiasConstantFactor = biasConstant_;
+  st.raster.depthBiasSlopeFactor = biasSlope_;
+  st.raster.depthBiasClamp = biasClamp_;
+  st.raster.lineWidth = 1.0f;
 
-  auto multisample = detail::vkStruct<VkPipelineMultisampleStateCreateInfo>(
+  st.multisample = detail::vkStruct<VkPipelineMultisampleStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
-  multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
+  st.multisample.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
 
   const bool hasDepth = depthFormat_ != VK_FORMAT_UNDEFINED;
-  auto depth = detail::vkStruct<VkPipelineDepthStencilStateCreateInfo>(
+  st.depth = detail::vkStruct<VkPipelineDepthStencilStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
-  depth.depthTestEnable = hasDepth && depthTest_;
-  depth.depthWriteEnable = hasDepth && depthWrite_;
-  depth.depthCompareOp = depthCompare_;
-  depth.minDepthBounds = 0.0f;
-  depth.maxDepthBounds = 1.0f;
+  st.depth.depthTestEnable = hasDepth && depthTest_;
+  st.depth.depthWriteEnable = hasDepth && depthWrite_;
+  st.depth.depthCompareOp = depthCompare_;
+  st.depth.minDepthBounds = 0.0f;
+  st.depth.maxDepthBounds = 1.0f;
 
-  std::vector<VkPipelineColorBlendAttachmentState> blends(colorFormats_.size());
-  for (auto& b : blends) {
+  st.blends.resize(colorFormats_.size());
+  for (auto& b : st.blends) {
     b.blendEnable = blend_;
     b.srcColorBlendFactor = VK_BLEND_FACTOR_SRC_ALPHA;
     b.dstColorBlendFactor = VK_BLEND_FACTOR_ONE_MINUS_SRC_ALPHA;
@@ -233,38 +257,51 @@ GraphicsPipeline Builder::build(const Context& ctx, std::string_view name) const
     b.colorWriteMask = VK_COLOR_COMPONENT_R_BIT | VK_COLOR_COMPONENT_G_BIT |
                        VK_COLOR_COMPONENT_B_BIT | VK_COLOR_COMPONENT_A_BIT;
   }
-  auto blend = detail::vkStruct<VkPipelineColorBlendStateCreateInfo>(
+  st.blend = detail::vkStruct<VkPipelineColorBlendStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
-  blend.attachmentCount = static_cast<uint32_t>(blends.size());
-  blend.pAttachments = blends.data();
+  st.blend.attachmentCount = static_cast<uint32_t>(st.blends.size());
+  st.blend.pAttachments = st.blends.data();
 
-  std::vector<VkDynamicState> dynamicStates = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
-  if (dynamicDepthBias_) dynamicStates.push_back(VK_DYNAMIC_STATE_DEPTH_BIAS);
-  auto dynamic = detail::vkStruct<VkPipelineDynamicStateCreateInfo>(
+  st.dynamicStates = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+  if (dynamicDepthBias_) st.dynamicStates.push_back(VK_DYNAMIC_STATE_DEPTH_BIAS);
+  st.dynamic = detail::vkStruct<VkPipelineDynamicStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO);
-  dynamic.dynamicStateCount = static_cast<uint32_t>(dynamicStates.size());
-  dynamic.pDynamicStates = dynamicStates.data();
+  st.dynamic.dynamicStateCount = static_cast<uint32_t>(st.dynamicStates.size());
+  st.dynamic.pDynamicStates = st.dynamicStates.data();
 
-  auto rendering = detail::vkStruct<VkPipelineRenderingCreateInfo>(
+  st.rendering = detail::vkStruct<VkPipelineRenderingCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO);
-  rendering.viewMask = viewMask_;
-  rendering.colorAttachmentCount = static_cast<uint32_t>(colorFormats_.size());
-  rendering.pColorAttachmentFormats = colorFormats_.data();
-  rendering.depthAttachmentFormat = depthFormat_;
+  st.rendering.viewMask = viewMask_;
+  st.rendering.colorAttachmentCount = static_cast<uint32_t>(colorFormats_.size());
+  st.rendering.pColorAttachmentFormats = colorFormats_.data();
+  st.rendering.depthAttachmentFormat = depthFormat_;
+}
+
+GraphicsPipeline Builder::build(const Context& ctx, std::string_view name) const {
+  const std::string base(name);
+  requireFeatures(ctx, base);
+  VkDevice device = ctx.device();
+  GraphicsPipeline result;
+  result.layout = createLayout(device, base);
+
+  std::vector<StageSpec> stageSpecs;
+  const std::vector<VkPipelineShaderStageCreateInfo> stages = stageInfos(stageSpecs);
+  FixedState st;
+  fillFixedState(st);
 
   auto info = detail::vkStruct<VkGraphicsPipelineCreateInfo>(
-      VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO, &rendering);
-  info.stageCount = static_cast<uint32_t>(stageInfos.size());
-  info.pStages = stageInfos.data();
-  info.pVertexInputState = &vertexInput;
-  info.pInputAssemblyState = &inputAssembly;
-  info.pViewportState = &viewport;
-  info.pRasterizationState = &raster;
-  info.pMultisampleState = &multisample;
-  info.pDepthStencilState = hasDepth ? &depth : nullptr;
-  info.pColorBlendState = colorFormats_.empty() ? nullptr : &blend;
-  info.pDynamicState = &dynamic;
-  info.layout = rawLayout;
+      VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO, &st.rendering);
+  info.stageCount = static_cast<uint32_t>(stages.size());
+  info.pStages = stages.data();
+  info.pVertexInputState = &st.vertexInput;
+  info.pInputAssemblyState = &st.inputAssembly;
+  info.pViewportState = &st.viewport;
+  info.pRasterizationState = &st.raster;
+  info.pMultisampleState = &st.multisample;
+  info.pDepthStencilState = depthFormat_ != VK_FORMAT_UNDEFINED ? &st.depth : nullptr;
+  info.pColorBlendState = colorFormats_.empty() ? nullptr : &st.blend;
+  info.pDynamicState = &st.dynamic;
+  info.layout = result.layout.get();
   VkPipeline pipeline = VK_NULL_HANDLE;
   ENGINE_VK_CHECK(vkCreateGraphicsPipelines(device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline));
   result.pipeline = DeviceHandle<VkPipeline>(device, pipeline, vkDestroyPipeline);

@@ -145,8 +145,22 @@ constexpr std::array<std::pair<const char*, csm::BoxFit>, 2> kBoxFits{
 constexpr std::array<std::pair<const char*, csm::ReceiverSplitScheme>, 2> kReceiverSchemes{
     {{"range", csm::ReceiverSplitScheme::kRange},
      {"histogram", csm::ReceiverSplitScheme::kHistogram}}};
-constexpr std::array<std::pair<const char*, bool>, 2> kDepthFormats{
-    {{"d32", false}, {"d16", true}}};
+
+// The depth format by csm's names ("d32", "d16"; parseDepthFormat also takes "D32", "D16").
+Entry depthFormatEntry() {
+  static const std::string kAllowed = "one of " + csm::depthFormatNames();
+  return {
+      "shadow.depthFormat", kAllowed.c_str(),
+      [](AppSettings& s, const std::string& v) -> std::optional<std::string> {
+        const csm::Result<csm::DepthFormat> r = csm::parseDepthFormat(v, "shadow.depthFormat");
+        if (!r) return bad("shadow.depthFormat", v, kAllowed.c_str());
+        s.depth16 = r.value() == csm::DepthFormat::kD16;
+        return std::nullopt;
+      },
+      [](const AppSettings& s) -> nlohmann::json {
+        return csm::depthFormatName(s.depth16 ? csm::DepthFormat::kD16 : csm::DepthFormat::kD32);
+      }};
+}
 
 const std::vector<Entry>& table() {
   // Kernel names: csm's ("tent3x3"); parseKernel also takes the older "tent3", "tent5", "tent7".
@@ -191,8 +205,7 @@ const std::vector<Entry>& table() {
           [](AppSettings& s) -> std::uint64_t& { return s.cacheBudgetTexels; }),
       number<float>("shadow.minCasterTexels", "texels in [0, 1e6]", 0, 1e6, false,
                     [](AppSettings& s) -> float& { return s.shadow.minCasterTexels; }),
-      choice("shadow.depthFormat", "one of d32, d16", kDepthFormats,
-             [](AppSettings& s) -> bool& { return s.depth16; }),
+      depthFormatEntry(),
       // The size ladder, the box fit and the stepped sun (issue 10).
       boolean("shadow.ladder", [](AppSettings& s) -> bool& { return s.shadow.sizeLadder; }),
       number<double>("shadow.ladderSteps", "rungs per doubling in [1, 64]", 1, 64, false,
@@ -250,6 +263,8 @@ const std::vector<Entry>& table() {
                             [](AppSettings& s) -> std::uint32_t& { return s.width; }),
       number<std::uint32_t>("view.height", "an integer in [64, 4320]", 64, 4320, true,
                             [](AppSettings& s) -> std::uint32_t& { return s.height; }),
+      boolean("view.depthPrepass", [](AppSettings& s) -> bool& { return s.depthPrepass; }),
+      boolean("view.cullBackFaces", [](AppSettings& s) -> bool& { return s.cullBackFaces; }),
       number<double>("camera.fov", "degrees in [1, 170]", 1, 170, false,
                      [](AppSettings& s) -> double& { return s.fovDeg; }),
       number<double>("camera.far", "metres in [10, 1000000]", 10, 1e6, false,

@@ -371,6 +371,13 @@ std::optional<std::string> checkDesc(const WorldDesc& desc) {
     return std::string("world.chunk = " + shortNumber(desc.chunkM) +
                        ": must be >= 64 m and divide world.size");
   }
+  const double cellsD = desc.chunkM / desc.clusterM;
+  if (!(desc.clusterM >= 16.0) || !(desc.clusterM <= desc.chunkM) ||
+      std::abs(cellsD - std::round(cellsD)) > 1e-9) {
+    return std::string("world.clusterM = " + shortNumber(desc.clusterM) +
+                       ": must be >= 16 m, at most world.chunk (" + shortNumber(desc.chunkM) +
+                       " m) and divide it");
+  }
   if (desc.chunkCells < 4 || desc.chunkCells > 256) {
     return std::string("world.chunkCells = " + std::to_string(desc.chunkCells) +
                        ": allowed [4, 256]");
@@ -664,7 +671,7 @@ void WorldBuilder::statisticsAndClusters() {
     w.boundsWs.maxWs = glm::max(w.boundsWs.maxWs, ob.boundsWs.maxWs);
   }
 
-  // Per chunk: the terrain chunk itself, then one cluster per group of casting objects.
+  // The terrain chunks, then one cluster per cell (clusterM) and group of casting objects.
   const int kGroups = 3;  // 0 vegetation + rocks, 1 buildings + tower + user mesh, 2 thin casters
   auto groupOf = [](Kind k) {
     switch (k) {
@@ -680,7 +687,16 @@ void WorldBuilder::statisticsAndClusters() {
     }
   };
   static const char* kGroupNames[] = {"vegetation", "buildings", "thin"};
-  std::vector<std::vector<std::uint32_t>> members(static_cast<std::size_t>(n) * n * kGroups);
+  const auto cells = static_cast<std::uint32_t>(std::lround(desc.sizeM / desc.clusterM));
+  auto cellOf = [&](const glm::dvec3& p) {
+    const auto cx = static_cast<std::uint32_t>(
+        std::clamp(std::floor((p.x - o.x) / desc.clusterM), 0.0, double(cells - 1)));
+    const auto cz = static_cast<std::uint32_t>(
+        std::clamp(std::floor((p.z - o.z) / desc.clusterM), 0.0, double(cells - 1)));
+    return cz * cells + cx;
+  };
+  std::vector<std::vector<std::uint32_t>> members(static_cast<std::size_t>(cells) * cells *
+                                                  kGroups);
   for (std::uint32_t k = 0; k < w.objects.size(); ++k) {
     const Object& ob = w.objects[k];
     if (!ob.casts) continue;
@@ -695,15 +711,16 @@ void WorldBuilder::statisticsAndClusters() {
       w.clusters.push_back(std::move(c));
       continue;
     }
-    members[ob.chunk * kGroups + groupOf(ob.kind)].push_back(k);
+    members[cellOf(ob.translationWs) * kGroups + groupOf(ob.kind)].push_back(k);
   }
   for (std::size_t m = 0; m < members.size(); ++m) {
     if (members[m].empty()) continue;
-    const auto chunk = static_cast<std::uint32_t>(m / kGroups);
+    const auto cell = static_cast<std::uint32_t>(m / kGroups);
     CasterCluster c;
-    c.name = std::string(kGroupNames[m % kGroups]) + " " + std::to_string(chunk % n) + "," +
-             std::to_string(chunk / n);
-    c.originWs = o + glm::dvec3((chunk % n) * desc.chunkM, 0.0, (chunk / n) * desc.chunkM);
+    c.name = std::string(kGroupNames[m % kGroups]) + " " + std::to_string(cell % cells) + "," +
+             std::to_string(cell / cells);
+    c.originWs =
+        o + glm::dvec3((cell % cells) * desc.clusterM, 0.0, (cell / cells) * desc.clusterM);
     c.boundsWs = {glm::dvec3(std::numeric_limits<double>::max()),
                   glm::dvec3(-std::numeric_limits<double>::max())};
     for (std::uint32_t k : members[m]) {

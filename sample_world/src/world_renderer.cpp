@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <stdexcept>
 
 #include "csm/gpu_layout.hpp"
@@ -69,6 +70,8 @@ double boxDistance(const csm::AabbWs& b, const glm::dvec3& p) {
   return glm::length(d);
 }
 
+constexpr VkClearColorValue kSkyColor{{0.55f, 0.68f, 0.86f, 1.0f}};
+
 }  // namespace
 
 WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat colorFormat,
@@ -76,6 +79,7 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
     : ctx_(&ctx), world_(&world), colorFormat_(colorFormat), depthFormat_(depthFormat) {
   uploadMeshes(world);
   buildViewGroups(world);
+  buildClosedMeshes(world);
   setUpShadowView(world);
   createFrameResources();
   createPipelines();
@@ -110,6 +114,61 @@ void WorldRenderer::uploadMeshes(const World& world) {
     }
     clusterRanges_.push_back(r);
   }
+}
+
+// True when the mesh is closed and outward: welded by position, every directed edge has exactly
+// one reverse and no duplicate, and its signed volume is positive (counter-clockwise outside).
+bool closedOutward(const MeshData& m) {
+  if (m.indices.empty()) return false;
+  std::map<std::array<float, 3>, std::uint32_t> weld;
+  std::vector<std::uint32_t> id(m.positions.size());
+  for (std::size_t i = 0; i < m.positions.size(); ++i) {
+    const glm::vec3& p = m.positions[i];
+    id[i] =
+        weld.emplace(std::array<float, 3>{p.x, p.y, p.z}, std::uint32_t(weld.size())).first->second;
+  }
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
+  double volume = 0.0;
+  for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+    const std::uint32_t v[3] = {id[m.indices[t]], id[m.indices[t + 1]], id[m.indices[t + 2]]};
+    if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) return false;
+    for (int e = 0; e < 3; ++e) {
+      if (++edges[{v[e], v[(e + 1) % 3]}] > 1) return false;
+    }
+    const glm::dvec3 a(m.positions[m.indices[t]]), b(m.positions[m.indices[t + 1]]),
+        c(m.positions[m.indices[t + 2]]);
+    volume += glm::dot(a, glm::cross(b, c));
+  }
+  for (const auto& [e, n] : edges) {
+    if (!edges.count({e.second, e.first})) return false;
+  }
+  return volume > 0.0;
+}
+
+void WorldRenderer::buildClosedMeshes(const World& world) {
+  closedMesh_.assign(assetRanges_.size(), false);
+  // Terrain chunks are open heightfields: not checked (the check is a map over every edge).
+  std::vector<bool> terrain(world.meshes.size(), false);
+  for (const Object& ob : world.objects) {
+    if (ob.kind == Kind::kTerrain) terrain[ob.mesh] = true;
+  }
+  for (std::size_t a = 0; a < world.meshes.size(); ++a) {
+    if (terrain[a]) continue;
+    bool closed = true;
+    for (const MeshData& m : world.meshes[a].lods) closed = closed && closedOutward(m);
+    closedMesh_[a] = closed;
+  }
+  // A placement that mirrors (negative determinant) turns the winding: draw both faces.
+  for (const Object& ob : world.objects) {
+    if (glm::determinant(ob.linear) <= 0.0f) closedMesh_[ob.mesh] = false;
+  }
+  closedMesh_[cubeMesh_] = closedOutward([&] {
+    MeshData m;
+    std::vector<engine::Vertex> v;
+    engine::makeCube(v, m.indices);
+    for (const engine::Vertex& x : v) m.positions.push_back(x.position);
+    return m;
+  }());
 }
 
 void WorldRenderer::buildViewGroups(const World& world) {
@@ -289,7 +348,7 @@ std::uint64_t WorldRenderer::clusterTriangles(std::uint32_t lod) const {
 
 void WorldRenderer::buildLitPipeline() {
   const auto kernel = static_cast<std::uint32_t>(settings_.kernel);
-  if (litPipelines_.count(kernel)) return;
+  const std::uint32_t key = kernel | (settings_.depthPrepass ? kLitAfterPrepass : 0u);
   const VkVertexInputBindingDescription bindings[] = {
       engine::MeshStore::bindingDescription(),
       {1, sizeof(Instance), VK_VERTEX_INPUT_RATE_INSTANCE}};
@@ -300,18 +359,45 @@ void WorldRenderer::buildLitPipeline() {
     attrs.push_back({2 + k, 1, VK_FORMAT_R32G32B32A32_SFLOAT,
                      static_cast<std::uint32_t>(k * sizeof(glm::vec4))});
   }
-  engine::GraphicsPipelineBuilder b;
-  b.vertexShader(worldVert_)
-      .fragmentShader(worldFrag_)
-      .vertexInput(bindings, attrs)
-      .colorFormat(colorFormat_)
-      .depthFormat(depthFormat_)
-      .depthTest(true, true, VK_COMPARE_OP_LESS)
-      .descriptorSetLayout(frameLayout_.get())
-      .descriptorSetLayout(shadow_->lightingSetLayout())
-      .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_KERNEL, kernel)
-      .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, 1u);
-  litPipelines_[kernel] = b.build(*ctx_, std::string("world.lit.") + kernelKey(settings_.kernel));
+  if (settings_.depthPrepass && !depthPrepass_.pipeline) {
+    // The same vertex shader (gl_Position is precise) and vertex input as the lit pipeline, no
+    // fragment shader and no colour attachment: the depths the lit pass tests EQUAL against.
+    for (int cull = 0; cull < 2; ++cull) {
+      engine::GraphicsPipelineBuilder d;
+      d.vertexShader(worldVert_)
+          .vertexInput(bindings, attrs)
+          .depthFormat(depthFormat_)
+          .depthTest(true, true, VK_COMPARE_OP_LESS)
+          .cullMode(cull ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE)
+          .descriptorSetLayout(frameLayout_.get());
+      (cull ? depthPrepassCullBack_ : depthPrepass_) =
+          d.build(*ctx_, cull ? "world.depthPrepass.cullBack" : "world.depthPrepass");
+    }
+  }
+  if (litPipelines_.count(key)) return;
+  for (int cull = 0; cull < 2; ++cull) {
+    engine::GraphicsPipelineBuilder b;
+    b.vertexShader(worldVert_)
+        .fragmentShader(worldFrag_)
+        .vertexInput(bindings, attrs)
+        .colorFormat(colorFormat_)
+        .depthFormat(depthFormat_)
+        .depthTest(true, !settings_.depthPrepass,
+                   settings_.depthPrepass ? VK_COMPARE_OP_EQUAL : VK_COMPARE_OP_LESS)
+        .descriptorSetLayout(frameLayout_.get())
+        .descriptorSetLayout(shadow_->lightingSetLayout())
+        .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_KERNEL, kernel)
+        .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, 1u)
+        .cullMode(cull ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE);
+    litPipelines_[key | (cull ? kLitCullBack : 0u)] = b.build(
+        *ctx_, std::string("world.lit.") + kernelKey(settings_.kernel) +
+                   (settings_.depthPrepass ? ".afterPrepass" : "") + (cull ? ".cullBack" : ""));
+  }
+}
+
+const engine::GraphicsPipeline& WorldRenderer::litPipeline(bool prepass, bool cullBack) const {
+  return litPipelines_.at(static_cast<std::uint32_t>(settings_.kernel) |
+                          (prepass ? kLitAfterPrepass : 0u) | (cullBack ? kLitCullBack : 0u));
 }
 
 std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
@@ -405,6 +491,7 @@ std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, 
     bucket.mesh = b / kLodCount;
     bucket.lod = b % kLodCount;
     bucket.first = static_cast<std::uint32_t>(instances_.size());
+    bucket.cullBack = settings_.cullBackFaces && closedMesh_[bucket.mesh];
     for (std::uint32_t k : bucketObjects_[b]) {
       const Object& ob = world_->objects[k];
       const glm::vec3 t(ob.translationWs - camera.positionWs);
@@ -424,6 +511,7 @@ std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, 
     Bucket bucket;
     bucket.mesh = cubeMesh_;
     bucket.lod = 0;
+    bucket.cullBack = settings_.cullBackFaces && closedMesh_[cubeMesh_];
     bucket.first = static_cast<std::uint32_t>(instances_.size());
     instances_.insert(instances_.end(), moverInstances_.begin(), moverInstances_.end());
     bucket.count = static_cast<std::uint32_t>(moverInstances_.size());
@@ -571,10 +659,72 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
   }
 }
 
+void WorldRenderer::bindWorldGeometry(VkCommandBuffer cmd, Slot& slot) const {
+  const VkBuffer buffers[2] = {meshes_->vertexBuffer(), slot.instances.handle()};
+  const VkDeviceSize offsets[2] = {0, 0};
+  vkCmdBindVertexBuffers(cmd, 0, 2, buffers, offsets);
+  vkCmdBindIndexBuffer(cmd, meshes_->indexBuffer(), 0, VK_INDEX_TYPE_UINT32);
+}
+
+void WorldRenderer::drawBuckets(VkCommandBuffer cmd, const engine::GraphicsPipeline& both,
+                                const engine::GraphicsPipeline& cullBack) const {
+  // The two pipelines' layouts are identical, hence compatible: the bound sets stay valid.
+  int bound = -1;
+  for (const Bucket& b : buckets_) {
+    if (int(b.cullBack) != bound) {
+      bound = int(b.cullBack);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                        b.cullBack ? cullBack.pipeline : both.pipeline);
+    }
+    const engine::MeshRange& r = assetRanges_[b.mesh][b.lod];
+    vkCmdDrawIndexed(cmd, r.indexCount, b.count, r.firstIndex, r.vertexOffset, b.first);
+  }
+}
+
+void WorldRenderer::recordDepthPrepass(const engine::Frame& f, Slot& slot,
+                                       engine::GpuTimer& timer) {
+  VkCommandBuffer cmd = f.cmd;
+  // A rendering of its own: on a binning rasteriser (lavapipe) the work happens when a
+  // rendering ends, so the "prepass" scope holds the pre-pass's rasterisation, not the lit pass's.
+  timer.begin(cmd, "prepass");
+  VkRenderingAttachmentInfo depth{};
+  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  depth.imageView = f.depthView;
+  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  depth.clearValue.depthStencil = {1.0f, 0};
+  VkRenderingInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
+  info.renderArea = {{0, 0}, f.extent};
+  info.layerCount = 1;
+  info.pDepthAttachment = &depth;
+  vkCmdBeginRendering(cmd, &info);
+  {
+    engine::ScopedLabel label(cmd, "world depth pre-pass", {0.5f, 0.5f, 0.5f, 1.0f});
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, depthPrepass_.pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, depthPrepass_.layout, 0, 1,
+                            &slot.frameSet, 0, nullptr);
+    engine::setViewportAndScissor(cmd, f.extent);
+    bindWorldGeometry(cmd, slot);
+    drawBuckets(cmd, depthPrepass_, depthPrepassCullBack_);
+  }
+  vkCmdEndRendering(cmd);
+  // The pre-pass's depth writes before the lit pass's depth tests (same layout).
+  engine::imageBarrier(
+      cmd, f.depthImage, VK_IMAGE_ASPECT_DEPTH_BIT,
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+  timer.end(cmd, "prepass");
+}
+
 void WorldRenderer::recordLitPass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer,
                                   bool overlay) {
   VkCommandBuffer cmd = f.cmd;
-  const VkBuffer vb = meshes_->vertexBuffer();
   // ---- Lit pass ---------------------------------------------------------------------------------
   WorldFrameGpu gpu{};
   gpu.viewProjCr = camera_.viewProjectionCr();
@@ -586,24 +736,45 @@ void WorldRenderer::recordLitPass(const engine::Frame& f, Slot& slot, engine::Gp
   std::memcpy(slot.frameUniforms.mapped(), &gpu, sizeof(gpu));
   std::memcpy(slot.instances.mapped(), instances_.data(), instances_.size() * sizeof(Instance));
 
+  const bool prepass = settings_.depthPrepass && f.depthView != VK_NULL_HANDLE;
+  if (prepass) recordDepthPrepass(f, slot, timer);
   timer.begin(cmd, "lit");
-  engine::beginRendering(f, VkClearColorValue{{0.55f, 0.68f, 0.86f, 1.0f}});
+  if (prepass) {
+    // Colour cleared, the pre-pass's depth kept.
+    VkRenderingAttachmentInfo color{};
+    color.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+    color.imageView = f.colorView;
+    color.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    color.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    color.clearValue.color = kSkyColor;
+    VkRenderingAttachmentInfo depth{};
+    depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+    depth.imageView = f.depthView;
+    depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    depth.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+    depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    VkRenderingInfo info{};
+    info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
+    info.renderArea = {{0, 0}, f.extent};
+    info.layerCount = 1;
+    info.colorAttachmentCount = 1;
+    info.pColorAttachments = &color;
+    info.pDepthAttachment = &depth;
+    vkCmdBeginRendering(cmd, &info);
+    engine::setViewportAndScissor(cmd, f.extent);
+  } else {
+    engine::beginRendering(f, kSkyColor);
+  }
   {
     engine::ScopedLabel label(cmd, "world lit pass", {0.9f, 0.8f, 0.3f, 1.0f});
-    const engine::GraphicsPipeline& p =
-        litPipelines_.at(static_cast<std::uint32_t>(settings_.kernel));
+    const engine::GraphicsPipeline& p = litPipeline(prepass, false);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.pipeline);
     const VkDescriptorSet sets[2] = {slot.frameSet, shadow_->lightingSet()};
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 2, sets, 0, nullptr);
     engine::setViewportAndScissor(cmd, f.extent);
-    const VkBuffer buffers[2] = {vb, slot.instances.handle()};
-    const VkDeviceSize offsets[2] = {0, 0};
-    vkCmdBindVertexBuffers(cmd, 0, 2, buffers, offsets);
-    vkCmdBindIndexBuffer(cmd, meshes_->indexBuffer(), 0, VK_INDEX_TYPE_UINT32);
-    for (const Bucket& b : buckets_) {
-      const engine::MeshRange& r = assetRanges_[b.mesh][b.lod];
-      vkCmdDrawIndexed(cmd, r.indexCount, b.count, r.firstIndex, r.vertexOffset, b.first);
-    }
+    bindWorldGeometry(cmd, slot);
+    drawBuckets(cmd, p, litPipeline(prepass, true));
   }
   timer.end(cmd, "lit");
 }

@@ -81,7 +81,7 @@ TEST(ShadowBlendBand, NoJumpAcrossTheBandLargerThanTheKernelStep) {
     const double texel1 = frame.cascades[1].texelSizeM();
 
     // The rail's shadow edge on the plane (the +x side: the light travels toward +x).
-    const csm::AabbWs rail = scene.boxes.back();
+    const csm::AabbWs rail = scene.shapes.boxes.back();
     const glm::dvec3 l = glm::normalize(scene.light.directionWs);
     const double edgeX = rail.maxWs.x + rail.maxWs.y * (l.x / -l.y);
 

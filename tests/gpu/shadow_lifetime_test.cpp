@@ -25,30 +25,14 @@ struct Difference {
 Difference compareImages(const ShadowScene& scene, const engine::CpuImage& unshadowed,
                          const engine::CpuImage& shadowed) {
   Difference d;
-  for (uint32_t y = 0; y < shadowed.height; ++y) {
-    for (uint32_t x = 0; x < shadowed.width; ++x) {
-      const ShadowScene::Hit hit = scene.trace(x, y);
-      if (!hit.hit || !hit.plane) continue;
-      ++d.plane;
-      const int a = unshadowed.at(x, y)[0], b = shadowed.at(x, y)[0];
-      d.darker += b < a - 10 ? 1 : 0;
-      d.brighter += b > a + 2 ? 1 : 0;
-    }
-  }
+  scene.forEachGroundPixel(shadowed.width, shadowed.height,
+                           [&](uint32_t x, uint32_t y, const glm::dvec3&) {
+                             ++d.plane;
+                             const int a = unshadowed.at(x, y)[0], b = shadowed.at(x, y)[0];
+                             d.darker += b < a - 10 ? 1 : 0;
+                             d.brighter += b > a + 2 ? 1 : 0;
+                           });
   return d;
-}
-
-// The casters' world bounds in the order ShadowScene gives them to its view: the ground plane,
-// the spheres, the boxes.
-std::vector<csm::AabbWs> casterBounds(const ShadowScene& scene) {
-  std::vector<csm::AabbWs> bounds;
-  bounds.push_back({scene.planeCenterWs - glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM),
-                    scene.planeCenterWs + glm::dvec3(scene.planeHalfM, 0.0, scene.planeHalfM)});
-  for (const SphereWs& sp : scene.spheres) {
-    bounds.push_back({sp.centerWs - glm::dvec3(sp.radiusM), sp.centerWs + glm::dvec3(sp.radiusM)});
-  }
-  for (const csm::AabbWs& b : scene.boxes) bounds.push_back(b);
-  return bounds;
 }
 
 // Appends a mesh with no triangles (an "empty LOD") and returns its index.
@@ -65,17 +49,13 @@ struct PerCascade {
 };
 PerCascade shadowedPerCascade(const ShadowScene& scene, const Rendered& r) {
   PerCascade c;
-  for (uint32_t y = 0; y < r.image.height; ++y) {
-    for (uint32_t x = 0; x < r.image.width; ++x) {
-      const ShadowScene::Hit hit = scene.trace(x, y);
-      if (!hit.hit || !hit.plane) continue;
-      const csm::CascadeSelection sel = csm::selectCascade(
-          r.frame, csm::viewDepthM(r.frame, hit.posWs), scene.settings().blendBand);
-      if (sel.index < 0 || sel.index >= 3 || sel.blendIndex >= 0) continue;
-      c.dark[sel.index] += r.image.at(x, y)[0] < 128 ? 1 : 0;
-      c.analytic[sel.index] += scene.shadowedAnalytic(hit.posWs) ? 1 : 0;
-    }
-  }
+  scene.forEachGroundPixel(r.image.width, r.image.height,
+                           [&](uint32_t x, uint32_t y, const glm::dvec3& posWs) {
+                             const csm::CascadeSelection sel = scene.selection(r.frame, posWs);
+                             if (sel.index < 0 || sel.index >= 3 || sel.blendIndex >= 0) return;
+                             c.dark[sel.index] += r.image.at(x, y)[0] < 128 ? 1 : 0;
+                             c.analytic[sel.index] += scene.shadowedAnalytic(posWs) ? 1 : 0;
+                           });
   return c;
 }
 
@@ -243,7 +223,7 @@ TEST(ShadowView, CascadesDrawTheLodTheSettingsName) {
                                                    view.instances().end());
     const std::uint32_t empty = withEmptyMesh(meshes);
     for (std::size_t i = 1; i < instances.size(); ++i) instances[i].lodMeshes[0] = empty;
-    const std::vector<csm::AabbWs> bounds = casterBounds(scene);
+    const std::vector<csm::AabbWs>& bounds = scene.casterBounds();
     CSM_ASSERT_OK(view.setCasters(meshes, instances, bounds));
 
     std::vector<csm::vk::RenderMode> modes = {csm::vk::RenderMode::kPerLayer};
@@ -322,7 +302,7 @@ TEST(ShadowView, CascadesDrawTheLodTheirTexelErrorBudgetAllows) {
       instances[i].lodMeshes[0] = empty;
       instances[i].lodErrorM[0] = errorM;
     }
-    const std::vector<csm::AabbWs> bounds = casterBounds(scene);
+    const std::vector<csm::AabbWs>& bounds = scene.casterBounds();
     CSM_ASSERT_OK(view.setCasters(meshes, instances, bounds));
 
     std::vector<csm::vk::RenderMode> modes = {csm::vk::RenderMode::kPerLayer};

@@ -13,48 +13,6 @@
 
 namespace csm_test {
 
-namespace {
-
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// Ray (o, d) against a sphere: nearest t > tMin, or +inf.
-double raySphere(const glm::dvec3& o, const glm::dvec3& d, const SphereWs& s, double tMin) {
-  const glm::dvec3 oc = o - s.centerWs;
-  const double b = glm::dot(oc, d);
-  const double c = glm::dot(oc, oc) - s.radiusM * s.radiusM;
-  const double disc = b * b - c * glm::dot(d, d);
-  if (disc < 0.0) return kInf;
-  const double sq = std::sqrt(disc);
-  const double dd = glm::dot(d, d);
-  const double t0 = (-b - sq) / dd;
-  const double t1 = (-b + sq) / dd;
-  if (t0 > tMin) return t0;
-  if (t1 > tMin) return t1;
-  return kInf;
-}
-
-// Ray against an AABB (slabs): nearest t > tMin, or +inf.
-double rayBox(const glm::dvec3& o, const glm::dvec3& d, const csm::AabbWs& b, double tMin) {
-  double t0 = -kInf, t1 = kInf;
-  for (int a = 0; a < 3; ++a) {
-    if (std::abs(d[a]) < 1e-300) {
-      if (o[a] < b.minWs[a] || o[a] > b.maxWs[a]) return kInf;
-      continue;
-    }
-    double ta = (b.minWs[a] - o[a]) / d[a];
-    double tb = (b.maxWs[a] - o[a]) / d[a];
-    if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-  }
-  if (t0 > t1) return kInf;
-  if (t0 > tMin) return t0;
-  if (t1 > tMin) return t1;
-  return kInf;
-}
-
-}  // namespace
-
 uint64_t validationMessages() {
   return engine::validationMessageCount();
 }
@@ -68,7 +26,6 @@ ShadowScene::ShadowScene(uint32_t width, uint32_t height) {
   engine::HeadlessDesc hd;
   hd.extent = {width, height};
   target_ = std::make_unique<engine::HeadlessTarget>(*ctx_, hd);
-  meshes_ = std::make_unique<engine::MeshStore>(*ctx_, 1 << 16, 1 << 18, "shadow test meshes");
 
   camera.positionWs = {0.0, 6.0, 6.0};
   camera.lookAt({0.0, 0.0, -12.0});
@@ -76,11 +33,12 @@ ShadowScene::ShadowScene(uint32_t width, uint32_t height) {
   camera.nearM = 0.1;
   camera.farM = 200.0;
   light.directionWs = glm::normalize(glm::dvec3(0.6, -1.0, -0.35));
-  spheres = {{{-2.0, 2.2, -6.0}, 1.2}, {{3.0, 3.5, -22.0}, 2.0}};
-  boxes = {{{1.5, 1.0, -9.5}, {3.5, 2.5, -7.5}},
-           {{-6.0, 1.5, -30.0}, {-3.0, 3.0, -27.0}},
-           // A long rail along the view direction: its shadow edge runs through every cascade.
-           {{4.2, 1.5, -45.0}, {4.8, 2.0, 3.0}}};
+  shapes.spheres = {{{-2.0, 2.2, -6.0}, 1.2}, {{3.0, 3.5, -22.0}, 2.0}};
+  shapes.boxes = {{{1.5, 1.0, -9.5}, {3.5, 2.5, -7.5}},
+                  {{-6.0, 1.5, -30.0}, {-3.0, 3.0, -27.0}},
+                  // A long rail along the view direction: its shadow edge runs through every
+                  // cascade.
+                  {{4.2, 1.5, -45.0}, {4.8, 2.0, 3.0}}};
 
   view_ = glue::createShadowView(*ctx_);
 }
@@ -90,7 +48,7 @@ ShadowScene::~ShadowScene() {
   litPasses_.clear();
   second_.reset();
   view_.reset();
-  meshes_.reset();
+  gpu_.store.reset();
   target_.reset();
   if (ctx_) ctx_->shutdown();
 }
@@ -100,54 +58,13 @@ csm::Camera ShadowScene::csmCamera() const {
 }
 
 void ShadowScene::buildScene() {
-  std::vector<engine::Vertex> v;
-  std::vector<uint32_t> idx;
-  // Ground: a 2 x 2 quad in xz scaled by the instance.
-  v = {{{-1, 0, -1}, {0, 1, 0}},
-       {{1, 0, -1}, {0, 1, 0}},
-       {{1, 0, 1}, {0, 1, 0}},
-       {{-1, 0, 1}, {0, 1, 0}}};
-  idx = {0, 2, 1, 0, 3, 2};
-  planeMesh_ = meshes_->upload(v, idx);
-  engine::makeSphere(v, idx, 96, 48);
-  sphereMesh_ = meshes_->upload(v, idx);
-  engine::makeCube(v, idx);
-  cubeMesh_ = meshes_->upload(v, idx);
-
-  auto meshDraw = [&](const engine::MeshRange& m) {
-    csm::vk::MeshDraw d;
-    d.vertexBuffer = meshes_->vertexBuffer();
-    d.indexBuffer = meshes_->indexBuffer();
-    d.firstIndex = m.firstIndex;
-    d.indexCount = m.indexCount;
-    d.vertexOffset = m.vertexOffset;
-    return d;
-  };
-  casterMeshes_ = {meshDraw(planeMesh_), meshDraw(sphereMesh_), meshDraw(cubeMesh_)};
-  std::vector<csm::vk::CasterInstance>& casters = casters_;
-  std::vector<csm::AabbWs>& bounds = casterBounds_;
-  auto add = [&](uint32_t mesh, const engine::MeshRange& range, const glm::dvec3& t,
-                 const glm::dvec3& scale, const glm::vec4& color, const csm::AabbWs& box) {
-    const glm::mat3 linear(glm::vec3(scale.x, 0, 0), glm::vec3(0, scale.y, 0),
-                           glm::vec3(0, 0, scale.z));
-    casters.push_back({mesh, t, linear});
-    litDraws_.push_back({range, t, linear, color});
-    bounds.push_back(box);
-  };
-  // The ground receives and casts (so that self-shadowing acne would show).
-  add(0, planeMesh_, planeCenterWs, {planeHalfM, 1.0, planeHalfM}, {0.8f, 0.8f, 0.8f, 1.0f},
-      {planeCenterWs - glm::dvec3(planeHalfM, 0.0, planeHalfM),
-       planeCenterWs + glm::dvec3(planeHalfM, 0.0, planeHalfM)});
-  for (const SphereWs& s : spheres) {
-    add(1, sphereMesh_, s.centerWs, glm::dvec3(s.radiusM), {0.9f, 0.3f, 0.2f, 1.0f},
-        {s.centerWs - glm::dvec3(s.radiusM), s.centerWs + glm::dvec3(s.radiusM)});
-  }
-  for (const csm::AabbWs& b : boxes) {
-    add(2, cubeMesh_, 0.5 * (b.minWs + b.maxWs), b.maxWs - b.minWs, {0.2f, 0.4f, 0.9f, 1.0f}, b);
-  }
+  geometry_ = shapes.scene();
+  gpu_ = glue::uploadScene(*ctx_, geometry_, "shadow test meshes");
+  const glm::dvec3& planeCenterWs = shapes.planeCenterWs;
+  const double planeHalfM = shapes.planeHalfM;
   sceneBounds.minWs = planeCenterWs - glm::dvec3(planeHalfM, 0.0, planeHalfM);
   sceneBounds.maxWs = planeCenterWs + glm::dvec3(planeHalfM, 6.0, planeHalfM);
-  csm::vk::Status s = view_->setCasters(casterMeshes_, casters, bounds);
+  csm::vk::Status s = view_->setCasters(gpu_.meshDraws, gpu_.casters, casterBounds());
   if (s.ok()) s = view_->setSceneBounds(&sceneBounds);
   if (!s.ok()) throw std::runtime_error("ShadowView: " + s.message());
   built_ = true;
@@ -174,7 +91,7 @@ void ShadowScene::enableSecondView() {
   if (!built_) buildScene();
   second_ = glue::createShadowView(*ctx_);
   csm::vk::Status s = second_->setSettings(view_->settings(), view_->options());
-  if (s.ok()) s = second_->setCasters(casterMeshes_, casters_, casterBounds_);
+  if (s.ok()) s = second_->setCasters(gpu_.meshDraws, gpu_.casters, casterBounds());
   if (s.ok()) s = second_->setSceneBounds(&sceneBounds);
   if (!s.ok()) throw std::runtime_error("second ShadowView: " + s.message());
 }
@@ -220,8 +137,8 @@ Rendered ShadowScene::renderFrame(csm::PcfKernel kernel, const FrameHooks& hooks
   lf.lightDirectionWs = glm::vec3(light.directionWs);
   lit->prepare(f->cmd, lf);
   engine::beginRendering(*f, VkClearColorValue{{0.1f, 0.1f, 0.15f, 1.0f}});
-  lit->draw(f->cmd, *meshes_, useSecond ? second_->lightingSet() : view_->lightingSet(), litDraws_,
-            f->extent);
+  lit->draw(f->cmd, *gpu_.store, useSecond ? second_->lightingSet() : view_->lightingSet(),
+            gpu_.litDraws, f->extent);
   vkCmdEndRendering(f->cmd);
   if (hooks.beforeSubmit) hooks.beforeSubmit();
   target_->endFrame();
@@ -253,45 +170,16 @@ ShadowScene::Hit ShadowScene::trace(uint32_t x, uint32_t y) const {
   const glm::dvec4 p = inv * ndc;
   const glm::dvec3 d = glm::normalize(glm::dvec3(p) / p.w);
   const glm::dvec3 o = camera.positionWs;
+  const glue::AnalyticShapes::RayHit ray = shapes.intersect(o, d);
   Hit hit;
-  double best = kInf;
-  if (d.y < 0.0) {
-    const double t = -o.y / d.y;
-    const glm::dvec3 q = o + t * d;
-    if (std::abs(q.x - planeCenterWs.x) <= planeHalfM &&
-        std::abs(q.z - planeCenterWs.z) <= planeHalfM) {
-      best = t;
-      hit.plane = true;
-    }
-  }
-  for (const SphereWs& s : spheres) {
-    const double t = raySphere(o, d, s, 0.0);
-    if (t < best) {
-      best = t;
-      hit.plane = false;
-    }
-  }
-  for (const csm::AabbWs& b : boxes) {
-    const double t = rayBox(o, d, b, 0.0);
-    if (t < best) {
-      best = t;
-      hit.plane = false;
-    }
-  }
-  hit.hit = best < kInf;
-  if (hit.hit) hit.posWs = o + best * d;
+  hit.plane = ray.plane;
+  hit.hit = ray.t < std::numeric_limits<double>::infinity();
+  if (hit.hit) hit.posWs = o + ray.t * d;
   return hit;
 }
 
 bool ShadowScene::shadowedAnalytic(const glm::dvec3& posWs) const {
-  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
-  for (const SphereWs& s : spheres) {
-    if (raySphere(posWs, toLight, s, 1e-6) < kInf) return true;
-  }
-  for (const csm::AabbWs& b : boxes) {
-    if (rayBox(posWs, toLight, b, 1e-6) < kInf) return true;
-  }
-  return false;
+  return shapes.occluded(posWs, -glm::normalize(light.directionWs));
 }
 
 bool ShadowScene::farFromEdge(const glm::dvec3& posWs, double radiusM,
@@ -320,24 +208,20 @@ std::string ShadowScene::saveArtefact(const engine::CpuImage& image,
 
 Agreement compareWithAnalytic(const ShadowScene& scene, const Rendered& r) {
   Agreement a;
-  for (uint32_t y = 0; y < r.image.height; ++y) {
-    for (uint32_t x = 0; x < r.image.width; ++x) {
-      const ShadowScene::Hit hit = scene.trace(x, y);
-      if (!hit.hit || !hit.plane) continue;
-      const csm::CascadeSelection sel = csm::selectCascade(
-          r.frame, csm::viewDepthM(r.frame, hit.posWs), scene.settings().blendBand);
-      if (sel.index < 0) continue;
-      double texel = r.frame.cascades[sel.index].texelSizeM();
-      if (sel.blendIndex >= 0)
-        texel = std::max(texel, r.frame.cascades[sel.blendIndex].texelSizeM());
-      if (!scene.farFromEdge(hit.posWs, 2.0 * texel, r.frame)) continue;
-      const bool analytic = scene.shadowedAnalytic(hit.posWs);
-      const bool gpu = r.image.at(x, y)[0] < 128;
-      ++a.compared;
-      a.shadowed += analytic ? 1 : 0;
-      a.agreed += analytic == gpu ? 1 : 0;
-    }
-  }
+  scene.forEachGroundPixel(
+      r.image.width, r.image.height, [&](uint32_t x, uint32_t y, const glm::dvec3& posWs) {
+        const csm::CascadeSelection sel = scene.selection(r.frame, posWs);
+        if (sel.index < 0) return;
+        double texel = r.frame.cascades[sel.index].texelSizeM();
+        if (sel.blendIndex >= 0)
+          texel = std::max(texel, r.frame.cascades[sel.blendIndex].texelSizeM());
+        if (!scene.farFromEdge(posWs, 2.0 * texel, r.frame)) return;
+        const bool analytic = scene.shadowedAnalytic(posWs);
+        const bool gpu = r.image.at(x, y)[0] < 128;
+        ++a.compared;
+        a.shadowed += analytic ? 1 : 0;
+        a.agreed += analytic == gpu ? 1 : 0;
+      });
   return a;
 }
 

@@ -11,7 +11,9 @@
 #include <engine/context.hpp>
 #include <engine/headless_target.hpp>
 #include <engine/mesh_store.hpp>
+#include <glue/gpu_scene.hpp>
 #include <glue/lit_pass.hpp>
+#include <glue/test_scene.hpp>
 
 #include <functional>
 #include <map>
@@ -29,10 +31,7 @@
 
 namespace csm_test {
 
-struct SphereWs {
-  glm::dvec3 centerWs;
-  double radiusM;
-};
+using glue::SphereWs;
 
 /// What one render produced.
 struct Rendered {
@@ -41,7 +40,8 @@ struct Rendered {
 };
 
 /// The whole scene: device, target, meshes, renderer, lit pipelines (one per kernel and blend
-/// mode, built on first use) and the analytic description.
+/// mode, built on first use) and the analytic description (glue::AnalyticShapes, the shared test
+/// scene, whose fields may change until the first update() or render).
 class ShadowScene {
  public:
   /// Validation on; views of `width` x `height`.
@@ -91,6 +91,22 @@ class ShadowScene {
     glm::dvec3 posWs{0.0};
   };
   [[nodiscard]] Hit trace(uint32_t x, uint32_t y) const;
+  /// Calls f(x, y, posWs) for every pixel of a `width` x `height` view whose camera ray meets
+  /// the ground plane first (the receivers the analytic comparisons look at).
+  template <class F>
+  void forEachGroundPixel(uint32_t width, uint32_t height, F&& f) const {
+    for (uint32_t y = 0; y < height; ++y) {
+      for (uint32_t x = 0; x < width; ++x) {
+        const Hit hit = trace(x, y);
+        if (hit.hit && hit.plane) f(x, y, hit.posWs);
+      }
+    }
+  }
+  /// The cascade (and blend) that csm.glsl selects at `posWs` in `frame` (settings' blend band).
+  [[nodiscard]] csm::CascadeSelection selection(const csm::CascadeFrame& frame,
+                                                const glm::dvec3& posWs) const {
+    return csm::selectCascade(frame, csm::viewDepthM(frame, posWs), settings().blendBand);
+  }
   /// Whether the ray from `posWs` toward the light hits a caster.
   [[nodiscard]] bool shadowedAnalytic(const glm::dvec3& posWs) const;
   /// Whether every point within `radiusM` of `posWs` across the light direction has the same
@@ -107,26 +123,22 @@ class ShadowScene {
   const csm::ShadowSettings& settings() const { return view_->settings(); }
   csm::Camera csmCamera() const;
 
+  /// The casters' world bounds in the order the view gets them: the ground, spheres, boxes.
+  const std::vector<csm::AabbWs>& casterBounds() const { return geometry_.instanceBounds(); }
+
   engine::Camera camera;
   csm::DirectionalLight light;
   csm::AabbWs sceneBounds{};
-  std::vector<SphereWs> spheres;
-  std::vector<csm::AabbWs> boxes;
-  double planeHalfM = 40.0;
-  glm::dvec3 planeCenterWs{0.0, 0.0, -25.0};
+  glue::AnalyticShapes shapes;
 
  private:
   std::unique_ptr<engine::Context> ctx_;
   std::unique_ptr<engine::HeadlessTarget> target_;
-  std::unique_ptr<engine::MeshStore> meshes_;
   std::unique_ptr<csm::vk::ShadowView> view_;
   std::unique_ptr<csm::vk::ShadowView> second_;
-  std::vector<csm::vk::MeshDraw> casterMeshes_;
-  std::vector<csm::vk::CasterInstance> casters_;
-  std::vector<csm::AabbWs> casterBounds_;
+  glue::Scene geometry_;
+  glue::GpuScene gpu_;
   std::map<std::pair<uint32_t, uint32_t>, std::unique_ptr<glue::LitPass>> litPasses_;
-  engine::MeshRange planeMesh_, sphereMesh_, cubeMesh_;
-  std::vector<glue::LitDraw> litDraws_;
   bool built_ = false;
 
   void buildScene();

@@ -10,6 +10,8 @@
 #include <map>
 #include <string>
 
+#include <csm/names.hpp>
+#include <csm/vulkan/depth_format.hpp>
 #include <csm_measure/bias_metrics.hpp>
 
 #include "stability_common.hpp"
@@ -101,7 +103,7 @@ struct Variant {
 };
 
 const char* formatName(VkFormat f) {
-  return f == VK_FORMAT_D16_UNORM ? "D16" : "D32";
+  return csm::vk::depthFormatName(f);
 }
 
 struct View {
@@ -128,8 +130,9 @@ std::vector<View> viewMatrix() {
       View v{e, az, 1024, {}};
       for (VkFormat f : formats) v.variants.push_back({f, csm::PcfKernel::kTent3});
       if (az == 30.0 && (e == 1.0 || e == 10.0 || e == 60.0 || e == 89.999 || e == 90.0)) {
-        for (csm::PcfKernel k : {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent5,
-                                 csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16}) {
+        // The other PCF kernels (tent 3x3 is above; PCSS has its own test, soft_test.cpp).
+        for (csm::PcfKernel k : csm::kAllKernels) {
+          if (k == csm::PcfKernel::kTent3 || k == csm::PcfKernel::kPcss) continue;
           for (VkFormat f : formats) v.variants.push_back({f, k});
         }
       }

@@ -194,26 +194,15 @@ ModeResult runMotion(csm_measure::Harness& harness, const Motion& motion, Mode m
   return r;
 }
 
-std::string distanceKey(double d) {
-  if (d == 0.0) return "0";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.0e", d);
-  return buf;
-}
-
 TEST(StabilityLadder, SizeChangingMotionsDoNotShimmerBetweenRungEvents) {
   std::map<std::tuple<std::string, double, Mode>, ModeResult> results;
   {
     CSM_MAKE_HARNESS(harness);
     for (double distance : kDistances) {
       const glm::dvec3 origin = originAt(distance);
-      csm_measure::TestSceneDesc sd;
-      sd.originWs = origin;
-      const csm_measure::Scene scene = csm_measure::Scene::makeTestScene(sd);
-      harness->setScene(scene);
+      const csm_measure::Scene scene = setShimmerScene(*harness, distance);
       // Receivers over the whole view, and more along the view axis where a zoom still sees.
-      std::vector<csm_measure::Receiver> receivers =
-          scene.sampleReceivers(3000, 0.3, {-45.0, -5.0, -100.0}, {45.0, 30.0, 15.0}, 7);
+      std::vector<csm_measure::Receiver> receivers = viewReceivers(scene, 3000);
       const auto axis = scene.sampleReceivers(3000, 0.3, {-9.0, -5.0, -100.0}, {9.0, 12.0, 0.0}, 8);
       receivers.insert(receivers.end(), axis.begin(), axis.end());
       for (const Motion& m : motions()) {
@@ -237,20 +226,20 @@ TEST(StabilityLadder, SizeChangingMotionsDoNotShimmerBetweenRungEvents) {
   }
   EXPECT_EQ(engine::validationMessageCount(), 0u);
 
-  nlohmann::json report;
-  report["what"] =
+  const std::string what =
       "Shimmer |s(t+1) - s(t)| of csm.glsl (tent3x3, blend on) at 6000 fixed receivers under "
       "size-changing motions, 4 cascades of 1024^2 over 120 m, 8 frame pairs probed per run "
       "through one history. 'stayed_between_events': same cascade, outside blend bands, and "
       "(ladder mode) no rung event of that cascade and no light step between the two frames.";
+  nlohmann::json runs = nlohmann::json::array();
   for (const auto& [key, r] : results) {
     nlohmann::json j = r.toJson();
     j["motion"] = std::get<0>(key);
     j["distance_from_origin_m"] = std::get<1>(key);
     j["mode"] = modeName(std::get<2>(key));
-    report["runs"].push_back(j);
+    runs.push_back(j);
   }
-  csm_measure::writeJson(artefactDir() + "/ladder_shimmer.json", report);
+  writeReport("ladder_shimmer.json", what, std::move(runs));
 
   for (const Motion& m : motions()) {
     csm_measure::ShimmerStats ladderAll, noLadderAll, unstabAll;

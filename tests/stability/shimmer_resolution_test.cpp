@@ -87,19 +87,14 @@ nlohmann::json diagnoseChange(csm_measure::Harness& harness, const csm_measure::
 }
 
 TEST(StabilityShimmer, StabilisedShimmerStaysInvisibleUpTo8192) {
-  nlohmann::json report;
-  report["runs"] = nlohmann::json::array();
+  nlohmann::json runs = nlohmann::json::array();
   const csm::DirectionalLight light = testLight();
   {
     CSM_MAKE_HARNESS(harness);
     for (double distance : {0.0, 1e7}) {
       const glm::dvec3 origin = originAt(distance);
-      csm_measure::TestSceneDesc sd;
-      sd.originWs = origin;
-      const csm_measure::Scene scene = csm_measure::Scene::makeTestScene(sd);
-      harness->setScene(scene);
-      const std::vector<csm_measure::Receiver> receivers =
-          scene.sampleReceivers(4000, 0.3, {-45.0, -5.0, -100.0}, {45.0, 30.0, 15.0}, 7);
+      const csm_measure::Scene scene = setShimmerScene(*harness, distance);
+      const std::vector<csm_measure::Receiver> receivers = viewReceivers(scene, 4000);
       for (uint32_t res : {1024u, 2048u, 4096u, 8192u}) {
         // CSM_SHIMMER_RES=n: only that resolution (investigations).
         if (const char* only = std::getenv("CSM_SHIMMER_RES");
@@ -111,24 +106,9 @@ TEST(StabilityShimmer, StabilisedShimmerStaysInvisibleUpTo8192) {
         csm::CascadeHistory h;
         const csm::CascadeFrame f0 = harness->computeFrame(baseCamera(origin), light, h);
         const double texel0 = f0.cascades[0].texelSizeM();
-        const glm::dvec3 dir = glm::normalize(glm::dvec3(1.0, 0.15, -0.7));
         for (const char* motion : {"subtexel", "orbit"}) {
           const std::string m = motion;
-          const auto path = [&](int f) {
-            csm::Camera c = baseCamera(origin);
-            if (m == "subtexel") {
-              c.positionWs += dir * (0.3 * texel0 * f);
-            } else {  // orbit about a point 25 m ahead, 0.4 degrees per frame
-              const glm::dvec3 target = origin + glm::dvec3(0.0, 0.0, -25.0);
-              const glm::dquat r = glm::angleAxis(glm::radians(0.4 * f), glm::dvec3(0, 1, 0));
-              engine::Camera e;
-              e.positionWs = target + r * (c.positionWs - target);
-              e.lookAt(target);
-              c.positionWs = e.positionWs;
-              c.orientationWs = e.orientation;
-            }
-            return c;
-          };
+          const auto path = [&](int f) { return motionCamera(m, origin, texel0, 0.0, f); };
           // The suspect: each receiver's position as the probe hands it to the shader (double
           // relative to the camera, then float), its rounding error across the light in texels
           // of cascade 0 (the smallest texel: an upper bound for every cascade).
@@ -162,15 +142,14 @@ TEST(StabilityShimmer, StabilisedShimmerStaysInvisibleUpTo8192) {
             std::printf("   %s\n", diagnosis.dump().c_str());
           }
           std::fflush(stdout);
-          report["runs"].push_back(
-              {{"resolution", res},
-               {"motion", motion},
-               {"distance_from_origin_m", distance},
-               {"texel0_m", texel0},
-               {"stayed", st.toJson()},
-               {"receiver_float_error_texels", worstErrTexels},
-               {"visible_changes", run.toJson(false)["stayed_visible_changes"]},
-               {"diagnosis", diagnosis}});
+          runs.push_back({{"resolution", res},
+                          {"motion", motion},
+                          {"distance_from_origin_m", distance},
+                          {"texel0_m", texel0},
+                          {"stayed", st.toJson()},
+                          {"receiver_float_error_texels", worstErrTexels},
+                          {"visible_changes", run.toJson(false)["stayed_visible_changes"]},
+                          {"diagnosis", diagnosis}});
           EXPECT_EQ(run.nonFinite, 0u);
           EXPECT_GT(st.pairs, 10000u);
           // What shows, is explained: any visible change of a stayed receiver comes with an
@@ -190,11 +169,12 @@ TEST(StabilityShimmer, StabilisedShimmerStaysInvisibleUpTo8192) {
     }
   }
   EXPECT_EQ(engine::validationMessageCount(), 0u);
-  report["what"] =
-      "Stabilised shimmer (|s(t) - s(t-1)| at receivers that stayed in their cascade, tent 3x3) "
-      "per shadow-map resolution, and the largest rounding error of the receivers' float "
-      "camera-relative positions across the light, in texels of cascade 0.";
-  csm_measure::writeJson(artefactDir() + "/shimmer_resolution.json", report);
+  writeReport("shimmer_resolution.json",
+              "Stabilised shimmer (|s(t) - s(t-1)| at receivers that stayed in their cascade, "
+              "tent 3x3) per shadow-map resolution, and the largest rounding error of the "
+              "receivers' float camera-relative positions across the light, in texels of "
+              "cascade 0.",
+              std::move(runs));
 }
 
 }  // namespace

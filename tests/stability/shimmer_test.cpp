@@ -27,42 +27,9 @@ constexpr MotionSpec kMotions[] = {
 constexpr int kFrames = 20;
 constexpr double kDistances[] = {0.0, 1e6, 1e7};
 
-// The camera of frame f of a motion. Steps are in texels of the stabilised cascades of the base
-// camera so that "sub-texel" means the same thing at every distance.
-csm::Camera motionCamera(const std::string& motion, const glm::dvec3& origin, double texel0,
-                         double texelLast, int f) {
-  csm::Camera c = baseCamera(origin);
-  const glm::dvec3 dir = glm::normalize(glm::dvec3(1.0, 0.15, -0.7));
-  if (motion == "subtexel") {
-    c.positionWs += dir * (0.3 * texel0 * f);
-  } else if (motion == "multitexel") {
-    c.positionWs += dir * (3.3 * texelLast * f);
-  } else if (motion == "yaw") {
-    c.orientationWs = glm::angleAxis(glm::radians(0.35 * f), glm::dvec3(0, 1, 0)) * c.orientationWs;
-  } else if (motion == "pitch") {
-    c.orientationWs = c.orientationWs * glm::angleAxis(glm::radians(0.25 * f), glm::dvec3(1, 0, 0));
-  } else if (motion == "orbit") {
-    const glm::dvec3 target = origin + glm::dvec3(0.0, 0.0, -25.0);
-    const glm::dquat r = glm::angleAxis(glm::radians(0.4 * f), glm::dvec3(0, 1, 0));
-    engine::Camera e;
-    e.positionWs = target + r * (c.positionWs - target);
-    e.lookAt(target);
-    c.positionWs = e.positionWs;
-    c.orientationWs = e.orientation;
-  }
-  return c;
-}
-
 struct Result {
   csm_measure::ShimmerRun stabilised, unstabilised;
 };
-
-std::string distanceKey(double d) {
-  if (d == 0.0) return "0";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.0e", d);
-  return buf;
-}
 
 void writePlot(const std::map<std::pair<std::string, double>, Result>& results,
                const std::string& dir) {
@@ -126,12 +93,8 @@ TEST(StabilityShimmer, StabilisedCascadesDoNotShimmerUnstabilisedDo) {
     CSM_MAKE_HARNESS(harness);
     for (double distance : kDistances) {
       const glm::dvec3 origin = originAt(distance);
-      csm_measure::TestSceneDesc sd;
-      sd.originWs = origin;
-      const csm_measure::Scene scene = csm_measure::Scene::makeTestScene(sd);
-      harness->setScene(scene);
-      const std::vector<csm_measure::Receiver> receivers =
-          scene.sampleReceivers(4000, 0.3, {-45.0, -5.0, -100.0}, {45.0, 30.0, 15.0}, 7);
+      const csm_measure::Scene scene = setShimmerScene(*harness, distance);
+      const std::vector<csm_measure::Receiver> receivers = viewReceivers(scene, 4000);
       ASSERT_EQ(receivers.size(), 4000u);
       // Texel sizes of the stabilised cascades at the base camera set the translation steps.
       CSM_ASSERT_STATUS(harness->configure(testSettings(true)));
@@ -165,8 +128,7 @@ TEST(StabilityShimmer, StabilisedCascadesDoNotShimmerUnstabilisedDo) {
   }
   EXPECT_EQ(engine::validationMessageCount(), 0u);
 
-  nlohmann::json report;
-  report["what"] =
+  const std::string what =
       "Frame-to-frame shimmer |s(t) - s(t-1)| of csm.glsl's shadow factor (tent3x3, blend on) "
       "at 4000 fixed receivers (70% terrain, 30% building walls) inside the view, 4 cascades of "
       "1024^2 over 120 m, light fixed. 'stayed': same cascade and outside blend bands in both "
@@ -174,7 +136,7 @@ TEST(StabilityShimmer, StabilisedCascadesDoNotShimmerUnstabilisedDo) {
       "stayed_visible_changes lists stabilised points that changed by more than 1/255 "
       "(receiver index, frame, |ds|, smallest gap between the receiver's depth and the stored "
       "depths of the 5x5 texels around it).";
-  report["frames"] = kFrames;
+  nlohmann::json runs = nlohmann::json::array();
   for (const MotionSpec& m : kMotions) {
     for (double d : kDistances) {
       const Result& r = results.at({m.name, d});
@@ -188,11 +150,11 @@ TEST(StabilityShimmer, StabilisedCascadesDoNotShimmerUnstabilisedDo) {
       j["mean_ratio_unstabilised_over_stabilised"] =
           sm > 0.0 ? nlohmann::json(r.unstabilised.total.stayed.mean() / sm)
                    : nlohmann::json("inf");
-      report["runs"].push_back(j);
+      runs.push_back(j);
     }
   }
   const std::string dir = artefactDir();
-  csm_measure::writeJson(dir + "/stability.json", report);
+  writeReport("stability.json", what, std::move(runs), {{"frames", kFrames}});
   writePlot(results, dir);
   std::printf("wrote %s/stability.json and stability_shimmer.png\n", dir.c_str());
 

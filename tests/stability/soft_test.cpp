@@ -12,6 +12,8 @@
 #include <fstream>
 #include <map>
 
+#include <csm/names.hpp>
+#include <csm/vulkan/depth_format.hpp>
 #include <csm_measure/bias_metrics.hpp>
 #include <csm_measure/soft_truth.hpp>
 #include <csm_measure/world_scene.hpp>
@@ -26,12 +28,10 @@ namespace {
 constexpr VkExtent2D kView{320, 180};
 constexpr double kSunDeg = 0.53;
 
-// Every kernel, with the names the fly-through uses (--set shadow.kernel=...).
-const std::pair<const char*, csm::PcfKernel> kKernels[] = {
-    {"1tap", csm::PcfKernel::k1Tap},           {"tent3", csm::PcfKernel::kTent3},
-    {"tent5", csm::PcfKernel::kTent5},         {"tent7", csm::PcfKernel::kTent7},
-    {"poisson16", csm::PcfKernel::kPoisson16}, {"pcss", csm::PcfKernel::kPcss},
-};
+// Kernels by their one spelling (csm/names.hpp; --set shadow.kernel=... takes the same).
+const std::string kPcss = csm::kernelName(csm::PcfKernel::kPcss);
+const std::string k1Tap = csm::kernelName(csm::PcfKernel::k1Tap);
+const std::string kTent3 = csm::kernelName(csm::PcfKernel::kTent3);
 
 // The analytic scene: a flat plane, a box 3 m x 4 m x 12 m turned so that its faces are along
 // and across the light's horizontal direction (its vertical edges cast straight shadow lines,
@@ -159,7 +159,8 @@ void compareKernels(csm_measure::Harness& harness, const csm_measure::RayTracer&
   std::vector<float> truth;
   std::vector<csm_measure::PixelSample> firstPixels;
   std::map<std::string, engine::CpuImage> images;
-  for (const auto& [name, kernel] : kKernels) {
+  for (const csm::PcfKernel kernel : csm::kAllKernels) {
+    const std::string name = csm::kernelName(kernel);
     engine::CpuImage image;
     const std::vector<csm_measure::PixelSample> pixels =
         harness.renderAccuracy(camera, frame, kView, kernel, true, &image);
@@ -178,7 +179,7 @@ void compareKernels(csm_measure::Harness& harness, const csm_measure::RayTracer&
     }
     const csm_measure::SoftErrorStats st = csm_measure::measureSoftError(pixels, truth);
     std::printf("%-10s pixels %6llu  mean |s - v_soft| %.5f  penumbra pixels %5llu mean %.4f\n",
-                name, (unsigned long long)st.pixels, st.meanAbsError(),
+                name.c_str(), (unsigned long long)st.pixels, st.meanAbsError(),
                 (unsigned long long)st.penumbraPixels, st.penumbraMeanAbsError());
     std::fflush(stdout);
     EXPECT_EQ(st.nonFinite, 0u) << name;
@@ -192,11 +193,11 @@ void compareKernels(csm_measure::Harness& harness, const csm_measure::RayTracer&
   }
   if (frames != nullptr) frames->truth = truth;
   // The truth as an image, beside PCSS and the 3x3 tent.
-  engine::CpuImage truthImage = images["pcss"];
+  engine::CpuImage truthImage = images[kPcss];
   for (size_t i = 0; i < firstPixels.size(); ++i) {
     if (truth[i] >= 0.0f) paintGrey(truthImage, firstPixels[i].x, firstPixels[i].y, truth[i]);
   }
-  engine::writePng(stripPath, strip({&truthImage, &images["pcss"], &images["tent3"]}));
+  engine::writePng(stripPath, strip({&truthImage, &images[kPcss], &images[kTent3]}));
 }
 
 // soft.json holds one entry per scene (each test adds or replaces its own).
@@ -336,9 +337,10 @@ TEST(SoftShadows, PcssBeatsEveryFixedKernelAgainstAreaLightTruth) {
   addToSoftJson(report[0]);
   std::printf("wrote %s/soft.json and soft_strip.png (truth | pcss | tent3)\n",
               artefactDir().c_str());
-  for (const auto& [name, kernel] : kKernels) {
+  for (const csm::PcfKernel kernel : csm::kAllKernels) {
+    const std::string name = csm::kernelName(kernel);
     if (kernel == csm::PcfKernel::kPcss) continue;
-    EXPECT_LT(meanErr["pcss"], meanErr[name]) << "analytic scene: PCSS must beat " << name;
+    EXPECT_LT(meanErr[kPcss], meanErr[name]) << "analytic scene: PCSS must beat " << name;
   }
 }
 
@@ -539,28 +541,28 @@ TEST(SoftShadows, PcssBeatsEveryFixedKernelOnTheSampleWorld) {
     worldScene["penumbra_widths"] = widths;
   }
   EXPECT_EQ(engine::validationMessageCount(), 0u);
-  for (const char* name : {"pcss", "1tap"}) {
+  for (const std::string& name : {kPcss, k1Tap}) {
     worldScene["error_breakdown"][name] = errorBreakdown(frames.pixels[name], frames.truth);
-    std::printf("%-5s %s\n", name, worldScene["error_breakdown"][name].dump().c_str());
+    std::printf("%-5s %s\n", name.c_str(), worldScene["error_breakdown"][name].dump().c_str());
   }
   addToSoftJson(worldScene);
   if (std::FILE* csv = std::fopen((artefactDir() + "/soft_world_pixels.csv").c_str(), "w")) {
     std::fprintf(csv, "x,y,truth,pcss,1tap,tent3,nx,ny,nz,cascade,footprint\n");
-    const auto& p = frames.pixels["pcss"];
+    const auto& p = frames.pixels[kPcss];
     for (size_t i = 0; i < p.size(); ++i) {
       if (frames.truth[i] < 0.0f) continue;
       std::fprintf(csv, "%u,%u,%.4f,%.4f,%.4f,%.4f,%.3f,%.3f,%.3f,%d,%.4f\n", p[i].x, p[i].y,
-                   frames.truth[i], p[i].shadow, frames.pixels["1tap"][i].shadow,
-                   frames.pixels["tent3"][i].shadow, p[i].normalWs.x, p[i].normalWs.y,
+                   frames.truth[i], p[i].shadow, frames.pixels[k1Tap][i].shadow,
+                   frames.pixels[kTent3][i].shadow, p[i].normalWs.x, p[i].normalWs.y,
                    p[i].normalWs.z, p[i].cascade, p[i].footprintM);
     }
     std::fclose(csv);
   }
-  engine::writePng(artefactDir() + "/soft_error_world.png",
-                   errorMaps(frames, "pcss", "1tap", kView));
-  for (const auto& [name, kernel] : kKernels) {
+  engine::writePng(artefactDir() + "/soft_error_world.png", errorMaps(frames, kPcss, k1Tap, kView));
+  for (const csm::PcfKernel kernel : csm::kAllKernels) {
+    const std::string name = csm::kernelName(kernel);
     if (kernel == csm::PcfKernel::kPcss) continue;
-    EXPECT_LT(worldMeanErr["pcss"], worldMeanErr[name]) << "sample world: PCSS must beat " << name;
+    EXPECT_LT(worldMeanErr[kPcss], worldMeanErr[name]) << "sample world: PCSS must beat " << name;
   }
 }
 
@@ -634,7 +636,7 @@ TEST(SoftShadows, PcssHasNoAcneAndNoMoreLeaksThanTheSingleTap) {
             // on the lit side of the hard edge. Faint acne (< 0.9) beyond the widest penumbra.
             const csm_measure::BiasStats st = csm_measure::scoreBias(pixels, truth, light);
             const csm_measure::BiasStats stWide = csm_measure::scoreBias(pixels, truthWide, light);
-            const char* fmt = format == VK_FORMAT_D16_UNORM ? "D16" : "D32";
+            const char* fmt = csm::vk::depthFormatName(format);
             std::printf(
                 "%-8s elev %7.3f %s %-5s: acne %.4f%% (%llu/%llu) dimmed %.4f%% leaks %.2f%% "
                 "(%llu/%llu)\n",
@@ -682,8 +684,8 @@ TEST(SoftShadows, PcssHasNoAcneAndNoMoreLeaksThanTheSingleTap) {
   csm_measure::writeJson(artefactDir() + "/soft_bias.json", report);
   auto ratio = [](uint64_t a, uint64_t b) { return b ? double(a) / double(b) : 0.0; };
   for (double elevation : elevations) {
-    const Totals& p = pooled[{elevation, "pcss"}];
-    const Totals& o = pooled[{elevation, "1tap"}];
+    const Totals& p = pooled[{elevation, kPcss}];
+    const Totals& o = pooled[{elevation, k1Tap}];
     std::printf("elevation %7.3f leaks pcss %.2f%% (facing %.2f%%)  1tap %.2f%% (facing %.2f%%)\n",
                 elevation, 100.0 * ratio(p.contactLit, p.contact),
                 100.0 * ratio(p.contactFacingLit, p.contactFacing),

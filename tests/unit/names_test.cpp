@@ -1,6 +1,7 @@
-// One spelling per kernel and debug mode (csm/names.hpp): every value's name parses back to it,
-// the names are distinct, the older kernel spellings are still accepted, and anything else is
-// refused with a message naming the field, the value and every allowed name.
+// One spelling per kernel, debug mode and depth format (csm/names.hpp): every value's name parses
+// back to it, the names are distinct, the older kernel and depth-format spellings are still
+// accepted, and anything else is refused with a message naming the field, the value and every
+// allowed name.
 #include <gtest/gtest.h>
 
 #include <set>
@@ -60,6 +61,31 @@ TEST(Names, EveryDebugModeRoundTripsThroughItsName) {
             "debug = 'shadow factor' is invalid: allowed one of none, normal, shadow, "
             "lightcoords, depth, depthdiff, cascade");
   EXPECT_STREQ(csm::debugModeName(static_cast<csm::DebugMode>(99)), "unknown");
+}
+
+TEST(Names, EveryDepthFormatRoundTripsAndTheCsvSpellingIsAccepted) {
+  std::set<std::string> seen;
+  for (csm::DepthFormat f : csm::kAllDepthFormats) {
+    const std::string name = csm::depthFormatName(f);
+    EXPECT_TRUE(seen.insert(name).second) << name;
+    const csm::Result<csm::DepthFormat> parsed = csm::parseDepthFormat(name);
+    ASSERT_TRUE(parsed.ok()) << name;
+    EXPECT_EQ(parsed.value(), f) << name;
+  }
+  EXPECT_EQ(csm::depthFormatNames(), "d32, d16");
+  EXPECT_EQ(csm::kAllDepthFormats[0], csm::DepthFormat::kD32);  // the default first
+  EXPECT_EQ(csm::depthFormatBits(csm::DepthFormat::kD32), 32u);
+  EXPECT_EQ(csm::depthFormatBits(csm::DepthFormat::kD16), 16u);
+  // The CSV reports' older spelling.
+  EXPECT_EQ(csm::parseDepthFormat("D32").value(), csm::DepthFormat::kD32);
+  EXPECT_EQ(csm::parseDepthFormat("D16").value(), csm::DepthFormat::kD16);
+  EXPECT_STREQ(csm::depthFormatName(static_cast<csm::DepthFormat>(9)), "unknown");
+  for (const char* bad : {"", "d24", "D16_UNORM", "d16 ", "32"}) {
+    const csm::Result<csm::DepthFormat> r = csm::parseDepthFormat(bad, "shadow.depthFormat");
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_EQ(r.error().message(), std::string("shadow.depthFormat = '") + bad +
+                                       "' is invalid: allowed one of d32, d16");
+  }
 }
 
 }  // namespace

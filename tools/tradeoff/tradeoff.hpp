@@ -5,6 +5,7 @@
 
 #include <csm/core.hpp>
 #include <csm/gpu_layout.hpp>
+#include <csm/vulkan/depth_format.hpp>
 #include <csm/vulkan/shadow_renderer.hpp>
 #include <cstdint>
 #include <cstdio>
@@ -110,7 +111,7 @@ struct Config {
   [[nodiscard]] std::string label() const {
     char buf[160];
     std::snprintf(buf, sizeof buf, "c%u r%u l%.2f %s b%.2f %s %s", cascades, resolution, lambda,
-                  csm::kernelName(kernel), blendBand, format == VK_FORMAT_D16_UNORM ? "D16" : "D32",
+                  csm::kernelName(kernel), blendBand, csm::vk::depthFormatName(format),
                   lods ? "LOD" : "noLOD");
     std::string label = buf;
     if (lods && lodLabel() != "on") {

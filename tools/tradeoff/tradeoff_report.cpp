@@ -40,7 +40,10 @@ std::vector<Row> readCsv(const std::string& path) {
     if (!kernel) throw std::runtime_error(kernel.error().message() + " in " + path);
     r.config.kernel = kernel.value();
     r.config.blendBand = std::stod(f[4]);
-    r.config.format = f[5] == "D16" ? VK_FORMAT_D16_UNORM : VK_FORMAT_D32_SFLOAT;
+    // "d32" / "d16" (csm/names.hpp); CSVs written before the names were unified say "D32".
+    const csm::Result<csm::DepthFormat> format = csm::parseDepthFormat(f[5], "--replot: format");
+    if (!format) throw std::runtime_error(format.error().message() + " in " + path);
+    r.config.format = csm::vk::toVkFormat(format.value());
     r.config.lods = f[6] == "1";
     r.shadowMs = std::stod(f[7]);
     r.litMs = std::stod(f[8]);
@@ -88,12 +91,11 @@ void writeCsv(const std::vector<Row>& rows, const std::string& csv) {
                   "%u,%u,%.2f,%s,%.2f,%s,%d,%.3f,%.3f,%.3f,%.3f,%.1f,%.5f,%.5f,%.3e,%.4f,%.0f,"
                   "%llu,%d,%d,%s,%.0f,%d,%.5f\n",
                   c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
-                  c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lods ? 1 : 0, r.shadowMs,
-                  r.litMs, r.gpuMs(), r.cpuMs, r.memoryMiB, r.misclassification, r.meanError,
-                  r.shimmerMean, r.shimmerMax, r.triangles, (unsigned long long)r.pixels,
-                  r.pareto ? 1 : 0, c.isDefault() ? 1 : 0,
-                  c.fit == csm::BoxFit::kTight ? "tight" : "sphere", c.ladderSteps,
-                  c.receivers ? (c.histogram ? 2 : 1) : 0, r.softError);
+                  csm::vk::depthFormatName(c.format), c.lods ? 1 : 0, r.shadowMs, r.litMs,
+                  r.gpuMs(), r.cpuMs, r.memoryMiB, r.misclassification, r.meanError, r.shimmerMean,
+                  r.shimmerMax, r.triangles, (unsigned long long)r.pixels, r.pareto ? 1 : 0,
+                  c.isDefault() ? 1 : 0, c.fit == csm::BoxFit::kTight ? "tight" : "sphere",
+                  c.ladderSteps, c.receivers ? (c.histogram ? 2 : 1) : 0, r.softError);
     f << line;
   }
 }
@@ -114,9 +116,9 @@ void printTable(const std::vector<Row>& rows, const std::string& info) {
         "| %u | %u | %.2f | %s | %.2f | %s | %s | %.2f | %.2f | %.2f | %.0f | %.3f%% | %.4f | "
         "%s | %.4f | %.0f | %s | %s |\n",
         c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
-        c.format == VK_FORMAT_D16_UNORM ? "D16" : "D32", c.lodLabel().c_str(), r.shadowMs, r.litMs,
-        r.cpuMs, r.memoryMiB, 100.0 * r.misclassification, r.meanError, soft, r.shimmerMax,
-        r.triangles, c.fitLabel().empty() ? "-" : c.fitLabel().c_str() + 1,
+        csm::vk::depthFormatName(c.format), c.lodLabel().c_str(), r.shadowMs, r.litMs, r.cpuMs,
+        r.memoryMiB, 100.0 * r.misclassification, r.meanError, soft, r.shimmerMax, r.triangles,
+        c.fitLabel().empty() ? "-" : c.fitLabel().c_str() + 1,
         r.pareto ? (c.isDefault() ? "yes (default)" : "yes") : (c.isDefault() ? "(default)" : ""));
   }
 }
@@ -166,7 +168,7 @@ void writePlot(const std::vector<Row>& rows, const std::string& out, const std::
       "-0.8,-0.6 font 'sans,8' tc rgb '#1f4f7f' notitle, '" +
       csv +
       "' every ::1 u ($20==1?$10:1/0):($13*100) w p pt 6 ps 3 lw 3 lc rgb '#d62728' "
-      "t 'default: c4 r2048 l0.75 tent3x3 b0.10 D32 LODs on'\n";
+      "t 'default: c4 r2048 l0.75 tent3x3 b0.10 d32 LODs on'\n";
   csm_measure::runGnuplot(out + "/tradeoff.gp", gp);
 }
 

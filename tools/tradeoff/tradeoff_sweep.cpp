@@ -156,18 +156,10 @@ struct SweepRig {
   std::vector<std::vector<glm::dvec3>>& softPositions;
 };
 
-/// The row of one configuration, or nothing when the harness refuses it (printed).
-std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
-  const Options& o = rig.o;
-  const csm_measure::WorldScene& worldScene = rig.worldScene;
-  const csm_measure::RayTracer& tracer = rig.tracer;
+/// Applies `cfg` to the rig's harness (settings, renderer options, caster LODs); returns the
+/// settings, or nothing when the harness refuses them (printed).
+std::optional<csm::ShadowSettings> configure(const SweepRig& rig, const Config& cfg) {
   csm_measure::Harness& harness = rig.harness;
-  const world::FlightPath* path = &rig.path;
-  const int poses = rig.poses, shimmerFrames = rig.shimmerFrames, kTimedFrames = rig.kTimedFrames;
-  const VkExtent2D accuracyView = rig.accuracyView;
-  const csm::DirectionalLight light = rig.light;
-  const double aspect = rig.aspect;
-  const std::array<uint32_t, csm::kMaxCascades>& cascadeLod = rig.cascadeLod;
   csm::ShadowSettings s;
   s.cascadeCount = cfg.cascades;
   s.resolution = cfg.resolution;
@@ -187,13 +179,69 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
     std::fprintf(stderr, "\nskipping %s: %s\n", cfg.label().c_str(), st.message().c_str());
     return std::nullopt;
   }
-  std::array<uint32_t, csm::kMaxCascades> lodOfCascade = cascadeLod;
+  std::array<uint32_t, csm::kMaxCascades> lodOfCascade = rig.cascadeLod;
   for (size_t c = 0; c < cfg.schedule.size() && c < csm::kMaxCascades; ++c) {
     lodOfCascade[c] = cfg.schedule[c];
   }
-  harness.setCasterLods(cfg.lods ? worldScene.lodMeshes : std::vector<std::vector<uint32_t>>{},
+  harness.setCasterLods(cfg.lods ? rig.worldScene.lodMeshes : std::vector<std::vector<uint32_t>>{},
                         lodOfCascade,
-                        cfg.lods ? worldScene.lodErrorM : std::vector<std::vector<float>>{});
+                        cfg.lods ? rig.worldScene.lodErrorM : std::vector<std::vector<float>>{});
+  return s;
+}
+
+/// The soft-shadow error of pose `p`'s accuracy pixels against the pose's soft truth (traced
+/// on first use, and again when the receivers moved).
+csm_measure::SoftErrorStats softErrorOfPose(const SweepRig& rig, int p,
+                                            const std::vector<csm_measure::PixelSample>& px) {
+  std::vector<float>& st = rig.softTruth[size_t(p)];
+  std::vector<glm::dvec3>& sp = rig.softPositions[size_t(p)];
+  bool same = st.size() == px.size();
+  for (size_t i = 0; same && i < px.size(); i += 97) same = px[i].posWs == sp[i / 97];
+  if (!same) {
+    st = csm_measure::softTruthOfReceivers(px, rig.tracer, rig.light, 0.53);
+    sp.clear();
+    for (size_t i = 0; i < px.size(); i += 97) sp.push_back(px[i].posWs);
+  }
+  std::vector<float> compared = st;
+  for (size_t i = 0; i < px.size(); ++i) {
+    if (px[i].cascade < 0) compared[i] = -1.0f;
+  }
+  return csm_measure::measureSoftError(px, compared);
+}
+
+/// Shimmer at what a pose (path time `t`, accuracy pixels `px`) sees, over a few frames of the
+/// path from there.
+csm_measure::ShimmerRun shimmerFromPose(const SweepRig& rig, const Config& cfg, double t,
+                                        double accuracyAspect,
+                                        const std::vector<csm_measure::PixelSample>& px) {
+  std::vector<csm_measure::Receiver> rcv;
+  const size_t step = std::max<size_t>(1, px.size() / 2000);
+  for (size_t i = 0; i < px.size(); i += step) {
+    rcv.push_back({px[i].posWs, px[i].normalWs, csm_measure::InstanceKind::kGround});
+  }
+  return csm_measure::measureShimmer(
+      rig.harness, rcv, rig.light,
+      [&](int f) {
+        csm::Camera c = cameraAt(rig.path.at(t + 2e-4 * f), rig.aspect);
+        c.aspect = accuracyAspect;
+        return c;
+      },
+      rig.shimmerFrames, cfg.kernel);
+}
+
+/// The row of one configuration, or nothing when the harness refuses it (printed).
+std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
+  const Options& o = rig.o;
+  const csm_measure::RayTracer& tracer = rig.tracer;
+  csm_measure::Harness& harness = rig.harness;
+  const world::FlightPath* path = &rig.path;
+  const int poses = rig.poses, kTimedFrames = rig.kTimedFrames;
+  const VkExtent2D accuracyView = rig.accuracyView;
+  const csm::DirectionalLight light = rig.light;
+  const double aspect = rig.aspect;
+  const std::optional<csm::ShadowSettings> settings = configure(rig, cfg);
+  if (!settings) return std::nullopt;
+  const csm::ShadowSettings& s = *settings;
   Row row;
   row.config = cfg;
   row.memoryMiB = double(harness.shadowMapBytes()) / (1024.0 * 1024.0);
@@ -237,37 +285,12 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
     const std::vector<csm_measure::PixelSample> px =
         harness.renderAccuracy(accCam, frame, accuracyView, cfg.kernel);
     acc.merge(csm_measure::measureAccuracy(px, frame, tracer, light));
-    std::vector<float>& st = rig.softTruth[size_t(p)];
-    std::vector<glm::dvec3>& sp = rig.softPositions[size_t(p)];
-    bool same = st.size() == px.size();
-    for (size_t i = 0; same && i < px.size(); i += 97) same = px[i].posWs == sp[i / 97];
-    if (!same) {
-      st = csm_measure::softTruthOfReceivers(px, tracer, light, 0.53);
-      sp.clear();
-      for (size_t i = 0; i < px.size(); i += 97) sp.push_back(px[i].posWs);
-    }
-    std::vector<float> compared = st;
-    for (size_t i = 0; i < px.size(); ++i) {
-      if (px[i].cascade < 0) compared[i] = -1.0f;
-    }
-    const csm_measure::SoftErrorStats se = csm_measure::measureSoftError(px, compared);
+    const csm_measure::SoftErrorStats se = softErrorOfPose(rig, p, px);
     soft.pixels += se.pixels;
     soft.absErrorSum += se.absErrorSum;
     if (p == 0) {
       // Shimmer at what the first pose sees, over a few frames of the path.
-      std::vector<csm_measure::Receiver> rcv;
-      const size_t step = std::max<size_t>(1, px.size() / 2000);
-      for (size_t i = 0; i < px.size(); i += step) {
-        rcv.push_back({px[i].posWs, px[i].normalWs, csm_measure::InstanceKind::kGround});
-      }
-      const csm_measure::ShimmerRun sh = csm_measure::measureShimmer(
-          harness, rcv, light,
-          [&](int f) {
-            csm::Camera c = cameraAt(path->at(t + 2e-4 * f), aspect);
-            c.aspect = accCam.aspect;
-            return c;
-          },
-          shimmerFrames, cfg.kernel);
+      const csm_measure::ShimmerRun sh = shimmerFromPose(rig, cfg, t, accCam.aspect, px);
       row.shimmerMean = sh.total.stayed.mean();
       row.shimmerMax = sh.total.stayed.max;
     }

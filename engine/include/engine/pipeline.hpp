@@ -149,6 +149,14 @@ class GraphicsPipelineBuilder {
   uint32_t viewMask_ = 0;
   std::vector<VkPushConstantRange> pushRanges_;
   std::vector<VkDescriptorSetLayout> setLayouts_;
+
+  // build()'s steps (pipeline.cpp defines the two structs).
+  struct StageSpec;   // one stage's specialisation constants
+  struct FixedState;  // the fixed-function create infos, pointing into one another
+  void requireFeatures(const Context& ctx, const std::string& name) const;
+  DeviceHandle<VkPipelineLayout> createLayout(VkDevice device, const std::string& name) const;
+  std::vector<VkPipelineShaderStageCreateInfo> stageInfos(std::vector<StageSpec>& specs) const;
+  void fillFixedState(FixedState& state) const;
 };
 
 }  // namespace engine

@@ -12,7 +12,7 @@
 #include "engine/errors.hpp"
 #include "engine/gpu_timer.hpp"
 #include "engine/render_target.hpp"
-#include "vk_util.hpp"
+#include "glue/vk_util.hpp"
 
 namespace glue {
 

@@ -11,7 +11,7 @@
 #include "engine/context.hpp"
 #include "engine/debug.hpp"
 #include "engine/errors.hpp"
-#include "vk_util.hpp"
+#include "glue/vk_util.hpp"
 
 namespace glue {
 
@@ -35,22 +35,8 @@ ShadowProbe::ShadowProbe(engine::Context& ctx, VkDescriptorSetLayout lightingSet
       {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr}};
   layout_ = engine::createDescriptorSetLayout(dev, b, "probe.layout");
 
-  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2};
-  auto pi = vkStruct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-  pi.maxSets = 1;
-  pi.poolSizeCount = 1;
-  pi.pPoolSizes = &size;
-  VkDescriptorPool pool = VK_NULL_HANDLE;
-  ENGINE_VK_CHECK(vkCreateDescriptorPool(dev, &pi, nullptr, &pool));
-  pool_ = engine::DeviceHandle<VkDescriptorPool>(dev, pool, vkDestroyDescriptorPool);
-  engine::setDebugName(dev, pool, "probe.pool");
-  VkDescriptorSetLayout l = layout_.get();
-  auto ai = vkStruct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
-  ai.descriptorPool = pool;
-  ai.descriptorSetCount = 1;
-  ai.pSetLayouts = &l;
-  ENGINE_VK_CHECK(vkAllocateDescriptorSets(dev, &ai, &set_));
-  engine::setDebugName(dev, set_, "probe.set");
+  pool_ = detail::makeDescriptorPool(dev, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 2, "probe.pool");
+  set_ = detail::allocateDescriptorSet(dev, pool_, layout_.get(), "probe.set");
 
   VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, 16};
   const VkDescriptorSetLayout sets[2] = {layout_.get(), lightingSetLayout};

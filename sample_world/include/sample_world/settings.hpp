@@ -64,6 +64,13 @@ struct AppSettings {
   bool overlayChecker = true;
   bool overlayThumbnails = true;
   bool overlayMap = true;
+  /// Depth pre-pass: the visible world drawn depth-only first, then the lit pass with depth test
+  /// EQUAL and no depth writes, so the lit fragment shader (the shadow lookup) runs about once per
+  /// pixel instead of once per rasterised fragment.
+  bool depthPrepass = true;
+  /// Back faces of closed meshes (every LOD watertight and outward, every placement keeping the
+  /// winding) culled in the pre-pass and the lit pass; open meshes (terrain, fences) draw both.
+  bool cullBackFaces = true;
   /// View (window size at start, or the headless image).
   std::uint32_t width = 1280;
   std::uint32_t height = 720;

@@ -108,6 +108,11 @@ struct WorldDesc {
   /// Terrain grid cells per chunk side (16: 16 m cells; OpenMesh's Decimater makes the chunk
   /// LODs at about 25 us per collapse, so finer grids cost seconds of start-up).
   std::uint32_t chunkCells = 16;
+  /// Side of a caster cluster's cell, metres (a divisor of chunkM, >= 16): trees, rocks,
+  /// buildings and thin casters are merged into one mesh per cell and group. Smaller cells let
+  /// the near cascades (tens of metres across) cull more of the forest, for more draws and more
+  /// CPU culling per frame.
+  double clusterM = 64.0;
   std::uint32_t treeCount = 30000;
   std::uint32_t rockCount = 1500;
   std::uint32_t buildingCount = 120;

@@ -69,7 +69,8 @@ class WorldRenderer {
   std::optional<std::string> prepare(const engine::Camera& camera, FrameStats& stats);
 
   /// Records the frame prepared last into `frame`: shadow pass, lit pass, overlay 2D geometry
-  /// when `overlay`. GPU scopes: "shadow", "shadow c<i>", "lit", "overlay".
+  /// when `overlay`. GPU scopes: "shadow", "shadow c<i>", "prepass" (settings.depthPrepass),
+  /// "lit", "overlay".
   void record(const engine::Frame& frame, engine::GpuTimer& timer, bool overlay, FrameStats& stats);
 
   const csm::CascadeFrame& cascades() const { return shadow_->frame(); }
@@ -85,6 +86,7 @@ class WorldRenderer {
   struct Bucket {
     std::uint32_t mesh = 0, lod = 0;
     std::uint32_t first = 0, count = 0;
+    bool cullBack = false;  // a closed mesh drawn with its back faces culled
   };
   struct Instance {
     glm::vec4 rows[3];
@@ -114,6 +116,14 @@ class WorldRenderer {
   // pass and the overlay.
   void recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& timer, FrameStats& stats);
   void recordLitPass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer, bool overlay);
+  // The depth pre-pass (settings.depthPrepass): the visible instances depth-only, in a rendering
+  // of its own, so that the lit pass shades each pixel once (depth test EQUAL, no writes).
+  void recordDepthPrepass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer);
+  void bindWorldGeometry(VkCommandBuffer cmd, Slot& slot) const;
+  // Draws every bucket; binds `cullBack` or `both` (each bound with `layout`'s sets) as the
+  // buckets' back-face culling changes.
+  void drawBuckets(VkCommandBuffer cmd, const engine::GraphicsPipeline& both,
+                   const engine::GraphicsPipeline& cullBack) const;
   void recordOverlay(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer);
   void buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& tris,
                     std::vector<OverlayVertex>& lines) const;
@@ -143,7 +153,16 @@ class WorldRenderer {
   engine::DeviceHandle<VkDescriptorPool> pool_;
   std::array<Slot, engine::kFramesInFlight> slots_;
   engine::DeviceHandle<VkShaderModule> worldVert_, worldFrag_, overlayVert_, overlayFrag_;
-  std::map<std::uint32_t, engine::GraphicsPipeline> litPipelines_;  // by kernel
+  // By kernel | kLitAfterPrepass: the lit pipeline, with depth LESS and writes, or after the
+  // depth pre-pass (EQUAL, no writes).
+  std::map<std::uint32_t, engine::GraphicsPipeline> litPipelines_;
+  static constexpr std::uint32_t kLitAfterPrepass = 1u << 16;
+  static constexpr std::uint32_t kLitCullBack = 1u << 17;
+  engine::GraphicsPipeline depthPrepass_, depthPrepassCullBack_;  // world.vert only
+  // Per mesh asset: every LOD is closed and outward (settings.cullBackFaces culls its back faces).
+  std::vector<bool> closedMesh_;
+  void buildClosedMeshes(const World& world);
+  const engine::GraphicsPipeline& litPipeline(bool prepass, bool cullBack) const;
   engine::GraphicsPipeline overlayTris_, overlayLines_;
 
   // Dynamic shadow casters (vehicles, a swinging crane jib): unit cubes moved every frame,

@@ -6,9 +6,12 @@
 // without the space). parseKernel() also accepts "tent3", "tent5" and "tent7", the fly-through's
 // spelling before the names were unified, so that existing configs and command lines still work.
 // Debug modes: "none", "normal", "shadow", "lightcoords", "depth", "depthdiff", "cascade".
+// Shadow-map depth formats: "d32" (D32_SFLOAT), "d16" (D16_UNORM). parseDepthFormat() also
+// accepts "D32" and "D16", the CSV reports' spelling before the names were unified.
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <span>
 #include <string>
 #include <string_view>
@@ -45,5 +48,26 @@ inline constexpr std::array<DebugMode, CSM_DEBUG_COUNT> kAllDebugModes{
                                                std::string_view field = "debugMode");
 /// "none, normal, shadow, lightcoords, depth, depthdiff, cascade".
 [[nodiscard]] std::string debugModeNames();
+
+/// The shadow map's depth format (csm::vk::RendererOptions::depthFormat is its VkFormat:
+/// csm/vulkan/depth_format.hpp converts).
+enum class DepthFormat : std::uint8_t {
+  kD32 = 0,  ///< VK_FORMAT_D32_SFLOAT, the default
+  kD16 = 1,  ///< VK_FORMAT_D16_UNORM
+};
+/// Every depth format, the default first.
+inline constexpr std::array<DepthFormat, 2> kAllDepthFormats{DepthFormat::kD32, DepthFormat::kD16};
+/// Bits per texel of the format (UniformOptions::depthBits).
+[[nodiscard]] constexpr std::uint32_t depthFormatBits(DepthFormat format) noexcept {
+  return format == DepthFormat::kD16 ? 16u : 32u;
+}
+/// The one spelling of a depth format ("d32", "d16"); "unknown" for a value outside DepthFormat.
+[[nodiscard]] const char* depthFormatName(DepthFormat format) noexcept;
+/// The depth format called `name` (depthFormatName(), or "D32" / "D16"), else a ValidationError
+/// naming `field`.
+[[nodiscard]] Result<DepthFormat> parseDepthFormat(std::string_view name,
+                                                   std::string_view field = "depthFormat");
+/// "d32, d16".
+[[nodiscard]] std::string depthFormatNames();
 
 }  // namespace csm

@@ -28,7 +28,15 @@ constexpr Named<DebugMode> kDebugModeNames[] = {
     {"cascade", DebugMode::kCascadeTint},
 };
 
+constexpr Named<DepthFormat> kDepthFormatNames[] = {
+    {"d32", DepthFormat::kD32},
+    {"d16", DepthFormat::kD16},
+};
+constexpr Named<DepthFormat> kDepthFormatCompatNames[] = {{"D32", DepthFormat::kD32},
+                                                          {"D16", DepthFormat::kD16}};
+
 static_assert(std::size(kKernelNames) == kAllKernels.size());
+static_assert(std::size(kDepthFormatNames) == kAllDepthFormats.size());
 static_assert(std::size(kDebugModeNames) == kAllDebugModes.size());
 
 template <class T, std::size_t N>
@@ -88,6 +96,20 @@ std::string debugModeNames() {
 Result<DebugMode> parseDebugMode(std::string_view name, std::string_view field) {
   if (const DebugMode* m = find(kDebugModeNames, name)) return *m;
   return badName(field, name, debugModeNames());
+}
+
+const char* depthFormatName(DepthFormat format) noexcept {
+  return nameOf(kDepthFormatNames, format);
+}
+
+std::string depthFormatNames() {
+  return joinNames(kDepthFormatNames);
+}
+
+Result<DepthFormat> parseDepthFormat(std::string_view name, std::string_view field) {
+  if (const DepthFormat* f = find(kDepthFormatNames, name)) return *f;
+  if (const DepthFormat* f = find(kDepthFormatCompatNames, name)) return *f;
+  return badName(field, name, depthFormatNames());
 }
 
 }  // namespace csm

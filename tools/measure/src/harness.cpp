@@ -15,11 +15,12 @@
 #include <glue/lit_pass.hpp>
 #include <glue/shadow_host.hpp>
 #include <glue/shadow_probe.hpp>
+#include <glue/vk_util.hpp>
 
 #include <algorithm>
-#include <cstdlib>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -27,12 +28,7 @@
 namespace csm_measure {
 namespace {
 
-template <class T>
-T vkStruct(VkStructureType type) {
-  T v{};
-  v.sType = type;
-  return v;
-}
+using glue::detail::vkStruct;
 
 // stability_accuracy.frag's constant_id: the bias uses the shading normal (1) or the facet's.
 constexpr uint32_t kSpecBiasFromShadingNormal = 16;
@@ -48,43 +44,6 @@ constexpr VkFormat kPositionFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kNormalFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kFootprintFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
-
-engine::DeviceHandle<VkDescriptorPool> makePool(VkDevice dev, VkDescriptorType type, uint32_t n,
-                                                const char* name) {
-  VkDescriptorPoolSize size{type, n};
-  auto pi = vkStruct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-  pi.maxSets = 1;
-  pi.poolSizeCount = 1;
-  pi.pPoolSizes = &size;
-  VkDescriptorPool pool = VK_NULL_HANDLE;
-  ENGINE_VK_CHECK(vkCreateDescriptorPool(dev, &pi, nullptr, &pool));
-  engine::setDebugName(dev, pool, name);
-  return engine::DeviceHandle<VkDescriptorPool>(dev, pool, vkDestroyDescriptorPool);
-}
-
-VkDescriptorSet allocateSet(VkDevice dev, VkDescriptorPool pool, VkDescriptorSetLayout layout,
-                            const char* name) {
-  auto ai = vkStruct<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
-  ai.descriptorPool = pool;
-  ai.descriptorSetCount = 1;
-  ai.pSetLayouts = &layout;
-  VkDescriptorSet set = VK_NULL_HANDLE;
-  ENGINE_VK_CHECK(vkAllocateDescriptorSets(dev, &ai, &set));
-  engine::setDebugName(dev, set, name);
-  return set;
-}
-
-void writeBuffer(VkDevice dev, VkDescriptorSet set, uint32_t binding, VkDescriptorType type,
-                 VkBuffer buffer) {
-  VkDescriptorBufferInfo info{buffer, 0, VK_WHOLE_SIZE};
-  auto w = vkStruct<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
-  w.dstSet = set;
-  w.dstBinding = binding;
-  w.descriptorCount = 1;
-  w.descriptorType = type;
-  w.pBufferInfo = &info;
-  vkUpdateDescriptorSets(dev, 1, &w, 0, nullptr);
-}
 
 }  // namespace
 
@@ -120,42 +79,17 @@ Harness::~Harness() {
   accuracy_.reset();
   probe_.reset();
   view_.reset();
-  meshes_.reset();
+  gpu_.store.reset();
   if (ctx_) ctx_->shutdown();
 }
 
 void Harness::setScene(const Scene& scene) {
   ctx_->waitIdle();
-  uint64_t vertices = 0, indices = 0;
-  for (const MeshData& m : scene.meshes()) {
-    vertices += m.vertices.size();
-    indices += m.indices.size();
-  }
-  meshes_ = std::make_unique<engine::MeshStore>(*ctx_, uint32_t(vertices + 16),
-                                                uint32_t(indices + 16), "measure meshes");
-  meshDraws_.clear();
-  std::vector<engine::MeshRange> ranges;
-  for (const MeshData& m : scene.meshes()) {
-    const engine::MeshRange r = meshes_->upload(m.vertices, m.indices);
-    ranges.push_back(r);
-    csm::vk::MeshDraw d;
-    d.vertexBuffer = meshes_->vertexBuffer();
-    d.indexBuffer = meshes_->indexBuffer();
-    d.firstIndex = r.firstIndex;
-    d.indexCount = r.indexCount;
-    d.vertexOffset = r.vertexOffset;
-    meshDraws_.push_back(d);
-  }
+  gpu_ = glue::uploadScene(*ctx_, scene, "measure meshes");
   instances_ = scene.instances();
-  casters_.clear();
-  for (const Instance& in : instances_) {
-    casters_.push_back({in.mesh, in.translationWs, in.linearWs});
-    casters_.back().thin = in.thin;
-  }
   casterSet_ = scene.casterSet();
   const csm::AabbWs bounds = scene.boundsWs();
-  meshRanges_ = std::move(ranges);
-  csm::vk::Status s = view_->setCasters(meshDraws_, casters_, casterSet_);
+  csm::vk::Status s = view_->setCasters(gpu_.meshDraws, gpu_.casters, casterSet_);
   if (s.ok()) s = view_->setSceneBounds(&bounds);
   if (!s.ok()) throw std::runtime_error("ShadowView: " + s.message());
   cascadeLod_ = {};
@@ -187,15 +121,15 @@ void Harness::setCasterLods(std::vector<std::vector<uint32_t>> lodMeshes,
                                   std::to_string(csm::vk::kMaxCasterLods) + "]");
     }
     for (uint32_t m : lodMeshes[i]) {
-      if (m >= meshDraws_.size()) {
+      if (m >= gpu_.meshDraws.size()) {
         throw std::invalid_argument("setCasterLods: instance " + std::to_string(i) + " mesh " +
                                     std::to_string(m) + " is out of range: allowed [0, " +
-                                    std::to_string(meshDraws_.size()) + ")");
+                                    std::to_string(gpu_.meshDraws.size()) + ")");
       }
     }
   }
   // LOD 0 of the module's instance is the instance's LOD-0 mesh; LODs off: the own mesh only.
-  std::vector<csm::vk::CasterInstance> casters = casters_;
+  std::vector<csm::vk::CasterInstance> casters = gpu_.casters;
   for (size_t i = 0; i < lodMeshes.size(); ++i) {
     casters[i].mesh = lodMeshes[i][0];
     for (uint32_t k = 1; k < csm::vk::kMaxCasterLods; ++k) {
@@ -205,7 +139,7 @@ void Harness::setCasterLods(std::vector<std::vector<uint32_t>> lodMeshes,
                                         : csm::vk::kUnknownLodError;
     }
   }
-  csm::vk::Status s = view_->setCasters(meshDraws_, casters, casterSet_);
+  csm::vk::Status s = view_->setCasters(gpu_.meshDraws, casters, casterSet_);
   cascadeLod_ = lodMeshes.empty() ? std::array<uint32_t, csm::kMaxCascades>{} : cascadeLod;
   options_.cascadeLod = cascadeLod_;
   for (uint32_t& l : options_.cascadeLod) l = std::min(l, csm::vk::kMaxCasterLods - 1);
@@ -258,7 +192,7 @@ void Harness::recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame) 
       const uint32_t lod = csm::vk::casterLod(
           casters[i], options_.cascadeLod[c],
           std::min(cascade.texelSizeLs.x, cascade.texelSizeLs.y), options_.lodMaxErrorTexels);
-      shadowTriangles_ += meshDraws_[casters[i].meshForLod(lod)].indexCount / 3;
+      shadowTriangles_ += gpu_.meshDraws[casters[i].meshForLod(lod)].indexCount / 3;
     }
   }
 }
@@ -293,13 +227,15 @@ void Harness::ensureAccuracyTargets(VkExtent2D extent) {
                                          VK_SHADER_STAGE_VERTEX_BIT, nullptr};
     accuracy_->layout =
         engine::createDescriptorSetLayout(dev, std::span(&b, 1), "measure.accuracy.layout");
-    accuracy_->pool = makePool(dev, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, "measure.accuracy.pool");
-    accuracy_->set = allocateSet(dev, accuracy_->pool, accuracy_->layout, "measure.accuracy.set");
+    accuracy_->pool = glue::detail::makeDescriptorPool(dev, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1,
+                                                       "measure.accuracy.pool");
+    accuracy_->set = glue::detail::allocateDescriptorSet(dev, accuracy_->pool, accuracy_->layout,
+                                                         "measure.accuracy.set");
     accuracy_->frameUniforms =
         engine::Buffer(*ctx_, sizeof(glm::mat4), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT,
                        engine::MemoryUsage::Upload, "measure.accuracy.frameUniforms");
-    writeBuffer(dev, accuracy_->set, 0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
-                accuracy_->frameUniforms.handle());
+    glue::detail::writeBufferDescriptor(dev, accuracy_->set, 0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
+                                        accuracy_->frameUniforms.handle());
   }
   if (accuracy_->extent.width == extent.width && accuracy_->extent.height == extent.height) return;
   ctx_->waitIdle();
@@ -417,7 +353,7 @@ void Harness::recordAccuracyPass(VkCommandBuffer cmd, const glm::dvec3& cameraWs
     const VkDescriptorSet sets[2] = {t.set, view_->lightingSet()};
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline.pipeline.layout, 0, 2,
                             sets, 0, nullptr);
-    meshes_->bind(cmd);
+    gpu_.store->bind(cmd);
     for (const Instance& in : instances_) {
       AccuracyPush push{};
       push.modelCr = glm::mat4(in.linearWs);
@@ -426,7 +362,7 @@ void Harness::recordAccuracyPass(VkCommandBuffer cmd, const glm::dvec3& cameraWs
       for (int i = 0; i < 3; ++i) push.normalToWs[i] = glm::vec4(normalMatrix[i], 0.0f);
       vkCmdPushConstants(cmd, pipeline.pipeline.layout, VK_SHADER_STAGE_VERTEX_BIT, 0, sizeof(push),
                          &push);
-      const engine::MeshRange& m = meshRanges_[in.mesh];
+      const engine::MeshRange& m = gpu_.ranges[in.mesh];
       vkCmdDrawIndexed(cmd, m.indexCount, 1, m.firstIndex, m.vertexOffset, 0);
     }
     vkCmdEndRendering(cmd);
@@ -518,11 +454,6 @@ FrameTimings Harness::timeFrame(const csm::Camera& camera, const csm::Directiona
     lit = glue::makeLitPass(*ctx_, timingTarget_->colorFormat(), timingTarget_->depthFormat(),
                             view_->lightingSetLayout(), kernel, blend);
   }
-  std::vector<glue::LitDraw> draws;
-  draws.reserve(instances_.size());
-  for (const Instance& in : instances_) {
-    draws.push_back({meshRanges_[in.mesh], in.translationWs, in.linearWs, in.color});
-  }
   FrameTimings out;
   const auto t0 = std::chrono::steady_clock::now();
   const csm::CascadeFrame frame = computeFrame(camera, light, history);
@@ -539,7 +470,7 @@ FrameTimings Harness::timeFrame(const csm::Camera& camera, const csm::Directiona
   lf.viewProjCr = cam.viewProjectionCr();
   lf.cameraPositionWs = camera.positionWs;
   lf.lightDirectionWs = glm::vec3(light.directionWs);
-  glue::recordTimedLitPass(*lit, *timer_, *f, lf, *meshes_, view_->lightingSet(), draws);
+  glue::recordTimedLitPass(*lit, *timer_, *f, lf, *gpu_.store, view_->lightingSet(), gpu_.litDraws);
   const uint32_t slot = f->slot;
   timingTarget_->endFrame();
   timingTarget_->waitIdle();

@@ -14,6 +14,7 @@
 #include <engine/context.hpp>
 #include <engine/image_io.hpp>
 #include <engine/mesh_store.hpp>
+#include <glue/gpu_scene.hpp>
 #include <glue/shadow_probe.hpp>
 #include "csm/vulkan/shadow_view.hpp"
 
@@ -157,14 +158,11 @@ class Harness {
   void ensureTimingTarget(VkExtent2D extent);
 
   std::unique_ptr<engine::Context> ctx_;
-  std::unique_ptr<engine::MeshStore> meshes_;
+  // The scene on the GPU (destroyed after the view).
+  glue::GpuScene gpu_;
   std::unique_ptr<csm::vk::ShadowView> view_;
   csm::vk::RendererOptions options_{};
 
-  // Scene on the GPU.
-  std::vector<csm::vk::MeshDraw> meshDraws_;
-  std::vector<engine::MeshRange> meshRanges_;
-  std::vector<csm::vk::CasterInstance> casters_;
   std::vector<Instance> instances_;
   csm::CasterSet casterSet_;
   std::array<uint32_t, csm::kMaxCascades> cascadeLod_{};

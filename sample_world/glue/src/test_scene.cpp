@@ -1,11 +1,12 @@
-// The measurement scene (see scene.hpp).
-#include "csm_measure/scene.hpp"
+// The test scene (see test_scene.hpp).
+#include "glue/test_scene.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
-namespace csm_measure {
+namespace glue {
 namespace {
 
 // splitmix64: a small deterministic generator (identical on every standard library).
@@ -87,7 +88,6 @@ uint32_t Scene::addMesh(MeshData mesh) {
 
 void Scene::addInstance(const Instance& instance) {
   if (instance.mesh >= meshes_.size()) throw std::out_of_range("Scene::addInstance: mesh index");
-  instances_.push_back(instance);
   const MeshData& m = meshes_[instance.mesh];
   csm::AabbWs b{glm::dvec3(1e300), glm::dvec3(-1e300)};
   for (const engine::Vertex& v : m.vertices) {
@@ -95,6 +95,12 @@ void Scene::addInstance(const Instance& instance) {
     b.minWs = glm::min(b.minWs, p);
     b.maxWs = glm::max(b.maxWs, p);
   }
+  addInstance(instance, b);
+}
+
+void Scene::addInstance(const Instance& instance, const csm::AabbWs& b) {
+  if (instance.mesh >= meshes_.size()) throw std::out_of_range("Scene::addInstance: mesh index");
+  instances_.push_back(instance);
   bounds_.push_back(b);
   if (instances_.size() == 1) {
     sceneBounds_ = b;
@@ -275,4 +281,112 @@ csm::CasterSet Scene::casterSet() const {
   return set;
 }
 
-}  // namespace csm_measure
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Ray (o, d) against a sphere: nearest t > tMin, or +inf.
+double raySphere(const glm::dvec3& o, const glm::dvec3& d, const SphereWs& s, double tMin) {
+  const glm::dvec3 oc = o - s.centerWs;
+  const double b = glm::dot(oc, d);
+  const double c = glm::dot(oc, oc) - s.radiusM * s.radiusM;
+  const double disc = b * b - c * glm::dot(d, d);
+  if (disc < 0.0) return kInf;
+  const double sq = std::sqrt(disc);
+  const double dd = glm::dot(d, d);
+  const double t0 = (-b - sq) / dd;
+  const double t1 = (-b + sq) / dd;
+  if (t0 > tMin) return t0;
+  if (t1 > tMin) return t1;
+  return kInf;
+}
+
+// Ray against an AABB (slabs): nearest t > tMin, or +inf.
+double rayBox(const glm::dvec3& o, const glm::dvec3& d, const csm::AabbWs& b, double tMin) {
+  double t0 = -kInf, t1 = kInf;
+  for (int a = 0; a < 3; ++a) {
+    if (std::abs(d[a]) < 1e-300) {
+      if (o[a] < b.minWs[a] || o[a] > b.maxWs[a]) return kInf;
+      continue;
+    }
+    double ta = (b.minWs[a] - o[a]) / d[a];
+    double tb = (b.maxWs[a] - o[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  if (t0 > t1) return kInf;
+  if (t0 > tMin) return t0;
+  if (t1 > tMin) return t1;
+  return kInf;
+}
+
+}  // namespace
+
+AnalyticShapes::RayHit AnalyticShapes::intersect(const glm::dvec3& o, const glm::dvec3& d) const {
+  RayHit hit{kInf, false};
+  if (d.y < 0.0) {
+    const double t = -o.y / d.y;
+    const glm::dvec3 q = o + t * d;
+    if (std::abs(q.x - planeCenterWs.x) <= planeHalfM &&
+        std::abs(q.z - planeCenterWs.z) <= planeHalfM) {
+      hit = {t, true};
+    }
+  }
+  for (const SphereWs& s : spheres) {
+    const double t = raySphere(o, d, s, 0.0);
+    if (t < hit.t) hit = {t, false};
+  }
+  for (const csm::AabbWs& b : boxes) {
+    const double t = rayBox(o, d, b, 0.0);
+    if (t < hit.t) hit = {t, false};
+  }
+  return hit;
+}
+
+bool AnalyticShapes::occluded(const glm::dvec3& posWs, const glm::dvec3& toLight) const {
+  for (const SphereWs& s : spheres) {
+    if (raySphere(posWs, toLight, s, 1e-6) < kInf) return true;
+  }
+  for (const csm::AabbWs& b : boxes) {
+    if (rayBox(posWs, toLight, b, 1e-6) < kInf) return true;
+  }
+  return false;
+}
+
+Scene AnalyticShapes::scene(int sphereSegments, int sphereRings) const {
+  Scene scene;
+  // Ground: a 2 x 2 quad in xz scaled by the instance.
+  MeshData ground;
+  ground.name = "ground";
+  ground.vertices = {{{-1, 0, -1}, {0, 1, 0}},
+                     {{1, 0, -1}, {0, 1, 0}},
+                     {{1, 0, 1}, {0, 1, 0}},
+                     {{-1, 0, 1}, {0, 1, 0}}};
+  ground.indices = {0, 2, 1, 0, 3, 2};
+  const uint32_t plane = scene.addMesh(std::move(ground));
+  const uint32_t sphere = scene.addMesh(makeSphereMesh(sphereSegments, sphereRings));
+  const uint32_t cube = scene.addMesh(makeCubeMesh());
+  auto add = [&](uint32_t mesh, const glm::dvec3& t, const glm::dvec3& scale,
+                 const glm::vec4& color, InstanceKind kind, const csm::AabbWs& box) {
+    const glm::mat3 linear(glm::vec3(scale.x, 0, 0), glm::vec3(0, scale.y, 0),
+                           glm::vec3(0, 0, scale.z));
+    scene.addInstance({mesh, t, linear, color, kind}, box);
+  };
+  // The ground receives and casts (so that self-shadowing acne would show).
+  add(plane, planeCenterWs, {planeHalfM, 1.0, planeHalfM}, {0.8f, 0.8f, 0.8f, 1.0f},
+      InstanceKind::kGround,
+      {planeCenterWs - glm::dvec3(planeHalfM, 0.0, planeHalfM),
+       planeCenterWs + glm::dvec3(planeHalfM, 0.0, planeHalfM)});
+  for (const SphereWs& s : spheres) {
+    add(sphere, s.centerWs, glm::dvec3(s.radiusM), {0.9f, 0.3f, 0.2f, 1.0f}, InstanceKind::kSphere,
+        {s.centerWs - glm::dvec3(s.radiusM), s.centerWs + glm::dvec3(s.radiusM)});
+  }
+  for (const csm::AabbWs& b : boxes) {
+    add(cube, 0.5 * (b.minWs + b.maxWs), b.maxWs - b.minWs, {0.2f, 0.4f, 0.9f, 1.0f},
+        InstanceKind::kBuilding, b);
+  }
+  return scene;
+}
+
+}  // namespace glue

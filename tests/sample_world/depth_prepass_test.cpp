@@ -1,0 +1,126 @@
+// The fly-through's depth pre-pass (view.depthPrepass) and back-face culling of closed meshes
+// (view.cullBackFaces), both on by default: the lit pass after a depth-only draw of the same
+// instances (depth test EQUAL, no writes) shows the image of the lit pass alone with both faces
+// drawn (the renderer before either), with validation on. The only pixels allowed to differ are
+// depth ties: where two surfaces rasterise to the same depth value, depth test LESS keeps the
+// first drawn and EQUAL the last drawn (a back face culled no longer ties).
+#include <gtest/gtest.h>
+
+#define STB_IMAGE_IMPLEMENTATION
+#define STBI_ONLY_PNG
+#include <stb_image.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "run_app.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+struct Image {
+  int width = 0, height = 0;
+  std::vector<unsigned char> rgba;
+};
+
+Image loadPng(const fs::path& file) {
+  Image im;
+  int n = 0;
+  std::unique_ptr<unsigned char, void (*)(void*)> px(
+      stbi_load(file.string().c_str(), &im.width, &im.height, &n, 4), stbi_image_free);
+  if (px) im.rgba.assign(px.get(), px.get() + std::size_t(im.width) * im.height * 4);
+  return im;
+}
+
+json runFlight(const std::string& path, bool newFrame, const fs::path& out) {
+  fs::remove_all(out);
+  // Small on purpose (lavapipe): 320x180 views, 1024^2 cascades, screenshots at 0, 4, 8, 11.
+  const ProcessResult r = runApp("--headless --frames 12 --shot-every 4 --validation --path " +
+                                 path + " --out " + out.string() +
+                                 " --set view.width=320 --set view.height=180"
+                                 " --set shadow.resolution=1024" +
+                                 (newFrame ? std::string()
+                                           : std::string(" --set view.depthPrepass=false"
+                                                         " --set view.cullBackFaces=false")));
+  EXPECT_EQ(r.exitCode, 0) << r.output;
+  std::ifstream in(out / "report.json");
+  if (!in) {
+    ADD_FAILURE() << "no report.json in " << out;
+    return json();
+  }
+  json rep;
+  in >> rep;
+  return rep;
+}
+
+class Prepass : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(Prepass, PrepassAndCullingSameImageAsLitPassAloneValidationClean) {
+  const std::string path = GetParam();
+  const fs::path base = fs::path(CSM_TEST_ARTEFACT_DIR) / "depth_prepass" / path;
+  const json on = runFlight(path, true, base / "on");
+  const json off = runFlight(path, false, base / "off");
+  ASSERT_TRUE(on.is_object() && off.is_object());
+  for (const json* rep : {&on, &off}) {
+    EXPECT_TRUE((*rep)["validation"]["enabled"].get<bool>());
+    EXPECT_EQ((*rep)["validation"]["messages"].get<std::uint64_t>(), 0u);
+  }
+  EXPECT_TRUE(on["settings"]["view.depthPrepass"].get<bool>());
+  EXPECT_TRUE(on["settings"]["view.cullBackFaces"].get<bool>());
+  EXPECT_FALSE(off["settings"]["view.depthPrepass"].get<bool>());
+  EXPECT_FALSE(off["settings"]["view.cullBackFaces"].get<bool>());
+  // The pre-pass has its own GPU scope (a rendering of its own); without it there is none.
+  for (const json& f : on["per_frame"]) {
+    ASSERT_TRUE(f["gpu_ms"].contains("prepass"));
+    EXPECT_GT(f["gpu_ms"]["prepass"].get<double>(), 0.0);
+  }
+  for (const json& f : off["per_frame"]) EXPECT_FALSE(f["gpu_ms"].contains("prepass"));
+
+  ASSERT_EQ(on["screenshots"].size(), 4u);
+  ASSERT_EQ(off["screenshots"].size(), 4u);
+  std::uint64_t differing = 0, total = 0;
+  for (std::size_t s = 0; s < on["screenshots"].size(); ++s) {
+    // The lit image and the shadow-factor view (the overlay image adds host text and map).
+    for (const char* k : {"file", "shadow_file"}) {
+      const std::string name = on["screenshots"][s][k].get<std::string>();
+      ASSERT_EQ(name, off["screenshots"][s][k].get<std::string>());
+      const Image a = loadPng(base / "on" / name), b = loadPng(base / "off" / name);
+      ASSERT_EQ(a.width, 320) << name;
+      ASSERT_EQ(a.height, 180) << name;
+      ASSERT_EQ(b.width, a.width) << name;
+      ASSERT_EQ(b.height, a.height) << name;
+      std::uint64_t here = 0;
+      for (std::size_t p = 0; p < a.rgba.size(); p += 4) {
+        here += (a.rgba[p] != b.rgba[p] || a.rgba[p + 1] != b.rgba[p + 1] ||
+                 a.rgba[p + 2] != b.rgba[p + 2])
+                    ? 1
+                    : 0;
+      }
+      // Per image: depth ties are a few pixels of distant, overlapping foliage. A pre-pass whose
+      // depths differ from the lit pass's (no `precise`, another vertex shader) fails EQUAL on
+      // whole surfaces and shows the sky there; culling the front faces of a mesh, or the back
+      // faces of an open one, shows what lies behind it.
+      EXPECT_LE(here, a.rgba.size() / 4 / 500)
+          << path << " " << name << ": " << here << " pixels differ";
+      differing += here;
+      total += a.rgba.size() / 4;
+    }
+  }
+  std::printf("%s: %llu of %llu pixels differ with the pre-pass and culling (depth ties)\n",
+              path.c_str(), static_cast<unsigned long long>(differing),
+              static_cast<unsigned long long>(total));
+  // Over all images of the flight: under 0.1 %.
+  EXPECT_LE(differing * 1000, total);
+}
+
+INSTANTIATE_TEST_SUITE_P(Paths, Prepass, ::testing::Values("forest", "fast"),
+                         [](const auto& info) { return info.param; });
+
+}  // namespace
