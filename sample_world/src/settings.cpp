@@ -218,6 +218,7 @@ const std::vector<Entry>& table() {
       choice("shadow.boxFit", "one of sphere, tight", kBoxFits,
              [](AppSettings& s) -> csm::BoxFit& { return s.shadow.boxFit; }),
       boolean("shadow.receiverSplits", [](AppSettings& s) -> bool& { return s.receiverSplits; }),
+      boolean("shadow.receiverBounds", [](AppSettings& s) -> bool& { return s.receiverBounds; }),
       choice(
           "shadow.receiverSplitScheme", "one of range, histogram", kReceiverSchemes,
           [](AppSettings& s) -> csm::ReceiverSplitScheme& { return s.shadow.receiverSplitScheme; }),

@@ -424,7 +424,8 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   const bool resetHistory = !applied_ ||
                             settings.shadow.cascadeCount != settings_.shadow.cascadeCount ||
                             settings.shadow.stabilize != settings_.shadow.stabilize;
-  const bool rangeCut = resetHistory || settings.receiverSplits != settings_.receiverSplits;
+  const bool rangeCut = resetHistory || settings.receiverSplits != settings_.receiverSplits ||
+                        settings.receiverBounds != settings_.receiverBounds;
   settings_ = settings;
   applied_ = true;
   if (rangeCut) {
@@ -831,11 +832,21 @@ void WorldRenderer::recordDepthRange(const engine::Frame& f) {
   const glm::mat4 proj = camera_.projection();
   // (And the receivers' view-depth histogram, camera near .. shadow distance, for
   // shadow.receiverSplitScheme=histogram.)
-  const csm::vk::DepthProjection dp{
+  csm::vk::DepthProjection dp{
       proj[2][2], proj[3][2], 1.0f, float(camera_.nearM),
       float(std::max(settings_.shadow.shadowDistanceM, 2.0 * camera_.nearM))};
+  // (And the receivers' light-space bounds per cascade of this frame, shadow.receiverBounds.)
+  csm::vk::ReceiverBoundsInputs bounds;
+  const csm::Camera boundsCamera = glue::toCsmCamera(camera_);  // (copied by record())
+  if (settings_.receiverBounds) {
+    dp.p00 = proj[0][0];
+    dp.p11 = proj[1][1];
+    dp.p20 = proj[2][0];
+    dp.p21 = proj[2][1];
+    bounds = {&shadow_->frame(), &boundsCamera};
+  }
   const csm::vk::Status s = depthRange_->record(
-      cmd, f.depthView, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, f.extent, dp, f.slot);
+      cmd, f.depthView, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, f.extent, dp, f.slot, bounds);
   if (!s.ok()) throw std::runtime_error("DepthRangeReducer::record: " + s.message());
   // Back to the layout the render target expects at endFrame.
   engine::imageBarrier(

@@ -8,9 +8,12 @@
 #include <limits>
 #include <vector>
 
+#include <csm/light_space.hpp>
+#include <csm/receiver_bounds.hpp>
 #include <csm/splits.hpp>
 #include <csm/vulkan/depth_range.hpp>
 #include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
 
 #include "engine_gpu_test.hpp"
 #include "glue/shadow_host.hpp"
@@ -262,6 +265,147 @@ TEST_F(DepthRangeTest, HistogramOfAnAnalyticGroundPlane) {
     EXPECT_NE(st.message().find("histogramFarM = 0.25"), std::string::npos) << st.message();
   });
   reducer.reset();
+}
+
+}  // namespace
+
+namespace {
+
+// The receivers' light-space bounds per cascade from the reduction, against the same pixels
+// reconstructed on the CPU in double (binned by the shader's float view depth, so only the
+// float arithmetic differs), far from the origin; then the bounds drive the boxes.
+TEST_F(DepthRangeTest, LightSpaceBoundsOfAnAnalyticGroundPlane) {
+  constexpr std::uint32_t kW = 333, kH = 187;
+  const double fovDeg = 30.0, pitchDeg = -8.0, heightM = 20.0, nearM = 0.5, farM = 1500.0;
+  const AnalyticDepth scene = groundPlane(kW, kH, heightM, pitchDeg, fovDeg, nearM, farM);
+  const double tanY = std::tan(glm::radians(fovDeg) * 0.5);
+  const double aspect = double(kW) / kH;
+  csm::vk::DepthProjection proj = scene.projection;
+  proj.p00 = float(1.0 / (tanY * aspect));
+  proj.p11 = float(-1.0 / tanY);  // row 0 at the top: +y up in the view
+
+  csm::Camera cam;
+  cam.positionWs = glm::dvec3(3.0e6, heightM, -7.0e6);
+  // Yawed 30 degrees (the ground's depths do not change), pitched as groundPlane().
+  cam.orientationWs = glm::angleAxis(glm::radians(30.0), glm::dvec3(0, 1, 0)) *
+                      glm::angleAxis(glm::radians(pitchDeg), glm::dvec3(1, 0, 0));
+  cam.fovYRad = glm::radians(fovDeg);
+  cam.aspect = aspect;
+  cam.nearM = nearM;
+  cam.farM = farM;
+  csm::ShadowSettings s;
+  s.shadowDistanceM = 1200.0;  // the far ground is beyond the last cascade
+  const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
+  auto f = csm::computeCascades(s, cam, light);
+  ASSERT_TRUE(f.ok());
+  const csm::CascadeFrame& frame = f.value();
+
+  // The CPU truth: each ground pixel at the shader's float view depth.
+  const glm::dmat3 rot = glm::mat3_cast(cam.orientationWs);
+  std::vector<glm::dvec3> pts;
+  for (std::uint32_t y = 0; y < kH; ++y) {
+    for (std::uint32_t x = 0; x < kW; ++x) {
+      const float z = scene.depth[std::size_t(y) * kW + x];
+      if (z == 1.0f) continue;
+      const double d = double(proj.p32 / (z + proj.p22));
+      const double vx = (2.0 * (x + 0.5) / kW - 1.0) * tanY * aspect;
+      const double vy = -(2.0 * (y + 0.5) / kH - 1.0) * tanY;
+      pts.push_back(cam.positionWs + rot * (glm::dvec3(vx, vy, -1.0) * d));
+    }
+  }
+  const csm::ReceiverLightBounds truth = csm::receiverLightBounds(frame, cam, pts);
+
+  engine::ImageDesc desc;
+  desc.format = VK_FORMAT_D32_SFLOAT;
+  desc.extent = {kW, kH};
+  desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  engine::Image depth(ctx(), desc, "analytic depth");
+  engine::uploadImage(ctx(), depth, engine::asBytes(std::span<const float>(scene.depth)),
+                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  csm::vk::Status status;
+  auto reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), 2, &status);
+  ASSERT_TRUE(reducer) << status.message();
+  ctx().submitAndWait([&](VkCommandBuffer cmd) {
+    ASSERT_TRUE(reducer
+                    ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH},
+                             proj, 0, {&frame, &cam})
+                    .ok());
+    // Without bounds inputs: no bounds.
+    ASSERT_TRUE(
+        reducer
+            ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, proj, 1)
+            .ok());
+  });
+  const auto range = reducer->read(0);
+  ASSERT_TRUE(range.has_value());
+  EXPECT_FALSE(reducer->read(1)->lightBounds.present());
+  const csm::ReceiverLightBounds& b = range->lightBounds;
+  ASSERT_TRUE(b.present());
+  ASSERT_EQ(b.cascadeCount, frame.cascadeCount);
+  EXPECT_EQ(b.splitsM, frame.splitsM);
+  EXPECT_EQ(b.lightBasisWs, frame.lightBasisWs);
+  EXPECT_EQ(b.cameraPositionWs, cam.positionWs);
+  int withReceivers = 0;
+  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+    ASSERT_EQ(b.hasReceivers(i), truth.hasReceivers(i)) << "cascade " << i;
+    if (!truth.hasReceivers(i)) continue;
+    ++withReceivers;
+    // Float light-space positions relative to the camera: within 2e-6 of the view depth.
+    const double tol = 2e-6 * frame.splitsM[i + 1] + 1e-5;
+    for (int a = 0; a < 2; ++a) {
+      EXPECT_NEAR(b.minLs[i][a], truth.minLs[i][a], tol) << "cascade " << i << " axis " << a;
+      EXPECT_NEAR(b.maxLs[i][a], truth.maxLs[i][a], tol) << "cascade " << i << " axis " << a;
+    }
+    std::printf(
+        "cascade %u: x [%.3f, %.3f] (truth [%.3f, %.3f]), y [%.3f, %.3f] m about the "
+        "camera\n",
+        i, b.minLs[i].x - glm::dot(b.lightBasisWs[0], cam.positionWs),
+        b.maxLs[i].x - glm::dot(b.lightBasisWs[0], cam.positionWs),
+        truth.minLs[i].x - glm::dot(b.lightBasisWs[0], cam.positionWs),
+        truth.maxLs[i].x - glm::dot(b.lightBasisWs[0], cam.positionWs),
+        b.minLs[i].y - glm::dot(b.lightBasisWs[1], cam.positionWs),
+        b.maxLs[i].y - glm::dot(b.lightBasisWs[1], cam.positionWs));
+  }
+  EXPECT_GE(withReceivers, 2);
+
+  // The bounds drive the boxes of the next frame: bounds taken by the GPU with the splits of a
+  // receiver-driven frame (h0) fitted to this range, then used with the same range (h1).
+  csm::ReceiverDepthRange withBounds = *range;
+  withBounds.lightBounds = csm::ReceiverLightBounds{};
+  auto h0 = csm::computeCascades(s, cam, light, nullptr, nullptr, &withBounds);
+  ASSERT_TRUE(h0.ok());
+  // Bounds taken with h0's splits, by the GPU, then used.
+  ctx().submitAndWait([&](VkCommandBuffer cmd) {
+    ASSERT_TRUE(reducer
+                    ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH},
+                             proj, 0, {&h0.value(), &cam})
+                    .ok());
+  });
+  auto r2 = reducer->read(0);
+  ASSERT_TRUE(r2.has_value());
+  r2->minM = withBounds.minM;  // the same range as h0 (the GPU's is the same pixels' anyway)
+  r2->maxM = withBounds.maxM;
+  auto h1 = csm::computeCascades(s, cam, light, nullptr, nullptr, &*r2);
+  ASSERT_TRUE(h1.ok());
+  ASSERT_EQ(h1.value().splitsM, h0.value().splitsM);
+  int fitted = 0;
+  for (std::uint32_t i = 0; i < s.cascadeCount; ++i) {
+    const csm::Cascade& c = h1.value().cascades[i];
+    EXPECT_LE(c.halfExtentLs.x, h0.value().cascades[i].halfExtentLs.x);
+    fitted += c.receiverFit ? 1 : 0;
+  }
+  EXPECT_GT(fitted, 0);
+  for (const glm::dvec3& p : pts) {
+    const double d = glm::dot(p - cam.positionWs, h1.value().cameraForwardWs);
+    for (std::uint32_t i = 0; i < s.cascadeCount; ++i) {
+      if (!(d >= h1.value().splitsM[i] && d < h1.value().splitsM[i + 1])) continue;
+      const csm::Cascade& c = h1.value().cascades[i];
+      const glm::dvec3 q = csm::toLightSpace(h1.value().lightBasisWs, c.boxCenterWs, p);
+      EXPECT_LE(std::abs(q.x), c.halfExtentLs.x);
+      EXPECT_LE(std::abs(q.y), c.halfExtentLs.y);
+    }
+  }
+  std::printf("receiver-fitted cascades: %d of %u\n", fitted, s.cascadeCount);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // csm_tradeoff --fit-study: box fit and receiver-driven splits on the zoom and forest paths.
 #include "tradeoff.hpp"
 
+#include <csm/receiver_bounds.hpp>
 #include <csm_measure/harness.hpp>
 #include <csm_measure/metrics.hpp>
 #include <csm_measure/raytracer.hpp>
@@ -37,14 +38,16 @@ struct FitConfig {
   csm::BoxFit fit;
   bool receivers;
   csm::ReceiverSplitScheme scheme = csm::ReceiverSplitScheme::kRange;
+  // The boxes fitted to the receivers' light-space bounds too (ReceiverDepthRange::lightBounds).
+  bool bounds = false;
 };
 
 // The shadow pass of every configuration again, interleaved (3 rounds, fastest kept): the
 // machine's load drifts over a sequential run, so the ms are compared within a round.
 void retimeInterleaved(csm_measure::Harness& harness, std::span<const FitConfig> configs,
                        const world::AppSettings& app,
-                       const std::optional<csm::ReceiverDepthRange>& range, const csm::Camera& cam,
-                       const csm::DirectionalLight& light, VkExtent2D view,
+                       std::span<const std::optional<csm::ReceiverDepthRange>> ranges,
+                       const csm::Camera& cam, const csm::DirectionalLight& light, VkExtent2D view,
                        std::vector<nlohmann::json>& poseRows) {
   for (int round = 0; round < 3; ++round) {
     for (std::size_t k = 0; k < configs.size(); ++k) {
@@ -52,7 +55,7 @@ void retimeInterleaved(csm_measure::Harness& harness, std::span<const FitConfig>
       s.boxFit = configs[k].fit;
       s.receiverSplitScheme = configs[k].scheme;
       if (!harness.configure(s).ok()) throw std::runtime_error("configure failed");
-      harness.setReceiverRange(configs[k].receivers ? range : std::nullopt);
+      harness.setReceiverRange(ranges[k]);
       csm::CascadeHistory h;
       harness.timeFrame(cam, light, h, view, app.kernel);
       const double ms = harness.timeFrame(cam, light, h, view, app.kernel).shadowGpuMs;
@@ -87,7 +90,13 @@ int runFitStudy(const Options& o) {
       {"tight box + receiver splits", csm::BoxFit::kTight, true},
       {"receiver histogram", csm::BoxFit::kSphere, true, csm::ReceiverSplitScheme::kHistogram},
       {"tight box + receiver histogram", csm::BoxFit::kTight, true,
-       csm::ReceiverSplitScheme::kHistogram}};
+       csm::ReceiverSplitScheme::kHistogram},
+      {"receiver range splits + receiver bounds", csm::BoxFit::kSphere, true,
+       csm::ReceiverSplitScheme::kRange, true},
+      {"receiver histogram + receiver bounds", csm::BoxFit::kSphere, true,
+       csm::ReceiverSplitScheme::kHistogram, true},
+      {"tight box + receiver histogram + receiver bounds", csm::BoxFit::kTight, true,
+       csm::ReceiverSplitScheme::kHistogram, true}};
   struct Study {
     const char* path;
     std::vector<double> poses;
@@ -122,6 +131,8 @@ int runFitStudy(const Options& o) {
       csm::Camera accCam = cam;
       accCam.aspect = double(accuracyView.width) / accuracyView.height;
       std::optional<csm::ReceiverDepthRange> range;
+      std::vector<glm::dvec3> receiverPosWs;  // the full-range frame's receiver pixels
+      std::vector<std::optional<csm::ReceiverDepthRange>> ranges;
       double medianDepthM = 0.0;
       std::vector<nlohmann::json> poseRows;
       for (const FitConfig& fc : configs) {
@@ -129,7 +140,17 @@ int runFitStudy(const Options& o) {
         s.boxFit = fc.fit;
         s.receiverSplitScheme = fc.scheme;
         if (!harness.configure(s).ok()) throw std::runtime_error("configure failed");
-        harness.setReceiverRange(fc.receivers ? range : std::nullopt);
+        std::optional<csm::ReceiverDepthRange> cfgRange = fc.receivers ? range : std::nullopt;
+        if (fc.bounds && cfgRange) {
+          // The bounds as the GPU reduction would return them for the frame before: that
+          // frame's receiver pixels binned by the splits this configuration draws with.
+          harness.setReceiverRange(cfgRange);
+          csm::CascadeHistory hb;
+          const csm::CascadeFrame splitFrame = harness.computeFrame(accCam, light, hb);
+          cfgRange->lightBounds = csm::receiverLightBounds(splitFrame, accCam, receiverPosWs);
+        }
+        ranges.push_back(cfgRange);
+        harness.setReceiverRange(cfgRange);
         csm::CascadeHistory h;
         harness.timeFrame(cam, light, h, {o.width, o.height}, app.kernel);
         double shadowMs = 1e30;
@@ -156,6 +177,7 @@ int runFitStudy(const Options& o) {
             // distance).
             range = receiverRangeOf(px, accCam, cam.nearM, s.shadowDistanceM);
             medianDepthM = depths[depths.size() / 2];
+            for (const csm_measure::PixelSample& p : px) receiverPosWs.push_back(p.posWs);
           }
         }
         double texel = 0.0;
@@ -179,6 +201,11 @@ int runFitStudy(const Options& o) {
           texels.push_back(frame.cascades[c].texelSizeM());
         }
         j["texel_m"] = texels;
+        std::vector<bool> receiverFit;
+        for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+          receiverFit.push_back(frame.cascades[c].receiverFit);
+        }
+        j["receiver_fit"] = receiverFit;
         j["misclassified"] = acc.overall.misclassified;
         j["accuracy"] = acc.toJson(frame.cascadeCount);
         j["receiver_pixels"] = acc.overall.pixels;
@@ -187,7 +214,7 @@ int runFitStudy(const Options& o) {
         j["device"] = harness.context().properties().deviceName;
         poseRows.push_back(j);
       }
-      retimeInterleaved(harness, configs, app, range, cam, light, {o.width, o.height}, poseRows);
+      retimeInterleaved(harness, configs, app, ranges, cam, light, {o.width, o.height}, poseRows);
       for (nlohmann::json& j : poseRows) {
         printFitRow(st.path, t, glm::degrees(cam.fovYRad), j);
         report["rows"].push_back(j);

@@ -52,6 +52,9 @@ struct Cascade {
   int splitFarRung = INT_MIN;
   /// The box this frame was sized by the slice's light-space extent (BoxFit::kTight won).
   bool tightFit = false;
+  /// The box this frame was sized by the visible receivers' light-space bounds
+  /// (ReceiverDepthRange::lightBounds applied and was smaller than the sphere's or tight box).
+  bool receiverFit = false;
   /// Half side the box needed this frame before the ladder rounded it up (sphere or tight
   /// extent plus the half-texel snap margin); halfExtentLs.x / neededHalfExtentM is what the
   /// ladder and its hysteresis cost in length (its square in area).

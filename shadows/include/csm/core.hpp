@@ -7,6 +7,7 @@
 #include "csm/frustum.hpp"
 #include "csm/ladder.hpp"
 #include "csm/light_space.hpp"
+#include "csm/receiver_bounds.hpp"
 #include "csm/selection.hpp"
 #include "csm/splits.hpp"
 #include "csm/types.hpp"

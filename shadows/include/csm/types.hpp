@@ -124,6 +124,11 @@ struct ShadowSettings {
   /// "Tighter where the receivers are"): as accurate as kRange on a narrow zoom, and on a wide view
   /// whose receivers crowd the near end it keeps the near cascades tight and draws fewer triangles.
   ReceiverSplitScheme receiverSplitScheme = ReceiverSplitScheme::kHistogram;
+  /// Receiver-driven box bounds (a ReceiverDepthRange carrying ReceiverLightBounds): each side of
+  /// the receivers' light-space rectangle is pushed out by this fraction of the box half side
+  /// the cascade would have without them (the sphere's or the tight square's), for new receivers
+  /// that come into view before the next bounds arrive, [0, 1].
+  double receiverBoundsMargin = 0.05;
 
   // ---- Soft shadows (the PCSS kernel) ----
   /// Angular diameter of the light (the sun: 0.53 degrees), in degrees, [0, 20]. Sets the
@@ -148,6 +153,36 @@ struct ReceiverDepthHistogram {
   [[nodiscard]] bool present() const noexcept { return nearM != 0.0; }
 };
 
+/// The light-space x, y bounds of the visible receivers per cascade, the second half of
+/// sample-distribution shadow maps (partition bounds): from one frame, each receiver pixel binned
+/// into a cascade by its view depth against that frame's splits, then the min and max of its
+/// light-space x, y about the world origin (transpose(lightBasisWs) * posWs, in double).
+/// computeCascades sizes each cascade's box to them (never larger than without them) only when
+/// they were taken with this frame's cascade count and light basis, exactly, and the cascade's
+/// view-depth interval then held this frame's (a split that moved outward, or any other
+/// change, falls back); otherwise (and for a cascade with no receiver, minLs > maxLs) the box is
+/// as without them, and also once the camera has turned or changed its field of view since; its
+/// light-space motion since widens them.
+/// cascadeCount = 0: no bounds.
+struct ReceiverLightBounds {
+  std::uint32_t cascadeCount = 0;
+  std::array<double, kMaxCascades + 1> splitsM{};
+  glm::dmat3 lightBasisWs{1.0};
+  glm::dvec3 cameraPositionWs{0.0};
+  /// The camera's orientation (camera to world) and field of view when they were taken.
+  glm::dquat cameraOrientationWs{1.0, 0.0, 0.0, 0.0};
+  double fovYRad = 0.0;
+  double aspect = 0.0;
+  std::array<glm::dvec2, kMaxCascades> minLs{};
+  std::array<glm::dvec2, kMaxCascades> maxLs{};
+
+  [[nodiscard]] bool present() const noexcept { return cascadeCount != 0; }
+  /// Cascade i saw at least one receiver.
+  [[nodiscard]] bool hasReceivers(std::uint32_t i) const noexcept {
+    return minLs[i].x <= maxLs[i].x && minLs[i].y <= maxLs[i].y;
+  }
+};
+
 /// The view-depth range [minM, maxM] of the receivers visible this frame (as a depth-buffer
 /// reduction reports it, typically one or two frames late). 0 <= minM <= maxM, finite.
 /// Optionally the histogram of the same receivers' view depths (ReceiverSplitScheme::kHistogram).
@@ -155,6 +190,8 @@ struct ReceiverDepthRange {
   double minM = 0.0;
   double maxM = 0.0;
   ReceiverDepthHistogram histogram{};
+  /// Optionally the receivers' light-space bounds per cascade (the boxes' partition bounds).
+  ReceiverLightBounds lightBounds{};
 };
 
 /// A perspective camera. Looks down its local -Z with +Y up (the GLM/Vulkan view convention).

@@ -7,6 +7,7 @@
 #include "csm/frustum.hpp"
 #include "csm/ladder.hpp"
 #include "csm/light_space.hpp"
+#include "csm/receiver_bounds.hpp"
 
 namespace csm {
 namespace {
@@ -132,6 +133,9 @@ struct FrameInputs {
   double snapMargin = 0.0;
   // The camera holds its position (see prepareHistory).
   bool cameraHeld = false;
+  // The visible receivers' light-space bounds, when taken with this frame's splits and light
+  // basis (receiverBoundsApply); else null.
+  const ReceiverLightBounds* receiverBounds = nullptr;
 };
 
 // How far receivers reach along the view: the scene's depth interval (infinite without bounds).
@@ -271,13 +275,17 @@ std::array<int, kMaxCascades + 1> splitDistances(const FrameInputs& in,
 
 // The stable box's centre before snapping (light space about the world origin) and the half
 // side it needs: the sphere's, or the slice's own extent where that is smaller (sets
-// c.tightFit then).
+// c.tightFit then), or the visible receivers' bounds where those are smaller still (sets
+// c.receiverFit).
 struct BoxNeed {
   glm::dvec3 centerLs{0.0};
   double half = 0.0;
+  // What the box must cover about centerLs: the square half / snapMargin, or the receivers'
+  // rectangle (c.receiverFit).
+  glm::dvec2 coverHalf{0.0};
 };
 
-BoxNeed boxNeed(const FrameInputs& in, Cascade& c) noexcept {
+BoxNeed boxNeed(const FrameInputs& in, std::uint32_t i, Cascade& c) noexcept {
   BoxNeed need{in.basisT * c.sphereCenterWs, c.sphereRadiusM * in.snapMargin};
   if (in.settings.boxFit == BoxFit::kTight) {
     const auto corners = sliceCornersCr(in.camera, c.splitNearM, c.splitFarM);
@@ -294,6 +302,23 @@ BoxNeed boxNeed(const FrameInputs& in, Cascade& c) noexcept {
       need.centerLs.x = cameraLs.x + 0.5 * (lo.x + hi.x);
       need.centerLs.y = cameraLs.y + 0.5 * (lo.y + hi.y);
       c.tightFit = true;
+    }
+  }
+  need.coverHalf = glm::dvec2(need.half / in.snapMargin);
+  // Receiver-driven: the visible receivers' rectangle, never larger than the above.
+  if (in.receiverBounds != nullptr) {
+    const auto fit = fitBoxToReceivers(*in.receiverBounds, i, in.basis, in.camera, c.splitNearM,
+                                       c.splitFarM, glm::dvec2(need.centerLs), need.coverHalf.x,
+                                       in.settings.receiverBoundsMargin);
+    if (fit) {
+      const double fitHalf = std::max(fit->coverHalfLs.x, fit->coverHalfLs.y) * in.snapMargin;
+      if (fitHalf < need.half) {
+        need.half = fitHalf;
+        need.centerLs.x = fit->centerLs.x;
+        need.centerLs.y = fit->centerLs.y;
+        need.coverHalf = fit->coverHalfLs;
+        c.receiverFit = true;
+      }
     }
   }
   return need;
@@ -364,9 +389,8 @@ glm::dvec2 snappedBoxCenter(const FrameInputs& in, std::uint32_t i, const BoxNee
   glm::dvec2 gridLs(std::round(centerLs.x / texel) * texel, std::round(centerLs.y / texel) * texel);
   if (in.ladder && history != nullptr && history->boxTexelLs[i] == texel && in.cameraHeld) {
     const glm::dvec2 heldLs = history->boxCenterLs[i];
-    const double coverHalf = need.half / in.snapMargin;
-    if (std::abs(centerLs.x - heldLs.x) + coverHalf <= half &&
-        std::abs(centerLs.y - heldLs.y) + coverHalf <= half) {
+    if (std::abs(centerLs.x - heldLs.x) + need.coverHalf.x <= half &&
+        std::abs(centerLs.y - heldLs.y) + need.coverHalf.y <= half) {
       gridLs = heldLs;
     }
   }
@@ -380,7 +404,7 @@ glm::dvec2 snappedBoxCenter(const FrameInputs& in, std::uint32_t i, const BoxNee
 // The stabilised box: needed size -> rung -> depth window -> snap. Returns the depth range's
 // near side (before the extension toward the light).
 double fitStableBox(const FrameInputs& in, std::uint32_t i, Cascade& c) {
-  const BoxNeed need = boxNeed(in, c);
+  const BoxNeed need = boxNeed(in, i, c);
   c.neededHalfExtentM = need.half;
   const double half = boxHalfSide(in, i, need.half, c);
   const double texel = 2.0 * half / in.res;
@@ -526,6 +550,12 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   const std::array<int, kMaxCascades + 1> splitRungs =
       splitDistances(in, receivers, splitNearM, frame);
 
+  // Receiver-driven boxes: the visible receivers' light-space bounds, when taken with this
+  // frame's splits and light basis.
+  if (receivers != nullptr && settings.stabilize &&
+      receiverBoundsApply(receivers->lightBounds, count, in.basis)) {
+    in.receiverBounds = &receivers->lightBounds;
+  }
   for (std::uint32_t i = 0; i < count; ++i) {
     fitCascade(in, scene, frame, i, i + 1 < count ? splitRungs[i + 1] : kNoRung, frame.cascades[i]);
   }

@@ -99,6 +99,10 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
     return refuse("settings.receiverDepthMargin", s.receiverDepthMargin,
                   "a fraction of the range in [0, 1]");
   }
+  if (!(s.receiverBoundsMargin >= 0.0 && s.receiverBoundsMargin <= 1.0)) {
+    return refuse("settings.receiverBoundsMargin", s.receiverBoundsMargin,
+                  "a fraction of the box half side in [0, 1]");
+  }
   if (!(s.receiverSplitScheme == ReceiverSplitScheme::kRange ||
         s.receiverSplitScheme == ReceiverSplitScheme::kHistogram)) {
     return refuse("settings.receiverSplitScheme", static_cast<double>(s.receiverSplitScheme),
@@ -166,6 +170,28 @@ std::optional<ValidationError> validate(const ReceiverDepthRange& r) {
     if (!(h.farM > h.nearM * (1.0 + 1e-6)) || !std::isfinite(h.farM)) {
       return refuse("receivers.histogram.farM", h.farM,
                     "a finite view depth in metres > receivers.histogram.nearM * (1 + 1e-6)");
+    }
+  }
+  const ReceiverLightBounds& b = r.lightBounds;
+  if (b.present()) {
+    if (b.cascadeCount > kMaxCascades) {
+      return refuse("receivers.lightBounds.cascadeCount", b.cascadeCount,
+                    "a cascade count in [1, CSM_MAX_CASCADES] (0: no bounds)");
+    }
+    if (auto e = finiteVec(b.cameraPositionWs, "receivers.lightBounds.cameraPositionWs")) return e;
+    for (std::uint32_t i = 0; i <= b.cascadeCount; ++i) {
+      if (!std::isfinite(b.splitsM[i])) {
+        return refuse("receivers.lightBounds.splitsM", b.splitsM[i], "finite view depths");
+      }
+    }
+    for (std::uint32_t i = 0; i < b.cascadeCount; ++i) {
+      // Empty (min > max, infinities included) is allowed; NaN is not.
+      for (int a = 0; a < 2; ++a) {
+        if (std::isnan(b.minLs[i][a]) || std::isnan(b.maxLs[i][a])) {
+          return refuse("receivers.lightBounds.minLs/maxLs", b.minLs[i][a],
+                        "light-space positions, not NaN (min > max: no receiver)");
+        }
+      }
     }
   }
   return std::nullopt;

@@ -3,10 +3,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <string>
+
+#include <glm/gtc/quaternion.hpp>
 
 #include <csm_shaders/csm_depth_range.comp.spv.h>
 
+#include "csm/receiver_bounds.hpp"
 #include "vk_util.hpp"
 
 namespace csm::vk {
@@ -14,8 +18,12 @@ namespace {
 
 constexpr std::uint32_t kGroup = 16;  // local size of csm_depth_range.comp
 constexpr std::uint32_t kFltMaxBits = 0x7f7fffffu;
-// One result slot: uvec4 (min bits, max bits, count, unused) then the histogram's bins.
-constexpr VkDeviceSize kSlotBytes = 16 + 4 * VkDeviceSize(kDepthHistogramBins);
+// One result slot: uvec4 (min bits, max bits, count, unused), the histogram's bins, then per
+// cascade (min x, min y, ~max x, ~max y) as order-preserving uints.
+constexpr VkDeviceSize kBinsBytes = 4 * VkDeviceSize(kDepthHistogramBins);
+constexpr VkDeviceSize kBoundsBytes = 16 * VkDeviceSize(kMaxCascades);
+constexpr VkDeviceSize kSlotBytes = 16 + kBinsBytes + kBoundsBytes;
+static_assert(kSlotBytes % 16 == 0);
 
 struct PushConstants {
   std::uint32_t extent[2];
@@ -25,8 +33,23 @@ struct PushConstants {
   std::uint32_t slot;
   float histNear;  // 0: no histogram
   float binsPerLog;
+  float lsX[4];  // light x row of (basis^T R_camera), 1 / P[0][0]
+  float lsY[4];  // light y row, 1 / P[1][1]
+  float pOff[2];
+  std::uint32_t boundsCount;  // 0: no bounds
+  float pad;
+  float splits[kMaxCascades + 1];
 };
-static_assert(sizeof(PushConstants) == 32);
+static_assert(sizeof(PushConstants) == 80 + 4 * (kMaxCascades + 1));
+static_assert(sizeof(PushConstants) <= 128);
+
+// The inverse of the shader's orderedBits().
+float fromOrderedBits(std::uint32_t u) {
+  u = (u & 0x80000000u) != 0u ? (u & 0x7fffffffu) : ~u;
+  float f = 0.0f;
+  std::memcpy(&f, &u, 4);
+  return f;
+}
 
 bool readableLayout(VkImageLayout l) {
   return l == VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL ||
@@ -227,7 +250,7 @@ DepthRangeReducer::~DepthRangeReducer() {
 
 Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkImageLayout layout,
                                  VkExtent2D extent, const DepthProjection& projection,
-                                 std::uint32_t slot) {
+                                 std::uint32_t slot, const ReceiverBoundsInputs& bounds) {
   if (!(slot < slots_)) {
     return Status(ErrorCode::kIndexOutOfRange,
                   "DepthRangeReducer::record: slot = " + std::to_string(slot) +
@@ -239,6 +262,20 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
                   "DepthRangeReducer::record: a depth view, a non-zero extent and a read-only "
                   "layout (DEPTH_READ_ONLY, DEPTH_STENCIL_READ_ONLY, READ_ONLY or "
                   "SHADER_READ_ONLY) are required");
+  }
+  if ((bounds.frame != nullptr) != (bounds.camera != nullptr)) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "DepthRangeReducer::record: bounds.frame and bounds.camera go together");
+  }
+  if (bounds.frame != nullptr &&
+      (!std::isfinite(projection.p00) || !std::isfinite(projection.p11) ||
+       !std::isfinite(projection.p20) || !std::isfinite(projection.p21) || projection.p00 == 0.0f ||
+       projection.p11 == 0.0f || bounds.frame->cascadeCount == 0 ||
+       bounds.frame->cascadeCount > kMaxCascades)) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "DepthRangeReducer::record: with bounds, projection.p00, p11, p20 and p21 must "
+                  "be finite, p00 and p11 != 0, and bounds.frame a computed frame (cascadeCount "
+                  "in [1, CSM_MAX_CASCADES])");
   }
   if (!std::isfinite(projection.p22) || !std::isfinite(projection.p32) || projection.p32 == 0.0f) {
     return Status(ErrorCode::kInvalidArgument,
@@ -271,10 +308,12 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
   w[1].pBufferInfo = &buffer;
   vkUpdateDescriptorSets(device_, 2, w, 0, nullptr);
 
-  // Reset the slot (min = FLT_MAX, max = count = 0, every bin 0), then reduce.
+  // Reset the slot (min = FLT_MAX, max = count = 0, every bin 0, every bound 0xffffffff), then
+  // reduce.
   const VkDeviceSize offset = kSlotBytes * slot;
   vkCmdFillBuffer(cmd, buffer_, offset, 4, kFltMaxBits);
-  vkCmdFillBuffer(cmd, buffer_, offset + 4, kSlotBytes - 4, 0u);
+  vkCmdFillBuffer(cmd, buffer_, offset + 4, 12 + kBinsBytes, 0u);
+  vkCmdFillBuffer(cmd, buffer_, offset + 16 + kBinsBytes, kBoundsBytes, 0xffffffffu);
   auto toCompute = vkInit<VkMemoryBarrier2>(VK_STRUCTURE_TYPE_MEMORY_BARRIER_2);
   toCompute.srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT | VK_PIPELINE_STAGE_2_COPY_BIT;
   toCompute.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
@@ -292,13 +331,35 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
   const float binsPerLog =
       hNear > 0.0f ? float(double(kDepthHistogramBins) / std::log(double(hFar) / double(hNear)))
                    : 0.0f;
-  const PushConstants push{{extent.width, extent.height},
-                           projection.p22,
-                           projection.p32,
-                           projection.clearDepth,
-                           slot,
-                           hNear,
-                           binsPerLog};
+  PushConstants push{{extent.width, extent.height},
+                     projection.p22,
+                     projection.p32,
+                     projection.clearDepth,
+                     slot,
+                     hNear,
+                     binsPerLog,
+                     {},
+                     {},
+                     {},
+                     0u,
+                     0.0f,
+                     {}};
+  slotBounds_[slot] = ReceiverLightBounds{};
+  if (bounds.frame != nullptr) {
+    const CascadeFrame& f = *bounds.frame;
+    const glm::dmat3 r = glm::mat3_cast(glm::normalize(bounds.camera->orientationWs));
+    for (int j = 0; j < 3; ++j) {
+      push.lsX[j] = float(glm::dot(f.lightBasisWs[0], r[j]));
+      push.lsY[j] = float(glm::dot(f.lightBasisWs[1], r[j]));
+    }
+    push.lsX[3] = 1.0f / projection.p00;
+    push.lsY[3] = 1.0f / projection.p11;
+    push.pOff[0] = projection.p20;
+    push.pOff[1] = projection.p21;
+    push.boundsCount = f.cascadeCount;
+    for (std::uint32_t i = 0; i <= f.cascadeCount; ++i) push.splits[i] = float(f.splitsM[i]);
+    slotBounds_[slot] = emptyReceiverLightBounds(f, *bounds.camera);
+  }
   vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push), &push);
   vkCmdDispatch(cmd, (extent.width + kGroup - 1) / kGroup, (extent.height + kGroup - 1) / kGroup,
                 1);
@@ -331,6 +392,27 @@ std::optional<ReceiverDepthRange> DepthRangeReducer::read(std::uint32_t slot) co
     range.histogram.nearM = double(slotHistogramNearM_[slot]);
     range.histogram.farM = double(slotHistogramFarM_[slot]);
     std::memcpy(range.histogram.counts.data(), base + 16, 4 * std::size_t(kDepthHistogramBins));
+  }
+  const ReceiverLightBounds& b = slotBounds_[slot];
+  if (b.present()) {
+    std::uint32_t u[kMaxCascades * 4];
+    std::memcpy(u, base + 16 + kBinsBytes, sizeof u);
+    range.lightBounds = b;
+    const glm::dvec2 cameraLs(glm::dot(b.lightBasisWs[0], b.cameraPositionWs),
+                              glm::dot(b.lightBasisWs[1], b.cameraPositionWs));
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    for (std::uint32_t i = 0; i < b.cascadeCount; ++i) {
+      const std::uint32_t* q = u + 4 * i;
+      if (q[0] == 0xffffffffu) {  // no receiver in this cascade
+        range.lightBounds.minLs[i] = glm::dvec2(kInf);
+        range.lightBounds.maxLs[i] = glm::dvec2(-kInf);
+        continue;
+      }
+      range.lightBounds.minLs[i] =
+          cameraLs + glm::dvec2(fromOrderedBits(q[0]), fromOrderedBits(q[1]));
+      range.lightBounds.maxLs[i] =
+          cameraLs + glm::dvec2(fromOrderedBits(~q[2]), fromOrderedBits(~q[3]));
+    }
   }
   return range;
 }

@@ -12,7 +12,10 @@
 // projection (DepthProjection::histogramNearM), the result also carries the receivers'
 // view-depth histogram (ReceiverDepthRange::histogram) for histogram-driven splits. After a camera
 // cut call invalidate(): every result recorded before it is dropped (read returns nothing) and the
-// splits fall back to the full range until a new one arrives. Not thread-safe.
+// splits fall back to the full range until a new one arrives. Given the frame the depth buffer
+// was drawn with (ReceiverBoundsInputs), the result also carries the receivers' light-space
+// bounds per cascade (ReceiverDepthRange::lightBounds) for receiver-driven boxes. Not
+// thread-safe.
 #pragma once
 
 #include <vulkan/vulkan.h>
@@ -42,6 +45,22 @@ struct DepthProjection {
   /// 0 < histogramNearM < histogramFarM, finite, when set.
   float histogramNearM = 0.0f;
   float histogramFarM = 0.0f;
+  /// For the receivers' light-space bounds (ReceiverBoundsInputs): P[0][0], P[1][1], P[2][0] and
+  /// P[2][1] of the projection, with Vulkan's image convention (pixel row 0 at ndc y = -1, so a
+  /// projection that shows +y up has P[1][1] < 0): a pixel at ndc (x, y) and view depth d is at
+  /// view-space ((x + P[2][0]) d / P[0][0], (y + P[2][1]) d / P[1][1], -d).
+  float p00 = 1.0f;
+  float p11 = -1.0f;
+  float p20 = 0.0f;
+  float p21 = 0.0f;
+};
+
+/// What the reduction needs to bound the receivers in light space per cascade: the cascades the
+/// depth buffer's frame was drawn with (cascadeCount, splitsM, lightBasisWs, cameraPositionWs)
+/// and its camera (orientation, field of view and aspect).
+struct ReceiverBoundsInputs {
+  const CascadeFrame* frame = nullptr;
+  const Camera* camera = nullptr;
 };
 
 class DepthRangeReducer {
@@ -61,12 +80,17 @@ class DepthRangeReducer {
   /// `layout`: DEPTH_READ_ONLY_OPTIMAL, DEPTH_STENCIL_READ_ONLY_OPTIMAL, READ_ONLY_OPTIMAL or
   /// SHADER_READ_ONLY_OPTIMAL, its writes made visible to the compute stage by the host) into
   /// `slot`. The slot's previous submission must have completed (its result read or dropped).
+  /// With `bounds` (its frame non-null) the slot also collects the receivers' light-space bounds
+  /// per cascade of that frame.
   Status record(VkCommandBuffer cmd, VkImageView depthView, VkImageLayout layout, VkExtent2D extent,
-                const DepthProjection& projection, std::uint32_t slot);
+                const DepthProjection& projection, std::uint32_t slot,
+                const ReceiverBoundsInputs& bounds = {});
 
   /// The range last recorded into `slot`, valid once that submission has completed; nothing if
   /// the slot was never recorded, was recorded before the last invalidate(), or saw no
-  /// receiver pixel. Its histogram is present when the slot was recorded with a histogram range.
+  /// receiver pixel. Its histogram is present when the slot was recorded with a histogram range,
+  /// its lightBounds when it was recorded with ReceiverBoundsInputs (float light-space positions
+  /// relative to the camera, plus the camera's in double).
   [[nodiscard]] std::optional<ReceiverDepthRange> read(std::uint32_t slot) const;
 
   /// A camera cut: drops every result recorded so far.
@@ -92,6 +116,7 @@ class DepthRangeReducer {
   std::uint64_t slotGeneration_[kMaxSlots]{};
   float slotHistogramNearM_[kMaxSlots]{};  // the histogram range each slot was recorded with
   float slotHistogramFarM_[kMaxSlots]{};
+  ReceiverLightBounds slotBounds_[kMaxSlots]{};  // the frame each slot's bounds were taken with
   VkDescriptorSetLayout setLayout_ = VK_NULL_HANDLE;
   VkPipelineLayout pipelineLayout_ = VK_NULL_HANDLE;
   VkPipeline pipeline_ = VK_NULL_HANDLE;

@@ -89,8 +89,9 @@ class ShadowView {
   Status prepare(VkCommandBuffer cmd) { return renderer_->prepare(cmd); }
   /// The view-depth range of the receivers visible from the camera (as DepthRangeReducer reports
   /// it, a frame or two late), for receiver-driven splits; nothing (the default, and what a host
-  /// passes after a camera cut or while no result is ready) = the full range. Invalid ranges are
-  /// refused by the next compute, naming the field.
+  /// passes after a camera cut or while no result is ready) = the full range. With its
+  /// lightBounds (DepthRangeReducer given ReceiverBoundsInputs) the boxes also fit the visible
+  /// receivers. Invalid ranges are refused by the next compute, naming the field.
   void setReceiverDepthRange(std::optional<ReceiverDepthRange> range) noexcept {
     receiverRange_ = range;
   }
