@@ -26,7 +26,8 @@ add_library(csm_vulkan STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_view.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/depth_range.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_cache.cpp
-  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/thin_casters.cpp)
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/thin_casters.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/vk_util.cpp)
 add_library(csm::vulkan ALIAS csm_vulkan)
 target_link_libraries(csm_vulkan PUBLIC csm::core Vulkan::Vulkan)
 # The embedded shaders are a build-time dependency only (no link or install interface).

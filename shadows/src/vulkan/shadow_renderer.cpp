@@ -863,62 +863,15 @@ Status ShadowRenderer::createPipelines(VkFormat format) {
     stage.stage = VK_SHADER_STAGE_VERTEX_BIT;
     stage.module = layered ? layeredModule_ : vertexModule_;
     stage.pName = "main";
-    VkVertexInputBindingDescription binding{0, layout_.stride, VK_VERTEX_INPUT_RATE_VERTEX};
-    VkVertexInputAttributeDescription attr{0, 0, layout_.positionFormat, layout_.positionOffset};
-    auto vin = vkInit<VkPipelineVertexInputStateCreateInfo>(
-        VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
-    vin.vertexBindingDescriptionCount = 1;
-    vin.pVertexBindingDescriptions = &binding;
-    vin.vertexAttributeDescriptionCount = 1;
-    vin.pVertexAttributeDescriptions = &attr;
-    auto ia = vkInit<VkPipelineInputAssemblyStateCreateInfo>(
-        VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
-    ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-    auto vp = vkInit<VkPipelineViewportStateCreateInfo>(
-        VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO);
-    vp.viewportCount = 1;
-    vp.scissorCount = 1;
-    auto rs = vkInit<VkPipelineRasterizationStateCreateInfo>(
-        VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO);
-    rs.depthClampEnable = device_.depthClampEnabled ? VK_TRUE : VK_FALSE;
-    rs.polygonMode = VK_POLYGON_MODE_FILL;
-    rs.depthBiasEnable = VK_TRUE;
-    rs.lineWidth = 1.0f;
-    auto ms = vkInit<VkPipelineMultisampleStateCreateInfo>(
-        VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
-    ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-    auto ds = vkInit<VkPipelineDepthStencilStateCreateInfo>(
-        VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
-    ds.depthTestEnable = VK_TRUE;
-    ds.depthWriteEnable = VK_TRUE;
-    ds.depthCompareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
-    auto cb = vkInit<VkPipelineColorBlendStateCreateInfo>(
-        VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
-    const VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR,
-                                  VK_DYNAMIC_STATE_DEPTH_BIAS, VK_DYNAMIC_STATE_CULL_MODE,
-                                  VK_DYNAMIC_STATE_FRONT_FACE};
-    auto dy = vkInit<VkPipelineDynamicStateCreateInfo>(
-        VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO);
-    dy.dynamicStateCount = static_cast<std::uint32_t>(std::size(dyn));
-    dy.pDynamicStates = dyn;
-    auto rendering =
-        vkInit<VkPipelineRenderingCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO);
-    rendering.depthAttachmentFormat = format;
-    auto ci = vkInit<VkGraphicsPipelineCreateInfo>(VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO,
-                                                   &rendering);
-    ci.stageCount = 1;
-    ci.pStages = &stage;
-    ci.pVertexInputState = &vin;
-    ci.pInputAssemblyState = &ia;
-    ci.pViewportState = &vp;
-    ci.pRasterizationState = &rs;
-    ci.pMultisampleState = &ms;
-    ci.pDepthStencilState = &ds;
-    ci.pColorBlendState = &cb;
-    ci.pDynamicState = &dy;
-    ci.layout = pipelineLayout_;
-    const VkResult r = vkCreateGraphicsPipelines(device_.device, device_.pipelineCache, 1, &ci,
-                                                 nullptr, &pipes[layered]);
+    DepthPipelineDesc desc;
+    desc.stages = &stage;
+    desc.stageCount = 1;
+    desc.vertexLayout = layout_;
+    desc.depthClamp = device_.depthClampEnabled;
+    desc.layout = pipelineLayout_;
+    desc.depthFormat = format;
+    const VkResult r =
+        createDepthPipeline(device_.device, device_.pipelineCache, desc, &pipes[layered]);
     if (r != VK_SUCCESS) {
       vkDestroyPipeline(device_.device, pipes[0], nullptr);
       return vkError(r, "vkCreateGraphicsPipelines(csm depth)");

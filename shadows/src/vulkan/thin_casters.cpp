@@ -12,28 +12,12 @@
 #include <string>
 
 #include "csm/vulkan/shadow_renderer.hpp"
+#include "vk_util.hpp"
 
 // The embedded SPIR-V (after <cstdint>: it declares uint32_t arrays).
 #include <csm_shaders/csm_depth_thin.geom.spv.h>
 
 namespace csm::vk {
-
-namespace {
-
-template <class T>
-T vkInit(VkStructureType type) {
-  T v{};
-  v.sType = type;
-  return v;
-}
-
-std::string fmt(const char* format, auto... args) {
-  char buf[512];
-  std::snprintf(buf, sizeof(buf), format, args...);
-  return buf;
-}
-
-}  // namespace
 
 Status ShadowRenderer::checkThinOptions(const RendererOptions& options) {
   if (!(options.thinCasterWidenTexels >= 0.0f && options.thinCasterWidenTexels <= 4.0f)) {
@@ -99,27 +83,13 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
   stages[1].module = thinGeometryModule_;
   stages[1].pSpecializationInfo = &specInfo;
   // The rest as the per-layer depth pipeline (createPipelines).
-  VkVertexInputBindingDescription binding{0, layout_.stride, VK_VERTEX_INPUT_RATE_VERTEX};
-  VkVertexInputAttributeDescription attr{0, 0, layout_.positionFormat, layout_.positionOffset};
-  auto vin = vkInit<VkPipelineVertexInputStateCreateInfo>(
-      VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
-  vin.vertexBindingDescriptionCount = 1;
-  vin.pVertexBindingDescriptions = &binding;
-  vin.vertexAttributeDescriptionCount = 1;
-  vin.pVertexAttributeDescriptions = &attr;
-  auto ia = vkInit<VkPipelineInputAssemblyStateCreateInfo>(
-      VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
-  ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
-  auto vp = vkInit<VkPipelineViewportStateCreateInfo>(
-      VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO);
-  vp.viewportCount = 1;
-  vp.scissorCount = 1;
-  auto rs = vkInit<VkPipelineRasterizationStateCreateInfo>(
-      VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO);
-  rs.depthClampEnable = device_.depthClampEnabled ? VK_TRUE : VK_FALSE;
-  rs.polygonMode = VK_POLYGON_MODE_FILL;
-  rs.depthBiasEnable = VK_TRUE;
-  rs.lineWidth = 1.0f;
+  DepthPipelineDesc desc;
+  desc.stages = stages;
+  desc.stageCount = conservative ? 1 : 2;
+  desc.vertexLayout = layout_;
+  desc.depthClamp = device_.depthClampEnabled;
+  desc.layout = pipelineLayout_;
+  desc.depthFormat = options.depthFormat;
   // Where the device has it: overestimating conservative rasterisation covers every texel a
   // triangle touches, which against centre sampling widens it by half a texel (up to half the
   // texel's diagonal), plus the extra overestimation asked for beyond that. This path is only
@@ -137,51 +107,16 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
         VK_CONSERVATIVE_RASTERIZATION_MODE_OVERESTIMATE_EXT;
     conservativeState.extraPrimitiveOverestimationSize =
         std::clamp(widen - 0.5f, 0.0f, props.maxExtraPrimitiveOverestimationSize);
-    rs.pNext = &conservativeState;
+    desc.rasterizationNext = &conservativeState;
   }
-  auto ms = vkInit<VkPipelineMultisampleStateCreateInfo>(
-      VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
-  ms.rasterizationSamples = VK_SAMPLE_COUNT_1_BIT;
-  auto ds = vkInit<VkPipelineDepthStencilStateCreateInfo>(
-      VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
-  ds.depthTestEnable = VK_TRUE;
-  ds.depthWriteEnable = VK_TRUE;
-  ds.depthCompareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
-  auto cb = vkInit<VkPipelineColorBlendStateCreateInfo>(
-      VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
-  const VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR,
-                                VK_DYNAMIC_STATE_DEPTH_BIAS, VK_DYNAMIC_STATE_CULL_MODE,
-                                VK_DYNAMIC_STATE_FRONT_FACE};
-  auto dy = vkInit<VkPipelineDynamicStateCreateInfo>(
-      VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO);
-  dy.dynamicStateCount = static_cast<std::uint32_t>(std::size(dyn));
-  dy.pDynamicStates = dyn;
-  auto rendering =
-      vkInit<VkPipelineRenderingCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_RENDERING_CREATE_INFO);
-  rendering.depthAttachmentFormat = options.depthFormat;
-  auto ci = vkInit<VkGraphicsPipelineCreateInfo>(VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO);
-  ci.pNext = &rendering;
-  ci.stageCount = conservative ? 1 : 2;
-  ci.pStages = stages;
-  ci.pVertexInputState = &vin;
-  ci.pInputAssemblyState = &ia;
-  ci.pViewportState = &vp;
-  ci.pRasterizationState = &rs;
-  ci.pMultisampleState = &ms;
-  ci.pDepthStencilState = &ds;
-  ci.pColorBlendState = &cb;
-  ci.pDynamicState = &dy;
-  ci.layout = pipelineLayout_;
   // Per-layer (csm_depth.vert), and layered (csm_depth_layered.vert, its layer forwarded by the
   // geometry stage) where the device has shaderOutputLayer.
   for (int layered = 0; layered < 2; ++layered) {
     if (layered == 1 && layeredModule_ == VK_NULL_HANDLE) break;
     stages[0].module = layered ? layeredModule_ : vertexModule_;
     VkPipeline& out = layered ? thinLayeredPipeline_ : thinPipeline_;
-    const VkResult r =
-        vkCreateGraphicsPipelines(device_.device, device_.pipelineCache, 1, &ci, nullptr, &out);
+    const VkResult r = createDepthPipeline(device_.device, device_.pipelineCache, desc, &out);
     if (r != VK_SUCCESS) {
-      out = VK_NULL_HANDLE;
       if (layered) {
         vkDestroyPipeline(device_.device, thinPipeline_, nullptr);
         thinPipeline_ = VK_NULL_HANDLE;

@@ -87,6 +87,30 @@ inline glm::mat4 scaledAffine(const glm::dmat3& linear, const glm::dvec3& t,
   return m;
 }
 
+/// What differs between the module's depth pipelines (the renderer's per-layer and layered
+/// ones, the thin casters' ones); the rest is the depth pass's fixed state: triangle lists of
+/// one float position, fill, dynamic viewport/scissor/depth bias/cull mode/front face, depth
+/// test and write with LESS_OR_EQUAL, no colour attachment, one sample.
+struct DepthPipelineDesc {
+  /// The shader stages (vertex, and geometry for the thin casters).
+  const VkPipelineShaderStageCreateInfo* stages = nullptr;
+  std::uint32_t stageCount = 0;
+  /// Chained to the rasterisation state (conservative rasterisation), or nullptr.
+  const void* rasterizationNext = nullptr;
+  /// The casters' vertex buffers.
+  VertexLayout vertexLayout{};
+  /// Depth clamp (DeviceInfo::depthClampEnabled).
+  bool depthClamp = false;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  /// The depth attachment's format (dynamic rendering).
+  VkFormat depthFormat = VK_FORMAT_UNDEFINED;
+};
+
+/// Creates one depth pipeline (vkCreateGraphicsPipelines through `cache`); `*out` is
+/// VK_NULL_HANDLE when it fails.
+VkResult createDepthPipeline(VkDevice device, VkPipelineCache cache, const DepthPipelineDesc& desc,
+                             VkPipeline* out);
+
 static_assert(CSM_DEPTH_PUSH_SIZE == sizeof(glm::mat4) + sizeof(std::uint32_t));
 
 /// Push constants of the per-layer depth pass (csm_depth.vert): one cascade per render pass.
