@@ -248,13 +248,17 @@ DepthRangeReducer::~DepthRangeReducer() {
   if (setLayout_) vkDestroyDescriptorSetLayout(device_, setLayout_, nullptr);
 }
 
-Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkImageLayout layout,
-                                 VkExtent2D extent, const DepthProjection& projection,
-                                 std::uint32_t slot, const ReceiverBoundsInputs& bounds) {
-  if (!(slot < slots_)) {
+namespace {
+
+// record()'s arguments: the slot in range, a readable depth view, bounds inputs that go together
+// with a usable projection, and a valid histogram range; each refusal names what is wrong.
+Status checkRecordArguments(VkImageView depthView, VkImageLayout layout, VkExtent2D extent,
+                            const DepthProjection& projection, std::uint32_t slot,
+                            std::uint32_t slots, const ReceiverBoundsInputs& bounds) {
+  if (!(slot < slots)) {
     return Status(ErrorCode::kIndexOutOfRange,
                   "DepthRangeReducer::record: slot = " + std::to_string(slot) +
-                      " is invalid: allowed [0, " + std::to_string(slots_ - 1) + "]");
+                      " is invalid: allowed [0, " + std::to_string(slots - 1) + "]");
   }
   if (depthView == VK_NULL_HANDLE || extent.width == 0 || extent.height == 0 ||
       !readableLayout(layout)) {
@@ -292,6 +296,19 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
                   double(hNear), double(hFar));
     return Status(ErrorCode::kInvalidArgument, buf);
   }
+  return {};
+}
+
+}  // namespace
+
+Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkImageLayout layout,
+                                 VkExtent2D extent, const DepthProjection& projection,
+                                 std::uint32_t slot, const ReceiverBoundsInputs& bounds) {
+  if (Status s = checkRecordArguments(depthView, layout, extent, projection, slot, slots_, bounds);
+      !s.ok()) {
+    return s;
+  }
+  const float hNear = projection.histogramNearM, hFar = projection.histogramFarM;
   // The slot's previous submission has completed (the caller's contract): rewrite its set.
   VkDescriptorImageInfo image{sampler_, depthView, layout};
   VkDescriptorBufferInfo buffer{buffer_, 0, VK_WHOLE_SIZE};
