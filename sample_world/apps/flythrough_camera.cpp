@@ -12,12 +12,7 @@ namespace flythrough {
 
 void poseCamera(engine::Camera& cam, const world::CameraPose& pose, double aspect,
                 const world::AppSettings& s) {
-  cam.positionWs = pose.positionWs;
-  cam.setYawPitchRoll(pose.yawRad, pose.pitchRad);
-  cam.fovYRad = glm::radians(pose.fovDeg);
-  cam.aspect = aspect;
-  cam.nearM = 0.5;
-  cam.farM = s.farM;
+  cam = world::poseCamera(pose, aspect, 0.5, s.farM);
 }
 
 Input* gInput = nullptr;

@@ -114,4 +114,15 @@ CameraPose FlightPath::at(double t) const {
   return pose;
 }
 
+engine::Camera poseCamera(const CameraPose& pose, double aspect, double nearM, double farM) {
+  engine::Camera cam;
+  cam.positionWs = pose.positionWs;
+  cam.setYawPitchRoll(pose.yawRad, pose.pitchRad);
+  cam.fovYRad = glm::radians(pose.fovDeg);
+  cam.aspect = aspect;
+  cam.nearM = nearM;
+  cam.farM = farM;
+  return cam;
+}
+
 }  // namespace world

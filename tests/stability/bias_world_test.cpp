@@ -55,14 +55,8 @@ TEST(StabilityBias, SampleWorldForestPathNoAcneAtEveryElevation) {
     const std::optional<world::FlightPath> path = world::FlightPath::make("forest", *w, 60.0);
     ASSERT_TRUE(path.has_value());
     const world::CameraPose pose = path->at(0.0);
-    engine::Camera e;
-    e.positionWs = pose.positionWs;
-    e.setYawPitchRoll(pose.yawRad, pose.pitchRad);
-    e.fovYRad = glm::radians(pose.fovDeg);
-    e.aspect = double(kView.width) / kView.height;
-    e.nearM = 0.5;
-    e.farM = app.farM;
-    const csm::Camera camera = glue::toCsmCamera(e);
+    const csm::Camera camera = glue::toCsmCamera(
+        world::poseCamera(pose, double(kView.width) / kView.height, 0.5, app.farM));
     for (double elevation : {1.0, 2.0, 5.0, 10.0, 30.0, 60.0, 89.0, 89.999, 90.0}) {
       // Lit interior pixels of the elevation's best-lit view: the acne bound must be measured
       // on something (at 1-2 degrees most of the view is in the hills' shadow).

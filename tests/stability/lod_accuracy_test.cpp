@@ -24,14 +24,7 @@ struct LodRun {
 };
 
 csm::Camera poseCamera(const world::CameraPose& p, double aspect) {
-  engine::Camera e;
-  e.positionWs = p.positionWs;
-  e.setYawPitchRoll(p.yawRad, p.pitchRad);
-  e.fovYRad = glm::radians(p.fovDeg);
-  e.aspect = aspect;
-  e.nearM = 0.1;
-  e.farM = 5000.0;
-  return glue::toCsmCamera(e);
+  return glue::toCsmCamera(world::poseCamera(p, aspect, 0.1, 5000.0));
 }
 
 }  // namespace

@@ -27,14 +27,7 @@
 namespace tradeoff {
 
 csm::Camera cameraAt(const world::CameraPose& p, double aspect) {
-  engine::Camera e;
-  e.positionWs = p.positionWs;
-  e.setYawPitchRoll(p.yawRad, p.pitchRad);
-  e.fovYRad = glm::radians(p.fovDeg);
-  e.aspect = aspect;
-  e.nearM = 0.1;
-  e.farM = 5000.0;
-  return glue::toCsmCamera(e);
+  return glue::toCsmCamera(world::poseCamera(p, aspect, 0.1, 5000.0));
 }
 
 void progress(size_t done, size_t total, const std::string& what, double elapsedS) {

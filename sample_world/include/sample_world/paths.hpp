@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "engine/camera.hpp"
 #include "sample_world/world.hpp"
 
 namespace world {
@@ -19,6 +20,11 @@ struct CameraPose {
   double pitchRad = 0.0;  ///< positive looks up
   double fovDeg = 60.0;
 };
+
+/// The engine camera at `pose`: its position, yaw and pitch, its vertical field of view, and the
+/// given aspect and clip planes (the one conversion the fly-through, the tools and the tests use).
+[[nodiscard]] engine::Camera poseCamera(const CameraPose& pose, double aspect, double nearM,
+                                        double farM);
 
 /// The named paths: forest (low pass over the forest), fast (fast straight flight), rotate (slow
 /// rotation in place), zoom (FOV zoom on the tower), far (the forest pass 10^7 m from the origin).
