@@ -8,6 +8,7 @@
 #include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -15,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <sstream>
 
 #include "mesh_ops.hpp"
@@ -387,6 +389,33 @@ double simplificationErrorM(const MeshData& original, const MeshData& simplified
   const double s = std::isfinite(sampleSpacingM) && sampleSpacingM > 0.0 ? sampleSpacingM : 0.0;
   return std::max(oneSidedDistance(original, simplified, s),
                   oneSidedDistance(simplified, original, s));
+}
+
+bool isClosedOutward(const MeshData& m) {
+  if (m.indices.empty()) return false;
+  std::map<std::array<float, 3>, std::uint32_t> weld;
+  std::vector<std::uint32_t> id(m.positions.size());
+  for (std::size_t i = 0; i < m.positions.size(); ++i) {
+    const glm::vec3& p = m.positions[i];
+    id[i] =
+        weld.emplace(std::array<float, 3>{p.x, p.y, p.z}, std::uint32_t(weld.size())).first->second;
+  }
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
+  double volume = 0.0;
+  for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+    const std::uint32_t v[3] = {id[m.indices[t]], id[m.indices[t + 1]], id[m.indices[t + 2]]};
+    if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) return false;
+    for (int e = 0; e < 3; ++e) {
+      if (++edges[{v[e], v[(e + 1) % 3]}] > 1) return false;
+    }
+    const glm::dvec3 a(m.positions[m.indices[t]]), b(m.positions[m.indices[t + 1]]),
+        c(m.positions[m.indices[t + 2]]);
+    volume += glm::dot(a, glm::cross(b, c));
+  }
+  for (const auto& [e, n] : edges) {
+    if (!edges.count({e.second, e.first})) return false;
+  }
+  return volume > 0.0;
 }
 
 namespace {

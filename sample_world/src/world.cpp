@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <limits>
+#include <optional>
 #include <thread>
 
 #include "mesh_ops.hpp"
@@ -105,9 +107,12 @@ struct Shape {
     quad(c[7], c[6], c[2], c[3]);  // +y
     quad(c[0], c[1], c[5], c[4]);  // -y
   }
-  // A closed frustum of a cone along +y (radius r0 at y0, r1 at y1; r1 = 0 gives a cone).
-  void cone(float y0, float y1, float r0, float r1, int sides, float twist = 0.0f) {
-    const std::uint32_t bottom = vertex({0.0f, y0, 0.0f});
+  // A closed frustum of a cone along +y (radius r0 at y0, r1 at y1; r1 = 0 gives a cone). The
+  // caps are fans around a centre vertex (`hubs`) or, with the same outline and two triangles
+  // fewer each, fans from the ring's first vertex.
+  void cone(float y0, float y1, float r0, float r1, int sides, float twist = 0.0f,
+            bool hubs = true) {
+    const std::uint32_t bottom = hubs ? vertex({0.0f, y0, 0.0f}) : 0u;
     std::vector<std::uint32_t> ring0, ring1;
     for (int s = 0; s < sides; ++s) {
       const double a = 2.0 * kPi * s / sides + twist;
@@ -121,14 +126,23 @@ struct Shape {
             {r1 * static_cast<float>(std::cos(a)), y1, r1 * static_cast<float>(std::sin(a))}));
       }
     }
-    const std::uint32_t top = vertex({0.0f, y1, 0.0f});
+    const bool apex = !(r1 > 0.0f);
+    const std::uint32_t top = hubs || apex ? vertex({0.0f, y1, 0.0f}) : 0u;
     for (int s = 0; s < sides; ++s) {
       const int n = (s + 1) % sides;
-      tri(bottom, ring0[s], ring0[n]);
-      if (r1 > 0.0f) {
+      if (hubs) {
+        tri(bottom, ring0[s], ring0[n]);
+      } else if (s >= 1 && n >= 2) {
+        tri(ring0[0], ring0[s], ring0[n]);
+      }
+      if (!apex) {
         tri(ring0[n], ring0[s], ring1[s]);
         tri(ring0[n], ring1[s], ring1[n]);
-        tri(top, ring1[n], ring1[s]);
+        if (hubs) {
+          tri(top, ring1[n], ring1[s]);
+        } else if (s >= 1 && n >= 2) {
+          tri(ring1[0], ring1[n], ring1[s]);
+        }
       } else {
         tri(ring0[n], ring0[s], top);
       }
@@ -168,6 +182,48 @@ struct Shape {
   }
 };
 
+// One of Shape::cone's frusta, kept so that a prototype can be rebuilt with fewer sides.
+struct ConeSpec {
+  float y0, y1, r0, r1;
+  int sides;
+  float twist = 0.0f;
+};
+
+// The fewest sides (3 .. spec.sides) whose polygon, with its radius set to straddle the original
+// polygon's mid circle (vertices outside by as much as edge midpoints are inside), is predicted
+// within `budgetM` of the original: mid radius x tan^2(pi / 2n) plus the original's own
+// half-deviation. The caller measures the result: the prediction only picks the candidate.
+struct ConeCut {
+  int sides;
+  float radiusScale;
+};
+ConeCut cutCone(const ConeSpec& spec, double budgetM) {
+  const double r = std::max(spec.r0, spec.r1);
+  const double c0 = std::cos(kPi / spec.sides);
+  const double mid = r * (1.0 + c0) / 2.0;
+  for (int n = 3; n < spec.sides; ++n) {
+    const double t = std::tan(kPi / (2.0 * n));
+    if (mid * t * t + r * (1.0 - c0) / 2.0 <= budgetM) {
+      return {n, static_cast<float>(2.0 * mid / (1.0 + std::cos(kPi / n)) / r)};
+    }
+  }
+  return {spec.sides, 1.0f};
+}
+
+// Adds `cones` to `shape`: as specified (budgetM 0), or each cut to the fewest sides cutCone
+// predicts within budgetM, caps as ring fans.
+void addCones(Shape& shape, const std::vector<ConeSpec>& cones, double budgetM) {
+  for (const ConeSpec& c : cones) {
+    if (!(budgetM > 0.0)) {
+      shape.cone(c.y0, c.y1, c.r0, c.r1, c.sides, c.twist);
+      continue;
+    }
+    const ConeCut cut = cutCone(c, budgetM);
+    shape.cone(c.y0, c.y1, c.r0 * cut.radiusScale, c.r1 * cut.radiusScale, cut.sides, c.twist,
+               false);
+  }
+}
+
 // Records each LOD's geometric error against LOD 0 (0 where the LOD is LOD 0's mesh), sampled
 // as densely as decimateToError measured it.
 void measureLodErrors(MeshAsset& asset) {
@@ -188,13 +244,44 @@ void measureLodErrors(MeshAsset& asset) {
 constexpr double kTreeMaxScale = 1.3;
 constexpr double kRockMaxScale = 4.0;
 
+// A prototype rebuilt with its round parts cut to fewer sides within a budget in its own metres
+// (0: the prototype itself).
+using ShapeBuilder = std::function<Shape(double budgetM)>;
+
+// The procedural candidate for a LOD within `boundM` of `lod0`: the prototype's round parts cut
+// to fewer sides, predicted within a fraction of the bound, the fraction lowered while the
+// measured error or the shadow outlines exceed the bound. Nothing when no cut fits or helps.
+std::optional<MeshData> cutWithin(const ShapeBuilder& build, const MeshData& lod0, double boundM) {
+  for (double fraction : {1.0, 0.8, 0.6, 0.4}) {
+    const Shape shape = build(fraction * boundM);
+    MeshData cut = finishMesh(shape.p, shape.i);
+    if (cut.indices.empty() || cut.triangleCount() >= lod0.triangleCount()) return std::nullopt;
+    if (simplificationErrorM(lod0, cut, lodSampleSpacingM(boundM)) <= boundM &&
+        shadowOutlinesWithin(lod0, cut, boundM)) {
+      return cut;
+    }
+  }
+  return std::nullopt;
+}
+
 // Fills LODs 1.. of an asset placed at most `maxScale` times its size (0: full detail at every
-// LOD), each simplified from LOD 0 within its rung of kLodErrorLadderM in world metres.
-void buildLods(MeshAsset& asset, double maxScale) {
+// LOD), each within its rung of kLodErrorLadderM in world metres: the fewer triangles of the
+// Decimater's simplification and, for a procedural prototype (`build`), the prototype with its
+// cones cut to fewer sides. The Decimater takes no side off the conifer's 12-sided 3.2 m crown
+// within LOD 1's 0.154 m (a collapse moves a ring vertex a whole side's width); rebuilt with 10
+// sides and a radius straddling the 12-sided one it measures 0.152 m, and the conifer's LOD 1
+// has 48 triangles instead of the Decimater's 74.
+void buildLods(MeshAsset& asset, double maxScale, const ShapeBuilder& build = {}) {
   for (std::uint32_t l = 1; l < kLodCount; ++l) {
     asset.lodBoundM[l] = maxScale > 0.0 ? static_cast<float>(kLodErrorLadderM[l] / maxScale) : 0.0f;
     asset.lods[l] =
         maxScale > 0.0 ? decimateToError(asset.lods[0], asset.lodBoundM[l]) : asset.lods[0];
+    if (maxScale > 0.0 && build) {
+      std::optional<MeshData> cut = cutWithin(build, asset.lods[0], asset.lodBoundM[l]);
+      if (cut && cut->triangleCount() < asset.lods[l].triangleCount()) {
+        asset.lods[l] = std::move(*cut);
+      }
+    }
     if (asset.lods[l].triangleCount() > asset.lods[l - 1].triangleCount()) {
       asset.lods[l] = asset.lods[l - 1];
     }
@@ -208,6 +295,16 @@ MeshAsset makeAsset(std::string name, const Shape& shape, double maxScale) {
   asset.name = std::move(name);
   asset.lods[0] = finishMesh(shape.p, shape.i);
   buildLods(asset, maxScale);
+  return asset;
+}
+
+// A procedural prototype: LOD 0 is build(0); its LODs also try build(budget) (see buildLods).
+MeshAsset makeAsset(std::string name, const ShapeBuilder& build, double maxScale) {
+  MeshAsset asset;
+  asset.name = std::move(name);
+  const Shape shape = build(0.0);
+  asset.lods[0] = finishMesh(shape.p, shape.i);
+  buildLods(asset, maxScale, build);
   return asset;
 }
 
@@ -446,23 +543,42 @@ void WorldBuilder::terrain() {
 
 // ---- Prototypes ------------------------------------------------------------------------------
 void WorldBuilder::prototypes() {
-  Shape conifer;  // trunk + three stacked cones, ~14 m
-  conifer.cone(-0.5f, 3.0f, 0.35f, 0.25f, 8);
-  conifer.cone(2.5f, 8.0f, 3.2f, 0.0f, 12);
-  conifer.cone(6.0f, 11.5f, 2.4f, 0.0f, 12, 0.2f);
-  conifer.cone(9.5f, 14.0f, 1.5f, 0.0f, 10, 0.4f);
-  trees.push_back(addAsset(makeAsset("conifer", conifer, kTreeMaxScale)));
-  Shape broad;  // trunk + lumpy crown, ~11 m
-  broad.cone(-0.5f, 4.5f, 0.45f, 0.3f, 8);
-  Rng r(mix64(seed ^ 0xb10b));
-  broad.blob({0.0f, 7.5f, 0.0f}, {4.0f, 3.6f, 4.0f}, [&](const glm::vec3& v) {
-    return static_cast<float>(0.85 + 0.3 * valueNoise(seed, v.x * 2.0 + 5, v.z * 2.0 + v.y, 77));
-  });
-  trees.push_back(addAsset(makeAsset("broadleaf", broad, kTreeMaxScale)));
-  Shape pine;  // tall thin pine, ~22 m
-  pine.cone(-0.5f, 12.0f, 0.4f, 0.2f, 8);
-  pine.cone(8.0f, 22.0f, 2.2f, 0.0f, 10);
-  trees.push_back(addAsset(makeAsset("pine", pine, kTreeMaxScale)));
+  // Trees are cones (and a lumpy crown): rebuilt with fewer sides for their LODs.
+  const std::vector<ConeSpec> coniferCones = {{-0.5f, 3.0f, 0.35f, 0.25f, 8},  // trunk
+                                              {2.5f, 8.0f, 3.2f, 0.0f, 12},
+                                              {6.0f, 11.5f, 2.4f, 0.0f, 12, 0.2f},
+                                              {9.5f, 14.0f, 1.5f, 0.0f, 10, 0.4f}};
+  trees.push_back(addAsset(makeAsset(  // trunk + three stacked cones, ~14 m
+      "conifer",
+      [&](double budgetM) {
+        Shape s;
+        addCones(s, coniferCones, budgetM);
+        return s;
+      },
+      kTreeMaxScale)));
+  const std::vector<ConeSpec> broadTrunk = {{-0.5f, 4.5f, 0.45f, 0.3f, 8}};
+  trees.push_back(addAsset(makeAsset(  // trunk + lumpy crown, ~11 m
+      "broadleaf",
+      [&](double budgetM) {
+        Shape s;
+        addCones(s, broadTrunk, budgetM);
+        s.blob({0.0f, 7.5f, 0.0f}, {4.0f, 3.6f, 4.0f}, [&](const glm::vec3& v) {
+          return static_cast<float>(0.85 +
+                                    0.3 * valueNoise(seed, v.x * 2.0 + 5, v.z * 2.0 + v.y, 77));
+        });
+        return s;
+      },
+      kTreeMaxScale)));
+  const std::vector<ConeSpec> pineCones = {{-0.5f, 12.0f, 0.4f, 0.2f, 8},
+                                           {8.0f, 22.0f, 2.2f, 0.0f, 10}};
+  trees.push_back(addAsset(makeAsset(  // tall thin pine, ~22 m
+      "pine",
+      [&](double budgetM) {
+        Shape s;
+        addCones(s, pineCones, budgetM);
+        return s;
+      },
+      kTreeMaxScale)));
   for (int k = 0; k < 4; ++k) {
     Shape rock;
     rock.blob({0.0f, 0.3f, 0.0f}, {1.0f, 0.7f, 1.1f}, [&](const glm::vec3& v) {

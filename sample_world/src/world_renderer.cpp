@@ -10,7 +10,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <map>
 #include <stdexcept>
 
 #include "csm/gpu_layout.hpp"
@@ -116,35 +115,6 @@ void WorldRenderer::uploadMeshes(const World& world) {
   }
 }
 
-// True when the mesh is closed and outward: welded by position, every directed edge has exactly
-// one reverse and no duplicate, and its signed volume is positive (counter-clockwise outside).
-bool closedOutward(const MeshData& m) {
-  if (m.indices.empty()) return false;
-  std::map<std::array<float, 3>, std::uint32_t> weld;
-  std::vector<std::uint32_t> id(m.positions.size());
-  for (std::size_t i = 0; i < m.positions.size(); ++i) {
-    const glm::vec3& p = m.positions[i];
-    id[i] =
-        weld.emplace(std::array<float, 3>{p.x, p.y, p.z}, std::uint32_t(weld.size())).first->second;
-  }
-  std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
-  double volume = 0.0;
-  for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
-    const std::uint32_t v[3] = {id[m.indices[t]], id[m.indices[t + 1]], id[m.indices[t + 2]]};
-    if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) return false;
-    for (int e = 0; e < 3; ++e) {
-      if (++edges[{v[e], v[(e + 1) % 3]}] > 1) return false;
-    }
-    const glm::dvec3 a(m.positions[m.indices[t]]), b(m.positions[m.indices[t + 1]]),
-        c(m.positions[m.indices[t + 2]]);
-    volume += glm::dot(a, glm::cross(b, c));
-  }
-  for (const auto& [e, n] : edges) {
-    if (!edges.count({e.second, e.first})) return false;
-  }
-  return volume > 0.0;
-}
-
 void WorldRenderer::buildClosedMeshes(const World& world) {
   closedMesh_.assign(assetRanges_.size(), false);
   // Terrain chunks are open heightfields: not checked (the check is a map over every edge).
@@ -155,14 +125,14 @@ void WorldRenderer::buildClosedMeshes(const World& world) {
   for (std::size_t a = 0; a < world.meshes.size(); ++a) {
     if (terrain[a]) continue;
     bool closed = true;
-    for (const MeshData& m : world.meshes[a].lods) closed = closed && closedOutward(m);
+    for (const MeshData& m : world.meshes[a].lods) closed = closed && isClosedOutward(m);
     closedMesh_[a] = closed;
   }
   // A placement that mirrors (negative determinant) turns the winding: draw both faces.
   for (const Object& ob : world.objects) {
     if (glm::determinant(ob.linear) <= 0.0f) closedMesh_[ob.mesh] = false;
   }
-  closedMesh_[cubeMesh_] = closedOutward([&] {
+  closedMesh_[cubeMesh_] = isClosedOutward([&] {
     MeshData m;
     std::vector<engine::Vertex> v;
     engine::makeCube(v, m.indices);

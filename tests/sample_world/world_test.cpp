@@ -1,8 +1,11 @@
-// The procedural world: determinism from the seed, OpenMesh normals and Decimater LODs, object
-// flags, mesh files (good and bad), settings validation.
+// The procedural world: determinism from the seed, OpenMesh normals, Decimater and cut-cone
+// LODs, object flags, mesh files (good and bad), settings validation.
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <map>
+#include <string>
 
 #include <cmath>
 #include <cstdio>
@@ -65,7 +68,7 @@ TEST(World, SameSeedGivesTheRecordedWorldInEveryBuild) {
   char hash[32];
   std::snprintf(hash, sizeof hash, "%016llx",
                 static_cast<unsigned long long>(world::worldHash(defaultWorld())));
-  EXPECT_STREQ(hash, "ebc8ea6e3b2b3ac1");
+  EXPECT_STREQ(hash, "095ed7a4d74a9a5f");
 }
 
 TEST(World, OtherSeedGivesOtherWorld) {
@@ -190,6 +193,38 @@ TEST(World, LodErrorsAreRecorded) {
       EXPECT_TRUE(std::isfinite(c.lodErrorM[2])) << c.name;
     }
   }
+}
+
+// The trees' LODs: their cones rebuilt with fewer sides (or the Decimater's result, whichever
+// has fewer triangles) stay within each LOD's bound, measured here at half the build's sample
+// spacing (the build's guarantee: the bound plus that spacing), cast the same shadow outlines
+// within it, stay closed and outward (so their back faces may still be culled), and have the
+// triangle counts of the cut (the Decimater alone gave the conifer 74 / 74, the pine 30 / 26).
+TEST(World, TreeLodsAreCutWithinTheirBound) {
+  const std::map<std::string, std::array<std::uint32_t, world::kLodCount>> expected = {
+      {"conifer", {100, 48, 24}}, {"broadleaf", {112, 92, 56}}, {"pine", {52, 22, 14}}};
+  std::size_t seen = 0;
+  for (const world::MeshAsset& a : defaultWorld().meshes) {
+    const auto it = expected.find(a.name);
+    if (it == expected.end()) continue;
+    ++seen;
+    for (std::uint32_t l = 0; l < world::kLodCount; ++l) {
+      const world::MeshData& lod = a.lods[l];
+      EXPECT_EQ(lod.triangleCount(), it->second[l]) << a.name << " lod " << l;
+      EXPECT_TRUE(world::isClosedOutward(lod)) << a.name << " lod " << l;
+      if (l == 0) continue;
+      const double bound = a.lodBoundM[l];
+      ASSERT_GT(bound, 0.0) << a.name;
+      const double spacing = world::lodSampleSpacingM(bound);
+      const double e = world::simplificationErrorM(a.lods[0], lod, spacing / 2.0);
+      EXPECT_LE(e, bound + spacing) << a.name << " lod " << l;
+      EXPECT_LE(a.lodErrorM[l], bound) << a.name << " lod " << l;
+      EXPECT_TRUE(world::shadowOutlinesWithin(a.lods[0], lod, bound)) << a.name << " lod " << l;
+      std::printf("%s lod %u: %u triangles, error %.3f m (recorded %.3f, bound %.3f)\n",
+                  a.name.c_str(), l, lod.triangleCount(), e, a.lodErrorM[l], bound);
+    }
+  }
+  EXPECT_EQ(seen, expected.size());
 }
 
 TEST(World, SameFlightAnywhere) {

@@ -1,7 +1,7 @@
 // The procedural open world: terrain chunks, forests, rocks, buildings, a tower and thin casters
 // (poles, fences, power lines), deterministic from a seed. Pure CPU: meshes are built and
-// simplified with OpenMesh (normals from OpenMesh, caster LODs from its Decimater); nothing here
-// touches Vulkan.
+// simplified with OpenMesh (normals from OpenMesh, caster LODs from its Decimater and from the
+// trees' cones rebuilt with fewer sides); nothing here touches Vulkan.
 #pragma once
 
 #include <glm/glm.hpp>
@@ -16,8 +16,9 @@
 
 namespace world {
 
-/// Levels of detail every mesh has: 0 full, 1 and 2 simplified by OpenMesh's Decimater within
-/// the error bounds of kLodErrorLadderM.
+/// Levels of detail every mesh has: 0 full, 1 and 2 simplified within the error bounds of
+/// kLodErrorLadderM, by OpenMesh's Decimater or, for the trees' cones, by rebuilding them with
+/// fewer sides (whichever has fewer triangles; both measured against LOD 0).
 inline constexpr std::uint32_t kLodCount = 3;
 
 /// An indexed triangle mesh in its own object space (positions and unit normals).
@@ -37,7 +38,7 @@ struct MeshData {
 /// at RendererOptions::lodMaxErrorTexels 0.5 it admits LOD 1 (0.2 m, margin for a ladder rung
 /// below), and LOD 2 (0.8 m) serves cascades of 1.6 m texels (the fly-through's 1500 m) or a
 /// budget of 2 texels. Finer rungs buy almost nothing on these meshes: a tree's 12-sided cones
-/// cannot lose a side within a few centimetres.
+/// cannot lose a side within a few centimetres (the 3.2 m crown loses two within 0.152 m).
 inline constexpr std::array<double, kLodCount> kLodErrorLadderM = {0.0, 0.2, 0.8};
 
 /// A mesh with its levels of detail (lods[0] full; lods[1], lods[2] simplified).
@@ -185,6 +186,11 @@ struct WorldError {
 /// e.g. a thin cylinder flattened into a sheet that casts nothing seen edge-on.
 [[nodiscard]] bool shadowOutlinesWithin(const MeshData& original, const MeshData& simplified,
                                         double boundM);
+
+/// True when the mesh is closed and outward: welded by position, every directed edge has exactly
+/// one reverse and no duplicate, and its signed volume is positive (counter-clockwise outside).
+/// Such a mesh may have its back faces culled.
+[[nodiscard]] bool isClosedOutward(const MeshData& mesh);
 
 /// The sample spacing decimateToError measures a LOD built within `maxErrorM` with.
 [[nodiscard]] inline double lodSampleSpacingM(double maxErrorM) noexcept {
