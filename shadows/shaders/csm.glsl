@@ -15,7 +15,9 @@
 // outputs and PCSS, whose taps compare texel by texel). Variants are specialization constants:
 // CSM_SPEC_KERNEL (PCF kernel), CSM_SPEC_BLEND (0: hard switch at the split, 1: blend across the
 // band) and CSM_SPEC_PCSS_TAPS (taps of the PCSS blocker search and filter).
-// Define CSM_UNIFORMS_ONLY to declare only the uniform block (the depth pass does).
+// Define CSM_UNIFORMS_ONLY to declare only the uniform block (the depth pass does), and in a
+// fragment shader CSM_IMPLICIT_LOD for cheaper comparison taps with the same result
+// (csmCompareTap).
 #ifndef CSM_GLSL
 #define CSM_GLSL
 
@@ -129,8 +131,22 @@ vec2 csmWrapUv(vec2 t, int cascade) {
   return (t + offset) * csmU.invResolution;
 }
 
+/// Level 0 of the shadow map through the comparison sampler. Explicit zero gradients by default:
+/// valid in every stage, compute included. A fragment shader may define CSM_IMPLICIT_LOD before
+/// including this file to sample with implicit derivatives instead, the same texels and result
+/// (one level, minLod = maxLod = 0 and LINEAR both ways on the comparison samplers, so no level
+/// or filter choice depends on the derivatives, even in non-uniform control flow) at less cost
+/// per tap on a CPU rasteriser (lavapipe computes no per-pixel level from explicit gradients).
+float csmCompareTap(vec2 uv, float layer, float depth) {
+#ifdef CSM_IMPLICIT_LOD
+  return texture(csmShadowMap, vec4(uv, layer, depth));
+#else
+  return textureGrad(csmShadowMap, vec4(uv, layer, depth), vec2(0.0), vec2(0.0));
+#endif
+}
+
 /// One bilinear comparison tap at shadow-map texel coordinates `t` (texel centres at i + 0.5).
-/// Explicit zero gradients: valid in every stage, compute included. Texels outside the
+/// Valid in every stage (see csmCompareTap). Texels outside the
 /// cascade's box read lit (depth 1, the border of the unwrapped map): in a wrapped layer a tap
 /// that straddles the box's edge is filtered by hand from a gather, its outside texels lit.
 float csmTap(vec2 t, float layer, float depth) {
@@ -152,11 +168,9 @@ float csmTap(vec2 t, float layer, float depth) {
       const vec2 w = f - i0;
       return mix(mix(t00, t10, w.x), mix(t01, t11, w.x), w.y);
     }
-    return textureGrad(csmShadowMap, vec4(csmWrapUv(t, int(layer)), layer, depth), vec2(0.0),
-                       vec2(0.0));
+    return csmCompareTap(csmWrapUv(t, int(layer)), layer, depth);
   }
-  return textureGrad(csmShadowMap, vec4(t * csmU.invResolution, layer, depth), vec2(0.0),
-                     vec2(0.0));
+  return csmCompareTap(t * csmU.invResolution, layer, depth);
 }
 
 // Tent kernels from bilinear comparison taps (weights and positions: "Optimized PCF",
