@@ -15,6 +15,7 @@ layout(std140, set = 0, binding = 0) uniform WorldFrame {
   vec4 lightColor;      // rgb
   vec4 ambientColor;    // rgb
   uvec4 overlay;        // x cascade tint, y texel checker
+  mat4 invViewProjCr;   // clip -> camera-relative world (the deferred lighting pass)
 } frame;
 
 // The depth pre-pass runs this shader without a fragment stage and the lit pass tests its

@@ -122,14 +122,17 @@ json summaryJson(const std::vector<json>& framesJson, const world::AppSettings& 
   summary["shadow_cache_budget_texels"] = settings.cacheBudgetTexels;
   summary["gpu_shadow_ms_median"] =
       median([](const json& f) { return f["gpu_ms"]["shadow"].get<double>(); });
-  // The whole frame: shadow pass, depth pre-pass (0 without it) and lit pass, per frame.
+  // The whole frame: shadow pass, depth pre-pass or G-buffer pass (0 without them) and lit pass
+  // (the deferred lighting pass with view.deferred), per frame.
   auto gpuMs = [](const json& f, const char* k) {
     return f["gpu_ms"].contains(k) ? f["gpu_ms"][k].get<double>() : 0.0;
   };
   summary["gpu_prepass_ms_median"] = median([&](const json& f) { return gpuMs(f, "prepass"); });
+  summary["gpu_gbuffer_ms_median"] = median([&](const json& f) { return gpuMs(f, "gbuffer"); });
   summary["gpu_lit_ms_median"] = median([&](const json& f) { return gpuMs(f, "lit"); });
-  summary["gpu_frame_ms_median"] = median(
-      [&](const json& f) { return gpuMs(f, "shadow") + gpuMs(f, "prepass") + gpuMs(f, "lit"); });
+  summary["gpu_frame_ms_median"] = median([&](const json& f) {
+    return gpuMs(f, "shadow") + gpuMs(f, "prepass") + gpuMs(f, "gbuffer") + gpuMs(f, "lit");
+  });
   summary["wall_frame_ms_median"] =
       median([](const json& f) { return f["wall_ms"].get<double>(); });
   for (std::uint32_t c = 0; c < settings.shadow.cascadeCount; ++c) {

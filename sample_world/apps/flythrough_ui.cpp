@@ -135,6 +135,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   changed |= ImGui::Checkbox("thin casters widened", &s.thinCasters);
   changed |= ImGui::Checkbox("caster LODs", &s.casterLods);
   changed |= ImGui::Checkbox("depth pre-pass", &s.depthPrepass);
+  changed |= ImGui::Checkbox("deferred shading", &s.deferred);
   changed |= ImGui::Checkbox("cull back faces", &s.cullBackFaces);
   // One row: the label, then one narrow slider per cascade, each after the previous with the
   // default spacing (SameLine(-1) placed them at x = -1, over the checkbox).

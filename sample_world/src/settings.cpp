@@ -267,6 +267,7 @@ const std::vector<Entry>& table() {
       number<std::uint32_t>("view.height", "an integer in [64, 4320]", 64, 4320, true,
                             [](AppSettings& s) -> std::uint32_t& { return s.height; }),
       boolean("view.depthPrepass", [](AppSettings& s) -> bool& { return s.depthPrepass; }),
+      boolean("view.deferred", [](AppSettings& s) -> bool& { return s.deferred; }),
       boolean("view.cullBackFaces", [](AppSettings& s) -> bool& { return s.cullBackFaces; }),
       number<double>("camera.fov", "degrees in [1, 170]", 1, 170, false,
                      [](AppSettings& s) -> double& { return s.fovDeg; }),

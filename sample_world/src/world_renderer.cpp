@@ -5,6 +5,9 @@
 #include <csm_shaders/overlay_2d.vert.spv.h>
 #include <csm_shaders/world.frag.spv.h>
 #include <csm_shaders/world.vert.spv.h>
+#include <csm_shaders/world_deferred.frag.spv.h>
+#include <csm_shaders/world_deferred.vert.spv.h>
+#include <csm_shaders/world_gbuffer.frag.spv.h>
 
 #include <algorithm>
 #include <chrono>
@@ -34,8 +37,9 @@ struct WorldFrameGpu {
   glm::vec4 lightColor;
   glm::vec4 ambientColor;
   glm::uvec4 overlay;
+  glm::mat4 invViewProjCr;
 };
-static_assert(sizeof(WorldFrameGpu) == 128);
+static_assert(sizeof(WorldFrameGpu) == 192);
 
 engine::MeshRange upload(engine::MeshStore& store, const MeshData& m) {
   std::vector<engine::Vertex> v(m.positions.size());
@@ -81,6 +85,7 @@ WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat 
   buildClosedMeshes(world);
   setUpShadowView(world);
   createFrameResources();
+  createGBufferResources();
   createPipelines();
 }
 
@@ -275,11 +280,89 @@ void WorldRenderer::createFrameResources() {
   }
 }
 
+// The G-buffer's formats, in attachment order (world_gbuffer.frag's outputs).
+constexpr std::array<VkFormat, 3> kGBufferFormats = {
+    VK_FORMAT_R8G8B8A8_UNORM, VK_FORMAT_R16G16B16A16_SFLOAT, VK_FORMAT_R32_SFLOAT};
+
+void WorldRenderer::createGBufferResources() {
+  VkDevice dev = ctx_->device();
+  std::array<VkDescriptorSetLayoutBinding, 3> bindings{};
+  for (std::uint32_t b = 0; b < bindings.size(); ++b) {
+    bindings[b] = {b, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT,
+                   nullptr};
+  }
+  gbufferLayout_ = engine::createDescriptorSetLayout(dev, bindings, "world.gbufferLayout");
+  const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
+                                  3 * engine::kFramesInFlight};
+  VkDescriptorPoolCreateInfo poolInfo{};
+  poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
+  poolInfo.maxSets = engine::kFramesInFlight;
+  poolInfo.poolSizeCount = 1;
+  poolInfo.pPoolSizes = &size;
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  ENGINE_VK_CHECK(vkCreateDescriptorPool(dev, &poolInfo, nullptr, &pool));
+  gbufferPool_ = engine::DeviceHandle<VkDescriptorPool>(dev, pool, vkDestroyDescriptorPool);
+  engine::setDebugName(dev, pool, "world.gbufferPool");
+  // Read with texelFetch only: nearest, no mips.
+  VkSamplerCreateInfo sci{};
+  sci.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
+  sci.magFilter = sci.minFilter = VK_FILTER_NEAREST;
+  sci.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  sci.addressModeU = sci.addressModeV = sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
+  VkSampler sampler = VK_NULL_HANDLE;
+  ENGINE_VK_CHECK(vkCreateSampler(dev, &sci, nullptr, &sampler));
+  gbufferSampler_ = engine::DeviceHandle<VkSampler>(dev, sampler, vkDestroySampler);
+  engine::setDebugName(dev, sampler, "world.gbufferSampler");
+  for (std::uint32_t s = 0; s < engine::kFramesInFlight; ++s) {
+    VkDescriptorSetLayout l = gbufferLayout_.get();
+    VkDescriptorSetAllocateInfo alloc{};
+    alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
+    alloc.descriptorPool = pool;
+    alloc.descriptorSetCount = 1;
+    alloc.pSetLayouts = &l;
+    ENGINE_VK_CHECK(vkAllocateDescriptorSets(dev, &alloc, &slots_[s].gbufferSet));
+    engine::setDebugName(dev, slots_[s].gbufferSet,
+                         "world.slot" + std::to_string(s) + ".gbufferSet");
+  }
+}
+
+void WorldRenderer::ensureGBuffer(Slot& slot, VkExtent2D extent) {
+  if (slot.gAlbedo && slot.gbufferExtent.width == extent.width &&
+      slot.gbufferExtent.height == extent.height) {
+    return;
+  }
+  // This slot's last frame has completed (its fence passed in beginFrame): its images are free.
+  const std::string n = "world.slot" + std::to_string(&slot - slots_.data()) + ".gbuffer.";
+  engine::Image* images[3] = {&slot.gAlbedo, &slot.gNormals, &slot.gViewDepth};
+  const char* names[3] = {"albedo", "normals", "viewDepth"};
+  std::array<VkDescriptorImageInfo, 3> infos{};
+  std::array<VkWriteDescriptorSet, 3> writes{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    engine::ImageDesc d;
+    d.format = kGBufferFormats[k];
+    d.extent = extent;
+    d.usage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+    *images[k] = engine::Image(*ctx_, d, n + names[k]);
+    infos[k] = {gbufferSampler_.get(), images[k]->view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    writes[k].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
+    writes[k].dstSet = slot.gbufferSet;
+    writes[k].dstBinding = static_cast<std::uint32_t>(k);
+    writes[k].descriptorCount = 1;
+    writes[k].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    writes[k].pImageInfo = &infos[k];
+  }
+  vkUpdateDescriptorSets(ctx_->device(), 3, writes.data(), 0, nullptr);
+  slot.gbufferExtent = extent;
+}
+
 void WorldRenderer::createPipelines() {
   // ---- Shader modules and the overlay pipelines (the lit pipeline is built by apply()) --------
   VkDevice dev = ctx_->device();
   worldVert_ = engine::createShaderModule(dev, world_vert_spv, "world.vert");
   worldFrag_ = engine::createShaderModule(dev, world_frag_spv, "world.frag");
+  gbufferFrag_ = engine::createShaderModule(dev, world_gbuffer_frag_spv, "world_gbuffer.frag");
+  deferredVert_ = engine::createShaderModule(dev, world_deferred_vert_spv, "world_deferred.vert");
+  deferredFrag_ = engine::createShaderModule(dev, world_deferred_frag_spv, "world_deferred.frag");
   overlayVert_ = engine::createShaderModule(dev, overlay_2d_vert_spv, "overlay_2d.vert");
   overlayFrag_ = engine::createShaderModule(dev, overlay_2d_frag_spv, "overlay_2d.frag");
 
@@ -344,6 +427,40 @@ void WorldRenderer::buildLitPipeline() {
       (cull ? depthPrepassCullBack_ : depthPrepass_) =
           d.build(*ctx_, cull ? "world.depthPrepass.cullBack" : "world.depthPrepass");
     }
+  }
+  if (settings_.deferred && !gbuffer_.pipeline) {
+    // The lit pipeline's vertex shader and input with world_gbuffer.frag: depth LESS with writes.
+    for (int cull = 0; cull < 2; ++cull) {
+      engine::GraphicsPipelineBuilder g;
+      g.vertexShader(worldVert_)
+          .fragmentShader(gbufferFrag_)
+          .vertexInput(bindings, attrs)
+          .colorFormats(kGBufferFormats)
+          .depthFormat(depthFormat_)
+          .depthTest(true, true, VK_COMPARE_OP_LESS)
+          .cullMode(cull ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE)
+          .descriptorSetLayout(frameLayout_.get())
+          .descriptorSetLayout(shadow_->lightingSetLayout());
+      (cull ? gbufferCullBack_ : gbuffer_) =
+          g.build(*ctx_, cull ? "world.gbuffer.cullBack" : "world.gbuffer");
+    }
+  }
+  if (settings_.deferred && !deferredPipelines_.count(kernel)) {
+    // One triangle over the view, no depth test, into the frame's colour (and depth: the overlay
+    // draws in the same rendering).
+    engine::GraphicsPipelineBuilder d;
+    d.vertexShader(deferredVert_)
+        .fragmentShader(deferredFrag_)
+        .colorFormat(colorFormat_)
+        .depthFormat(depthFormat_)
+        .depthTest(false, false)
+        .descriptorSetLayout(frameLayout_.get())
+        .descriptorSetLayout(shadow_->lightingSetLayout())
+        .descriptorSetLayout(gbufferLayout_.get())
+        .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_KERNEL, kernel)
+        .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, 1u);
+    deferredPipelines_[kernel] =
+        d.build(*ctx_, std::string("world.deferred.") + kernelKey(settings_.kernel));
   }
   if (litPipelines_.count(key)) return;
   for (int cull = 0; cull < 2; ++cull) {
@@ -700,6 +817,7 @@ void WorldRenderer::recordLitPass(const engine::Frame& f, Slot& slot, engine::Gp
   // ---- Lit pass ---------------------------------------------------------------------------------
   WorldFrameGpu gpu{};
   gpu.viewProjCr = camera_.viewProjectionCr();
+  gpu.invViewProjCr = glm::mat4(glm::inverse(glm::dmat4(gpu.viewProjCr)));
   gpu.lightDirection = glm::vec4(glm::vec3(lightDirection(settings_)), 0.0f);
   gpu.lightColor = glm::vec4(1.0f, 0.96f, 0.88f, 1.0f);
   gpu.ambientColor = glm::vec4(glm::vec3(0.55f, 0.65f, 0.85f) * settings_.ambient * 1.6f, 1.0f);
@@ -708,6 +826,11 @@ void WorldRenderer::recordLitPass(const engine::Frame& f, Slot& slot, engine::Gp
   std::memcpy(slot.frameUniforms.mapped(), &gpu, sizeof(gpu));
   std::memcpy(slot.instances.mapped(), instances_.data(), instances_.size() * sizeof(Instance));
 
+  if (settings_.deferred && f.depthView != VK_NULL_HANDLE) {
+    recordGBufferPass(f, slot, timer);
+    recordDeferredLighting(f, slot, timer);
+    return;
+  }
   const bool prepass = settings_.depthPrepass && f.depthView != VK_NULL_HANDLE;
   if (prepass) recordDepthPrepass(f, slot, timer);
   timer.begin(cmd, "lit");
@@ -747,6 +870,113 @@ void WorldRenderer::recordLitPass(const engine::Frame& f, Slot& slot, engine::Gp
     engine::setViewportAndScissor(cmd, f.extent);
     bindWorldGeometry(cmd, slot);
     drawBuckets(cmd, p, litPipeline(prepass, true));
+  }
+  timer.end(cmd, "lit");
+}
+
+void WorldRenderer::recordGBufferPass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer) {
+  VkCommandBuffer cmd = f.cmd;
+  ensureGBuffer(slot, f.extent);
+  // A rendering of its own (on lavapipe its rasterisation happens when it ends: the scope holds
+  // it). The images' last reads (this slot's previous lighting pass) before the writes; their
+  // contents are not kept.
+  timer.begin(cmd, "gbuffer");
+  const engine::Image* images[3] = {&slot.gAlbedo, &slot.gNormals, &slot.gViewDepth};
+  std::array<VkRenderingAttachmentInfo, 3> colors{};
+  for (std::size_t k = 0; k < 3; ++k) {
+    engine::imageBarrier(
+        cmd, images[k]->handle(), VK_IMAGE_ASPECT_COLOR_BIT,
+        VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+        VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+        VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+    colors[k].sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+    colors[k].imageView = images[k]->view();
+    colors[k].imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    colors[k].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;  // view depth 0: sky
+    colors[k].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    colors[k].clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};
+  }
+  VkRenderingAttachmentInfo depth{};
+  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  depth.imageView = f.depthView;
+  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  depth.clearValue.depthStencil = {1.0f, 0};
+  VkRenderingInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
+  info.renderArea = {{0, 0}, f.extent};
+  info.layerCount = 1;
+  info.colorAttachmentCount = static_cast<std::uint32_t>(colors.size());
+  info.pColorAttachments = colors.data();
+  info.pDepthAttachment = &depth;
+  vkCmdBeginRendering(cmd, &info);
+  {
+    engine::ScopedLabel label(cmd, "world g-buffer pass", {0.6f, 0.6f, 0.9f, 1.0f});
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, gbuffer_.pipeline);
+    const VkDescriptorSet sets[2] = {slot.frameSet, shadow_->lightingSet()};
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, gbuffer_.layout, 0, 2, sets, 0,
+                            nullptr);
+    engine::setViewportAndScissor(cmd, f.extent);
+    bindWorldGeometry(cmd, slot);
+    drawBuckets(cmd, gbuffer_, gbufferCullBack_);
+  }
+  vkCmdEndRendering(cmd);
+  // The G-buffer's writes before the lighting pass reads it; the depth writes before the
+  // rendering that keeps them (the overlay's, the depth-range reduction after it).
+  for (const engine::Image* im : images) {
+    engine::imageBarrier(
+        cmd, im->handle(), VK_IMAGE_ASPECT_COLOR_BIT,
+        VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
+        VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
+        VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  }
+  engine::imageBarrier(
+      cmd, f.depthImage, VK_IMAGE_ASPECT_DEPTH_BIT,
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+  timer.end(cmd, "gbuffer");
+}
+
+void WorldRenderer::recordDeferredLighting(const engine::Frame& f, Slot& slot,
+                                           engine::GpuTimer& timer) {
+  VkCommandBuffer cmd = f.cmd;
+  timer.begin(cmd, "lit");
+  // Colour cleared to the sky, the G-buffer pass's depth kept for the overlay and the reduction.
+  VkRenderingAttachmentInfo color{};
+  color.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  color.imageView = f.colorView;
+  color.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  color.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  color.clearValue.color = kSkyColor;
+  VkRenderingAttachmentInfo depth{};
+  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  depth.imageView = f.depthView;
+  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  VkRenderingInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
+  info.renderArea = {{0, 0}, f.extent};
+  info.layerCount = 1;
+  info.colorAttachmentCount = 1;
+  info.pColorAttachments = &color;
+  info.pDepthAttachment = &depth;
+  vkCmdBeginRendering(cmd, &info);
+  {
+    engine::ScopedLabel label(cmd, "world deferred lighting", {0.9f, 0.8f, 0.3f, 1.0f});
+    const engine::GraphicsPipeline& p =
+        deferredPipelines_.at(static_cast<std::uint32_t>(settings_.kernel));
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.pipeline);
+    const VkDescriptorSet sets[3] = {slot.frameSet, shadow_->lightingSet(), slot.gbufferSet};
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 3, sets, 0, nullptr);
+    engine::setViewportAndScissor(cmd, f.extent);
+    vkCmdDraw(cmd, 3, 1, 0, 0);
   }
   timer.end(cmd, "lit");
 }

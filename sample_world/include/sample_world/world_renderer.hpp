@@ -1,7 +1,8 @@
 // Draws the sample world: the cascades (csm::core), the shadow pass (csm::vk::ShadowRenderer,
-// far cascades drawing simplified caster clusters), the instanced lit pass through csm.glsl and
-// the cascade-visualisation overlay (tint and texel checker in the lit pass; shadow-map
-// thumbnails and the top-down map as 2D geometry). Composes engine/ and shadows/.
+// far cascades drawing simplified caster clusters), the instanced lit pass through csm.glsl
+// (deferred: a G-buffer pass and a lighting pass over the view; or forward, after a depth
+// pre-pass) and the cascade-visualisation overlay (tint and texel checker in the shading;
+// shadow-map thumbnails and the top-down map as 2D geometry). Composes engine/ and shadows/.
 #pragma once
 
 #include <array>
@@ -70,7 +71,7 @@ class WorldRenderer {
 
   /// Records the frame prepared last into `frame`: shadow pass, lit pass, overlay 2D geometry
   /// when `overlay`. GPU scopes: "shadow", "shadow c<i>", "prepass" (settings.depthPrepass),
-  /// "lit", "overlay".
+  /// "gbuffer" (settings.deferred), "lit" (the deferred lighting pass there), "overlay".
   void record(const engine::Frame& frame, engine::GpuTimer& timer, bool overlay, FrameStats& stats);
 
   const csm::CascadeFrame& cascades() const { return shadow_->frame(); }
@@ -103,6 +104,11 @@ class WorldRenderer {
     engine::Buffer instances;
     engine::Buffer overlay;
     VkDescriptorSet frameSet = VK_NULL_HANDLE;
+    // The G-buffer (settings.deferred), sized for the frame this slot last drew; its set
+    // (binding 0 albedo, 1 normals, 2 view depth) is written when the images are (re)created.
+    engine::Image gAlbedo, gNormals, gViewDepth;
+    VkDescriptorSet gbufferSet = VK_NULL_HANDLE;
+    VkExtent2D gbufferExtent{0, 0};
   };
   // The constructor's stages, in order.
   void uploadMeshes(const World& world);     // every asset and caster-cluster LOD, one store
@@ -119,6 +125,12 @@ class WorldRenderer {
   // The depth pre-pass (settings.depthPrepass): the visible instances depth-only, in a rendering
   // of its own, so that the lit pass shades each pixel once (depth test EQUAL, no writes).
   void recordDepthPrepass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer);
+  // Deferred shading (settings.deferred): the G-buffer pass in a rendering of its own, then the
+  // lighting pass (one triangle over the view) opening the rendering the overlay draws into.
+  void createGBufferResources();  // set layout, pool, sampler and one set per slot
+  void ensureGBuffer(Slot& slot, VkExtent2D extent);
+  void recordGBufferPass(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer);
+  void recordDeferredLighting(const engine::Frame& f, Slot& slot, engine::GpuTimer& timer);
   void bindWorldGeometry(VkCommandBuffer cmd, Slot& slot) const;
   // Draws every bucket; binds `cullBack` or `both` (each bound with `layout`'s sets) as the
   // buckets' back-face culling changes.
@@ -159,6 +171,14 @@ class WorldRenderer {
   static constexpr std::uint32_t kLitAfterPrepass = 1u << 16;
   static constexpr std::uint32_t kLitCullBack = 1u << 17;
   engine::GraphicsPipeline depthPrepass_, depthPrepassCullBack_;  // world.vert only
+  // Deferred shading: the G-buffer pipelines (world.vert + world_gbuffer.frag, both faces and
+  // back faces culled) and, by kernel, the lighting pipeline (world_deferred.vert/.frag).
+  engine::DeviceHandle<VkShaderModule> gbufferFrag_, deferredVert_, deferredFrag_;
+  engine::GraphicsPipeline gbuffer_, gbufferCullBack_;
+  std::map<std::uint32_t, engine::GraphicsPipeline> deferredPipelines_;
+  engine::DeviceHandle<VkDescriptorSetLayout> gbufferLayout_;
+  engine::DeviceHandle<VkDescriptorPool> gbufferPool_;
+  engine::DeviceHandle<VkSampler> gbufferSampler_;
   // Per mesh asset: every LOD is closed and outward (settings.cullBackFaces culls its back faces).
   std::vector<bool> closedMesh_;
   void buildClosedMeshes(const World& world);
