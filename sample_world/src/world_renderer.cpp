@@ -75,6 +75,58 @@ double boxDistance(const csm::AabbWs& b, const glm::dvec3& p) {
 
 constexpr VkClearColorValue kSkyColor{{0.55f, 0.68f, 0.86f, 1.0f}};
 
+// Begins the rendering the shading and the overlay draw into: the frame's colour cleared to the
+// sky, its depth (written by the pre-pass or the G-buffer pass) loaded and kept.
+void beginShadingKeepingDepth(const engine::Frame& f) {
+  VkRenderingAttachmentInfo color{};
+  color.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  color.imageView = f.colorView;
+  color.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+  color.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  color.clearValue.color = kSkyColor;
+  VkRenderingAttachmentInfo depth{};
+  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  depth.imageView = f.depthView;
+  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  VkRenderingInfo info{};
+  info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
+  info.renderArea = {{0, 0}, f.extent};
+  info.layerCount = 1;
+  info.colorAttachmentCount = 1;
+  info.pColorAttachments = &color;
+  info.pDepthAttachment = &depth;
+  vkCmdBeginRendering(f.cmd, &info);
+  engine::setViewportAndScissor(f.cmd, f.extent);
+}
+
+// The depth attachment of a pass that draws the visible world first: cleared to the far plane,
+// stored.
+VkRenderingAttachmentInfo clearedDepth(const engine::Frame& f) {
+  VkRenderingAttachmentInfo depth{};
+  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  depth.imageView = f.depthView;
+  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  depth.clearValue.depthStencil = {1.0f, 0};
+  return depth;
+}
+
+// That pass's depth writes before the rendering that tests or keeps them (same layout).
+void depthWritesBeforeShading(const engine::Frame& f) {
+  engine::imageBarrier(
+      f.cmd, f.depthImage, VK_IMAGE_ASPECT_DEPTH_BIT,
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
+          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
+      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+}
+
 }  // namespace
 
 WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat colorFormat,
@@ -776,13 +828,7 @@ void WorldRenderer::recordDepthPrepass(const engine::Frame& f, Slot& slot,
   // A rendering of its own: on a binning rasteriser (lavapipe) the work happens when a
   // rendering ends, so the "prepass" scope holds the pre-pass's rasterisation, not the lit pass's.
   timer.begin(cmd, "prepass");
-  VkRenderingAttachmentInfo depth{};
-  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-  depth.imageView = f.depthView;
-  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  depth.clearValue.depthStencil = {1.0f, 0};
+  const VkRenderingAttachmentInfo depth = clearedDepth(f);
   VkRenderingInfo info{};
   info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
   info.renderArea = {{0, 0}, f.extent};
@@ -800,14 +846,7 @@ void WorldRenderer::recordDepthPrepass(const engine::Frame& f, Slot& slot,
   }
   vkCmdEndRendering(cmd);
   // The pre-pass's depth writes before the lit pass's depth tests (same layout).
-  engine::imageBarrier(
-      cmd, f.depthImage, VK_IMAGE_ASPECT_DEPTH_BIT,
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
-          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+  depthWritesBeforeShading(f);
   timer.end(cmd, "prepass");
 }
 
@@ -835,29 +874,7 @@ void WorldRenderer::recordLitPass(const engine::Frame& f, Slot& slot, engine::Gp
   if (prepass) recordDepthPrepass(f, slot, timer);
   timer.begin(cmd, "lit");
   if (prepass) {
-    // Colour cleared, the pre-pass's depth kept.
-    VkRenderingAttachmentInfo color{};
-    color.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-    color.imageView = f.colorView;
-    color.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    color.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    color.clearValue.color = kSkyColor;
-    VkRenderingAttachmentInfo depth{};
-    depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-    depth.imageView = f.depthView;
-    depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    depth.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
-    depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    VkRenderingInfo info{};
-    info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
-    info.renderArea = {{0, 0}, f.extent};
-    info.layerCount = 1;
-    info.colorAttachmentCount = 1;
-    info.pColorAttachments = &color;
-    info.pDepthAttachment = &depth;
-    vkCmdBeginRendering(cmd, &info);
-    engine::setViewportAndScissor(cmd, f.extent);
+    beginShadingKeepingDepth(f);
   } else {
     engine::beginRendering(f, kSkyColor);
   }
@@ -896,13 +913,7 @@ void WorldRenderer::recordGBufferPass(const engine::Frame& f, Slot& slot, engine
     colors[k].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
     colors[k].clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};
   }
-  VkRenderingAttachmentInfo depth{};
-  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-  depth.imageView = f.depthView;
-  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  depth.clearValue.depthStencil = {1.0f, 0};
+  const VkRenderingAttachmentInfo depth = clearedDepth(f);
   VkRenderingInfo info{};
   info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
   info.renderArea = {{0, 0}, f.extent};
@@ -931,14 +942,7 @@ void WorldRenderer::recordGBufferPass(const engine::Frame& f, Slot& slot, engine
         VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
         VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   }
-  engine::imageBarrier(
-      cmd, f.depthImage, VK_IMAGE_ASPECT_DEPTH_BIT,
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT |
-          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT,
-      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+  depthWritesBeforeShading(f);
   timer.end(cmd, "gbuffer");
 }
 
@@ -947,27 +951,7 @@ void WorldRenderer::recordDeferredLighting(const engine::Frame& f, Slot& slot,
   VkCommandBuffer cmd = f.cmd;
   timer.begin(cmd, "lit");
   // Colour cleared to the sky, the G-buffer pass's depth kept for the overlay and the reduction.
-  VkRenderingAttachmentInfo color{};
-  color.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-  color.imageView = f.colorView;
-  color.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  color.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  color.clearValue.color = kSkyColor;
-  VkRenderingAttachmentInfo depth{};
-  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-  depth.imageView = f.depthView;
-  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
-  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  VkRenderingInfo info{};
-  info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
-  info.renderArea = {{0, 0}, f.extent};
-  info.layerCount = 1;
-  info.colorAttachmentCount = 1;
-  info.pColorAttachments = &color;
-  info.pDepthAttachment = &depth;
-  vkCmdBeginRendering(cmd, &info);
+  beginShadingKeepingDepth(f);
   {
     engine::ScopedLabel label(cmd, "world deferred lighting", {0.9f, 0.8f, 0.3f, 1.0f});
     const engine::GraphicsPipeline& p =
@@ -975,7 +959,6 @@ void WorldRenderer::recordDeferredLighting(const engine::Frame& f, Slot& slot,
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.pipeline);
     const VkDescriptorSet sets[3] = {slot.frameSet, shadow_->lightingSet(), slot.gbufferSet};
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 3, sets, 0, nullptr);
-    engine::setViewportAndScissor(cmd, f.extent);
     vkCmdDraw(cmd, 3, 1, 0, 0);
   }
   timer.end(cmd, "lit");
