@@ -53,6 +53,37 @@ const char* kLitAlone =
     " --set view.cullBackFaces=false";
 const char* kDeferred = " --set view.deferred=true --set view.cullBackFaces=true";
 
+struct ImagePair {
+  std::string name;
+  Image a, b;
+};
+
+// The lit images and shadow-factor views of two runs' screenshots (the overlay image adds host
+// text with timings), loaded in pairs; a pair whose names or 320x180 sizes disagree is reported
+// as a failure and left out.
+std::vector<ImagePair> litAndShadowImages(const json& ra, const fs::path& da, const json& rb,
+                                          const fs::path& db) {
+  std::vector<ImagePair> pairs;
+  const std::size_t n = std::min(ra["screenshots"].size(), rb["screenshots"].size());
+  for (std::size_t s = 0; s < n; ++s) {
+    for (const char* k : {"file", "shadow_file"}) {
+      const std::string name = ra["screenshots"][s][k].get<std::string>();
+      if (name != rb["screenshots"][s][k].get<std::string>()) {
+        ADD_FAILURE() << "screenshot " << s << ": " << name << " against "
+                      << rb["screenshots"][s][k].get<std::string>();
+        continue;
+      }
+      ImagePair p{name, loadPng(da / name), loadPng(db / name)};
+      if (p.a.width != 320 || p.a.height != 180 || p.b.width != 320 || p.b.height != 180) {
+        ADD_FAILURE() << name << " is not 320x180 in both runs";
+        continue;
+      }
+      pairs.push_back(std::move(p));
+    }
+  }
+  return pairs;
+}
+
 json runFlight(const std::string& path, const std::string& settings, const fs::path& out) {
   fs::remove_all(out);
   // Small on purpose (lavapipe): 320x180 views, 1024^2 cascades, screenshots at 0, 4, 8, 11.
@@ -98,32 +129,24 @@ TEST_P(Prepass, PrepassAndCullingSameImageAsLitPassAloneValidationClean) {
   ASSERT_EQ(on["screenshots"].size(), 4u);
   ASSERT_EQ(off["screenshots"].size(), 4u);
   std::uint64_t differing = 0, total = 0;
-  for (std::size_t s = 0; s < on["screenshots"].size(); ++s) {
-    // The lit image and the shadow-factor view (the overlay image adds host text and map).
-    for (const char* k : {"file", "shadow_file"}) {
-      const std::string name = on["screenshots"][s][k].get<std::string>();
-      ASSERT_EQ(name, off["screenshots"][s][k].get<std::string>());
-      const Image a = loadPng(base / "on" / name), b = loadPng(base / "off" / name);
-      ASSERT_EQ(a.width, 320) << name;
-      ASSERT_EQ(a.height, 180) << name;
-      ASSERT_EQ(b.width, a.width) << name;
-      ASSERT_EQ(b.height, a.height) << name;
-      std::uint64_t here = 0;
-      for (std::size_t p = 0; p < a.rgba.size(); p += 4) {
-        here += (a.rgba[p] != b.rgba[p] || a.rgba[p + 1] != b.rgba[p + 1] ||
-                 a.rgba[p + 2] != b.rgba[p + 2])
-                    ? 1
-                    : 0;
-      }
-      // Per image: depth ties are a few pixels of distant, overlapping foliage. A pre-pass whose
-      // depths differ from the lit pass's (no `precise`, another vertex shader) fails EQUAL on
-      // whole surfaces and shows the sky there; culling the front faces of a mesh, or the back
-      // faces of an open one, shows what lies behind it.
-      EXPECT_LE(here, a.rgba.size() / 4 / 500)
-          << path << " " << name << ": " << here << " pixels differ";
-      differing += here;
-      total += a.rgba.size() / 4;
+  const std::vector<ImagePair> pairs = litAndShadowImages(on, base / "on", off, base / "off");
+  EXPECT_EQ(pairs.size(), 8u);
+  for (const ImagePair& im : pairs) {
+    std::uint64_t here = 0;
+    for (std::size_t p = 0; p < im.a.rgba.size(); p += 4) {
+      here += (im.a.rgba[p] != im.b.rgba[p] || im.a.rgba[p + 1] != im.b.rgba[p + 1] ||
+               im.a.rgba[p + 2] != im.b.rgba[p + 2])
+                  ? 1
+                  : 0;
     }
+    // Per image: depth ties are a few pixels of distant, overlapping foliage. A pre-pass whose
+    // depths differ from the lit pass's (no `precise`, another vertex shader) fails EQUAL on
+    // whole surfaces and shows the sky there; culling the front faces of a mesh, or the back
+    // faces of an open one, shows what lies behind it.
+    EXPECT_LE(here, im.a.rgba.size() / 4 / 500)
+        << path << " " << im.name << ": " << here << " pixels differ";
+    differing += here;
+    total += im.a.rgba.size() / 4;
   }
   std::printf("%s: %llu of %llu pixels differ with the pre-pass and culling (depth ties)\n",
               path.c_str(), static_cast<unsigned long long>(differing),
@@ -165,31 +188,26 @@ TEST_P(Deferred, SameImageAsTheForwardLitPassValidationClean) {
   ASSERT_EQ(forward["screenshots"].size(), 4u);
   std::uint64_t rounding = 0, far = 0, total = 0;
   int largest = 0;
-  for (std::size_t s = 0; s < deferred["screenshots"].size(); ++s) {
-    // The lit image and the shadow-factor view (the overlay image adds host text with timings).
-    for (const char* k : {"file", "shadow_file"}) {
-      const std::string name = deferred["screenshots"][s][k].get<std::string>();
-      ASSERT_EQ(name, forward["screenshots"][s][k].get<std::string>());
-      const Image a = loadPng(base / "deferred" / name), b = loadPng(base / "forward" / name);
-      ASSERT_EQ(a.width, 320) << name;
-      ASSERT_EQ(a.height, 180) << name;
-      ASSERT_EQ(b.width, a.width) << name;
-      ASSERT_EQ(b.height, a.height) << name;
-      std::uint64_t farHere = 0;
-      for (std::size_t p = 0; p < a.rgba.size(); p += 4) {
-        int d = 0;
-        for (int c = 0; c < 3; ++c) d = std::max(d, std::abs(int(a.rgba[p + c]) - b.rgba[p + c]));
-        largest = std::max(largest, d);
-        rounding += d > 0 && d <= 3 ? 1 : 0;
-        farHere += d > 3 ? 1 : 0;
+  const std::vector<ImagePair> pairs =
+      litAndShadowImages(deferred, base / "deferred", forward, base / "forward");
+  EXPECT_EQ(pairs.size(), 8u);
+  for (const ImagePair& im : pairs) {
+    std::uint64_t farHere = 0;
+    for (std::size_t p = 0; p < im.a.rgba.size(); p += 4) {
+      int d = 0;
+      for (int c = 0; c < 3; ++c) {
+        d = std::max(d, std::abs(int(im.a.rgba[p + c]) - int(im.b.rgba[p + c])));
       }
-      // A sky pixel shaded, a surface left sky, a wrong normal or position: whole surfaces or
-      // strips. Shadow-texel edge flips: a few scattered pixels.
-      EXPECT_LE(farHere, a.rgba.size() / 4 / 1000)
-          << path << " " << name << ": " << farHere << " pixels differ by more than 3 levels";
-      far += farHere;
-      total += a.rgba.size() / 4;
+      largest = std::max(largest, d);
+      rounding += d > 0 && d <= 3 ? 1 : 0;
+      farHere += d > 3 ? 1 : 0;
     }
+    // A sky pixel shaded, a surface left sky, a wrong normal or position: whole surfaces or
+    // strips. Shadow-texel edge flips and depth ties: a few scattered pixels.
+    EXPECT_LE(farHere, im.a.rgba.size() / 4 / 1000)
+        << path << " " << im.name << ": " << farHere << " pixels differ by more than 3 levels";
+    far += farHere;
+    total += im.a.rgba.size() / 4;
   }
   std::printf("%s: of %llu pixels %llu differ by 1-3 levels, %llu by more (largest %d)\n",
               path.c_str(), static_cast<unsigned long long>(total),
