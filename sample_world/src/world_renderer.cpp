@@ -20,6 +20,7 @@
 #include "engine/errors.hpp"
 #include "glue/camera.hpp"
 #include "glue/shadow_host.hpp"
+#include "glue/vk_util.hpp"
 
 namespace world {
 
@@ -75,22 +76,28 @@ double boxDistance(const csm::AabbWs& b, const glm::dvec3& p) {
 
 constexpr VkClearColorValue kSkyColor{{0.55f, 0.68f, 0.86f, 1.0f}};
 
+// An attachment of a rendering, stored at its end.
+VkRenderingAttachmentInfo storedAttachment(VkImageView view, VkImageLayout layout,
+                                           VkAttachmentLoadOp load, VkClearValue clear = {}) {
+  VkRenderingAttachmentInfo a{};
+  a.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
+  a.imageView = view;
+  a.imageLayout = layout;
+  a.loadOp = load;
+  a.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  a.clearValue = clear;
+  return a;
+}
+
 // Begins the rendering the shading and the overlay draw into: the frame's colour cleared to the
 // sky, its depth (written by the pre-pass or the G-buffer pass) loaded and kept.
 void beginShadingKeepingDepth(const engine::Frame& f) {
-  VkRenderingAttachmentInfo color{};
-  color.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-  color.imageView = f.colorView;
-  color.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  color.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  color.clearValue.color = kSkyColor;
-  VkRenderingAttachmentInfo depth{};
-  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-  depth.imageView = f.depthView;
-  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
-  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  VkClearValue sky{};
+  sky.color = kSkyColor;
+  const VkRenderingAttachmentInfo color = storedAttachment(
+      f.colorView, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_ATTACHMENT_LOAD_OP_CLEAR, sky);
+  const VkRenderingAttachmentInfo depth = storedAttachment(
+      f.depthView, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_ATTACHMENT_LOAD_OP_LOAD);
   VkRenderingInfo info{};
   info.sType = VK_STRUCTURE_TYPE_RENDERING_INFO;
   info.renderArea = {{0, 0}, f.extent};
@@ -105,14 +112,10 @@ void beginShadingKeepingDepth(const engine::Frame& f) {
 // The depth attachment of a pass that draws the visible world first: cleared to the far plane,
 // stored.
 VkRenderingAttachmentInfo clearedDepth(const engine::Frame& f) {
-  VkRenderingAttachmentInfo depth{};
-  depth.sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-  depth.imageView = f.depthView;
-  depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  depth.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  depth.clearValue.depthStencil = {1.0f, 0};
-  return depth;
+  VkClearValue far{};
+  far.depthStencil = {1.0f, 0};
+  return storedAttachment(f.depthView, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+                          VK_ATTACHMENT_LOAD_OP_CLEAR, far);
 }
 
 // That pass's depth writes before the rendering that tests or keeps them (same layout).
@@ -291,16 +294,9 @@ void WorldRenderer::createFrameResources() {
       VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT, nullptr};
   frameLayout_ =
       engine::createDescriptorSetLayout(dev, std::span(&binding, 1), "world.frameLayout");
-  VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, engine::kFramesInFlight};
-  VkDescriptorPoolCreateInfo poolInfo{};
-  poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-  poolInfo.maxSets = engine::kFramesInFlight;
-  poolInfo.poolSizeCount = 1;
-  poolInfo.pPoolSizes = &size;
-  VkDescriptorPool pool = VK_NULL_HANDLE;
-  ENGINE_VK_CHECK(vkCreateDescriptorPool(dev, &poolInfo, nullptr, &pool));
-  pool_ = engine::DeviceHandle<VkDescriptorPool>(dev, pool, vkDestroyDescriptorPool);
-  engine::setDebugName(dev, pool, "world.pool");
+  pool_ = glue::detail::makeDescriptorPool(dev, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER,
+                                           engine::kFramesInFlight, "world.pool",
+                                           engine::kFramesInFlight);
   for (std::uint32_t s = 0; s < engine::kFramesInFlight; ++s) {
     Slot& slot = slots_[s];
     const std::string n = "world.slot" + std::to_string(s);
@@ -313,14 +309,8 @@ void WorldRenderer::createFrameResources() {
     slot.overlay = engine::Buffer(*ctx_, sizeof(OverlayVertex) * kMaxOverlayVertices,
                                   VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, engine::MemoryUsage::Upload,
                                   n + ".overlay");
-    VkDescriptorSetLayout l = frameLayout_.get();
-    VkDescriptorSetAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-    alloc.descriptorPool = pool;
-    alloc.descriptorSetCount = 1;
-    alloc.pSetLayouts = &l;
-    ENGINE_VK_CHECK(vkAllocateDescriptorSets(dev, &alloc, &slot.frameSet));
-    engine::setDebugName(dev, slot.frameSet, n + ".frameSet");
+    slot.frameSet =
+        glue::detail::allocateDescriptorSet(dev, pool_, frameLayout_, (n + ".frameSet").c_str());
     VkDescriptorBufferInfo bi{slot.frameUniforms.handle(), 0, sizeof(WorldFrameGpu)};
     VkWriteDescriptorSet w{};
     w.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -344,17 +334,9 @@ void WorldRenderer::createGBufferResources() {
                    nullptr};
   }
   gbufferLayout_ = engine::createDescriptorSetLayout(dev, bindings, "world.gbufferLayout");
-  const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
-                                  3 * engine::kFramesInFlight};
-  VkDescriptorPoolCreateInfo poolInfo{};
-  poolInfo.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
-  poolInfo.maxSets = engine::kFramesInFlight;
-  poolInfo.poolSizeCount = 1;
-  poolInfo.pPoolSizes = &size;
-  VkDescriptorPool pool = VK_NULL_HANDLE;
-  ENGINE_VK_CHECK(vkCreateDescriptorPool(dev, &poolInfo, nullptr, &pool));
-  gbufferPool_ = engine::DeviceHandle<VkDescriptorPool>(dev, pool, vkDestroyDescriptorPool);
-  engine::setDebugName(dev, pool, "world.gbufferPool");
+  gbufferPool_ = glue::detail::makeDescriptorPool(dev, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER,
+                                                  3 * engine::kFramesInFlight, "world.gbufferPool",
+                                                  engine::kFramesInFlight);
   // Read with texelFetch only: nearest, no mips.
   VkSamplerCreateInfo sci{};
   sci.sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO;
@@ -366,15 +348,9 @@ void WorldRenderer::createGBufferResources() {
   gbufferSampler_ = engine::DeviceHandle<VkSampler>(dev, sampler, vkDestroySampler);
   engine::setDebugName(dev, sampler, "world.gbufferSampler");
   for (std::uint32_t s = 0; s < engine::kFramesInFlight; ++s) {
-    VkDescriptorSetLayout l = gbufferLayout_.get();
-    VkDescriptorSetAllocateInfo alloc{};
-    alloc.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO;
-    alloc.descriptorPool = pool;
-    alloc.descriptorSetCount = 1;
-    alloc.pSetLayouts = &l;
-    ENGINE_VK_CHECK(vkAllocateDescriptorSets(dev, &alloc, &slots_[s].gbufferSet));
-    engine::setDebugName(dev, slots_[s].gbufferSet,
-                         "world.slot" + std::to_string(s) + ".gbufferSet");
+    const std::string name = "world.slot" + std::to_string(s) + ".gbufferSet";
+    slots_[s].gbufferSet =
+        glue::detail::allocateDescriptorSet(dev, gbufferPool_, gbufferLayout_, name.c_str());
   }
 }
 
@@ -906,12 +882,9 @@ void WorldRenderer::recordGBufferPass(const engine::Frame& f, Slot& slot, engine
         VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_SHADER_SAMPLED_READ_BIT,
         VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT,
         VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-    colors[k].sType = VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO;
-    colors[k].imageView = images[k]->view();
-    colors[k].imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    colors[k].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;  // view depth 0: sky
-    colors[k].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    colors[k].clearValue.color = {{0.0f, 0.0f, 0.0f, 0.0f}};
+    // Cleared to 0 (view depth 0: sky).
+    colors[k] = storedAttachment(images[k]->view(), VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+                                 VK_ATTACHMENT_LOAD_OP_CLEAR);
   }
   const VkRenderingAttachmentInfo depth = clearedDepth(f);
   VkRenderingInfo info{};

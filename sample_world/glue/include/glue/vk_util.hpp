@@ -1,6 +1,6 @@
-// Small Vulkan helpers of the glue and its tools (tools/measure): zero-initialised Vulkan structs
-// with sType set, a one-set descriptor pool, a set from it, and a storage/uniform buffer written
-// into a set (the engine's own helpers are private to it).
+// Small Vulkan helpers of the glue, its tools (tools/measure) and the sample world's renderer:
+// zero-initialised Vulkan structs with sType set, a descriptor pool, a set from it, and a
+// storage/uniform buffer written into a set (the engine's own helpers are private to it).
 #pragma once
 
 #include <vulkan/vulkan.h>
@@ -34,13 +34,15 @@ inline void writeBufferDescriptor(VkDevice dev, VkDescriptorSet set, uint32_t bi
   vkUpdateDescriptorSets(dev, 1, &w, 0, nullptr);
 }
 
-/// A pool for one descriptor set of `count` descriptors of `type`, named `name`.
+/// A pool for `maxSets` descriptor sets holding `count` descriptors of `type` in all, named
+/// `name`.
 inline engine::DeviceHandle<VkDescriptorPool> makeDescriptorPool(VkDevice dev,
                                                                  VkDescriptorType type,
-                                                                 uint32_t count, const char* name) {
+                                                                 uint32_t count, const char* name,
+                                                                 uint32_t maxSets = 1) {
   VkDescriptorPoolSize size{type, count};
   auto pi = vkStruct<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-  pi.maxSets = 1;
+  pi.maxSets = maxSets;
   pi.poolSizeCount = 1;
   pi.pPoolSizes = &size;
   VkDescriptorPool pool = VK_NULL_HANDLE;
