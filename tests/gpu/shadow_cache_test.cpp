@@ -107,17 +107,22 @@ class CacheRig {
   /// Adds a view: cached, or the reference (cached but fully re-rendered every frame).
   ViewRig& addView(std::uint64_t budgetTexels = 0,
                    csm::vk::CacheRestore restore = csm::vk::CacheRestore::kRedraw) {
+    csm::vk::RendererOptions options;
+    options.cache = true;
+    options.renderMode = csm::vk::RenderMode::kPerLayer;
+    options.cacheBudgetTexels = budgetTexels;
+    options.cacheRestore = restore;
+    return addView(options);
+  }
+
+  /// Adds a view drawn with `options` (the cascades, distance and scene of every view).
+  ViewRig& addView(const csm::vk::RendererOptions& options) {
     ViewRig rig;
     rig.view = glue::createShadowView(*ctx_);
     csm::ShadowSettings settings;
     settings.cascadeCount = kCascades;
     settings.resolution = kResolution;
     settings.shadowDistanceM = 120.0;
-    csm::vk::RendererOptions options;
-    options.cache = true;
-    options.renderMode = csm::vk::RenderMode::kPerLayer;
-    options.cacheBudgetTexels = budgetTexels;
-    options.cacheRestore = restore;
     csm::vk::Status s = rig.view->setSettings(settings, options);
     if (!s.ok()) throw std::runtime_error(s.message());
     const csm::AabbWs scene{{-200, -1, -200}, {200, 20, 200}};
@@ -621,6 +626,117 @@ TEST(ShadowCacheTiming, DISABLED_CopyRectsVsWholeLayer) {
       kCascades, res, frames - 2, medianOf(ms[0]), medianOf(ms[1]),
       copyRects ? "rectangle copies" : "redrawn rectangles", medianOf(ratio), double(copied[0]),
       double(copied[1]));
+  EXPECT_EQ(engine::validationMessageCount(), 0u);
+}
+
+// Closed casters (CasterInstance::closed): culling their faces turned away from the light keeps
+// every texel's depth up to float rounding (per-layer, layered and cached, with a mirrored box,
+// moving dynamic casters and a moving sun): culling only removes candidates, so no texel may get
+// nearer, and where one gets deeper it is by rounding only (a back face's depth plane evaluated
+// at a silhouette texel can come out a few ulps nearer than the front face's). An inside-out box
+// flagged closed then shows its far faces' depth: the culling happens, in the stated winding.
+TEST(ClosedCasters, CullingKeepsEveryTexelsDepth) {
+  CacheRig rig;
+  // A mirrored box (negative determinant: its winding turns), then every box flagged closed.
+  rig.addStatic(1, {5.0, 1.5, -10.0}, {2.0, 3.0, 1.5}, 0.4);
+  rig.instances_.back().linearWs[0] *= -1.0f;
+  rig.staticCount_ = rig.instances_.size();
+  for (std::size_t i = 1; i < rig.staticCount_; ++i) rig.instances_[i].closed = true;
+  // Views in pairs, culling on then off: per-layer, cached, and layered where the device can.
+  std::vector<std::string> names = {"per-layer", "cached"};
+  for (int pair = 0; pair < 3; ++pair) {
+    csm::vk::RendererOptions options;
+    options.renderMode = csm::vk::RenderMode::kPerLayer;
+    options.cache = pair == 1;
+    if (pair == 2) {
+      if (!rig.ctx_->features().shaderOutputLayer) break;
+      options.renderMode = csm::vk::RenderMode::kLayered;
+      names.push_back("layered");
+    }
+    for (bool cull : {true, false}) {
+      options.cullClosedCasters = cull;
+      rig.addView(options);
+    }
+  }
+  const std::size_t views = rig.views_.size();
+  const int frames = std::min(flightFrames(), 48);
+  std::uint64_t compared = 0, differing = 0, nearer = 0;
+  float largest = 0.0f;  // largest depth difference, in units of the depth range
+  for (const char* path : {"fast", "sun"}) {
+    for (int f = 0; f < frames; ++f) {
+      rig.setDynamic(f);
+      for (std::size_t i = rig.staticCount_; i < rig.instances_.size(); ++i) {
+        rig.instances_[i].closed = true;
+      }
+      for (ViewRig& v : rig.views_) {
+        const csm::vk::Status s = v.view->setCasters(rig.meshDraws_, rig.instances_, rig.bounds_);
+        ASSERT_TRUE(s.ok()) << s.message();
+      }
+      rig.frame(pathCamera(path, f), pathLight(path, f), std::vector<bool>(views, false));
+      if (HasFailure()) return;
+      for (std::size_t v = 0; v < views; v += 2) {
+        for (std::uint32_t c = 0; c < kCascades; ++c) {
+          if (rig.views_[v].view->frame().cascades[c].empty) continue;
+          const std::vector<std::uint32_t> culled = layerOf(rig, v, c),
+                                           whole = layerOf(rig, v + 1, c);
+          compared += culled.size();
+          for (std::size_t t = 0; t < culled.size(); ++t) {
+            if (culled[t] == whole[t]) continue;
+            float a, b;
+            std::memcpy(&a, &culled[t], 4);
+            std::memcpy(&b, &whole[t], 4);
+            ++differing;
+            nearer += a < b ? 1 : 0;
+            largest = std::max(largest, std::abs(a - b));
+          }
+        }
+      }
+    }
+  }
+  std::printf(
+      "[closed] %zu render modes x 2 paths x %d frames: %llu of %llu texels differ "
+      "(largest by %.3g of the depth range), %llu nearer\n",
+      names.size(), frames, static_cast<unsigned long long>(differing),
+      static_cast<unsigned long long>(compared), double(largest),
+      static_cast<unsigned long long>(nearer));
+  EXPECT_EQ(nearer, 0u) << "culling made a texel nearer: it cannot add a surface";
+  EXPECT_LE(largest, 1e-5f) << "a texel lost its nearest surface (a face culled wrongly)";
+  EXPECT_LE(differing * 100000, compared) << "more texels differ than rounding at silhouettes";
+
+  // An inside-out box flagged closed: culled as if it were wound outward, it keeps its faces
+  // turned away from the light, so the map is deeper under it, nowhere nearer.
+  std::vector<engine::Vertex> v;
+  std::vector<std::uint32_t> idx;
+  engine::makeCube(v, idx);
+  for (std::size_t t = 0; t + 2 < idx.size(); t += 3) std::swap(idx[t + 1], idx[t + 2]);
+  const engine::MeshRange inverted = rig.meshes_->upload(v, idx);
+  csm::vk::MeshDraw draw = rig.meshDraws_[1];
+  draw.firstIndex = inverted.firstIndex;
+  draw.vertexOffset = inverted.vertexOffset;
+  rig.meshDraws_.push_back(draw);
+  rig.addStatic(2, {-3.0, 2.0, -12.0}, {3.0, 4.0, 3.0}, 0.2);
+  rig.instances_.back().closed = true;
+  for (std::size_t k = 0; k < 2; ++k) {
+    const csm::vk::Status s =
+        rig.views_[k].view->setCasters(rig.meshDraws_, rig.instances_, rig.bounds_);
+    ASSERT_TRUE(s.ok()) << s.message();
+  }
+  rig.frame(pathCamera("walk", 0), pathLight("walk", 0), std::vector<bool>(views, false));
+  std::uint64_t deeper = 0, shallower = 0;
+  for (std::uint32_t c = 0; c < kCascades; ++c) {
+    const std::vector<std::uint32_t> culled = layerOf(rig, 0, c), whole = layerOf(rig, 1, c);
+    for (std::size_t t = 0; t < culled.size(); ++t) {
+      float a, b;
+      std::memcpy(&a, &culled[t], 4);
+      std::memcpy(&b, &whole[t], 4);
+      deeper += a > b + 1e-4f ? 1 : 0;
+      shallower += a < b ? 1 : 0;
+    }
+  }
+  std::printf("[closed] an inside-out box flagged closed: %llu texels deeper\n",
+              static_cast<unsigned long long>(deeper));
+  EXPECT_GT(deeper, 100u) << "an inside-out closed box changed no texel: nothing was culled";
+  EXPECT_EQ(shallower, 0u);
   EXPECT_EQ(engine::validationMessageCount(), 0u);
 }
 

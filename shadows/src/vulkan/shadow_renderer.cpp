@@ -645,6 +645,7 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
        settings.depthBiasSlope != settings_.depthBiasSlope ||
        settings.minCasterTexels != settings_.minCasterTexels ||
        options.cullMode != options_.cullMode || options.frontFace != options_.frontFace ||
+       options.cullClosedCasters != options_.cullClosedCasters ||
        options.cascadeLod != options_.cascadeLod ||
        options.lodMaxErrorTexels != options_.lodMaxErrorTexels ||
        options.thinCasterWidenTexels != options_.thinCasterWidenTexels)) {
@@ -1089,9 +1090,37 @@ void ShadowRenderer::beginDepthRendering(VkCommandBuffer cmd, VkImageView view,
   vkCmdSetDepthBias(cmd, settings_.depthBiasConstant, 0.0f, settings_.depthBiasSlope);
   vkCmdSetCullMode(cmd, options_.cullMode);
   vkCmdSetFrontFace(cmd, options_.frontFace);
+  drawCull_ = options_.cullMode;
+  drawFront_ = options_.frontFace;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
                           0, nullptr);
+}
+
+// Closed casters: cull the faces turned away from the light (RendererOptions::
+// cullClosedCasters). Light space is right-handed with +z along the light's travel, and its x, y
+// go to the framebuffer's x, y unflipped, so a face whose outward normal points at the light
+// (-z) has a positive area in Vulkan's sense: counter-clockwise is front. A mirroring transform
+// turns the winding. Sets the state only where it changes within the rendering.
+void ShadowRenderer::setCasterCull(VkCommandBuffer cmd, const CasterInstance& instance) {
+  VkCullModeFlags cull = options_.cullMode;
+  VkFrontFace front = options_.frontFace;
+  if (cull == VK_CULL_MODE_NONE && options_.cullClosedCasters && instance.closed &&
+      !instance.thin) {
+    const float det = glm::determinant(instance.linearWs);
+    if (det != 0.0f) {
+      cull = VK_CULL_MODE_BACK_BIT;
+      front = det > 0.0f ? VK_FRONT_FACE_COUNTER_CLOCKWISE : VK_FRONT_FACE_CLOCKWISE;
+    }
+  }
+  if (cull != drawCull_) {
+    vkCmdSetCullMode(cmd, cull);
+    drawCull_ = cull;
+  }
+  if (front != drawFront_) {
+    vkCmdSetFrontFace(cmd, front);
+    drawFront_ = front;
+  }
 }
 
 void ShadowRenderer::beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered) {

@@ -100,14 +100,14 @@ void ShadowView::adoptCasters(std::span<const MeshDraw> meshes,
   for (std::size_t i = 0; i < bounds.size(); ++i) {
     bounds[i] = casterSet_.bounds(static_cast<std::uint32_t>(i));
   }
-  // Cached cascades: a static caster whose index, mesh, transform, bounds or thin flag changed (or
-  // that was added or removed) invalidates its old and new bounds; dynamic ones are drawn every
-  // frame.
+  // Cached cascades: a static caster whose index, mesh, transform, bounds or thin or closed flag
+  // changed (or that was added or removed) invalidates its old and new bounds; dynamic ones are
+  // drawn every frame.
   if (options_.cache) {
     auto same = [](const CasterInstance& a, const CasterInstance& b) {
       return a.mesh == b.mesh && a.translationWs == b.translationWs && a.linearWs == b.linearWs &&
              a.lodMeshes == b.lodMeshes && a.lodErrorM == b.lodErrorM && a.dynamic == b.dynamic &&
-             a.thin == b.thin;
+             a.thin == b.thin && a.closed == b.closed;
     };
     auto sameBox = [](const AabbWs& a, const AabbWs& b) {
       return a.minWs == b.minWs && a.maxWs == b.maxWs;

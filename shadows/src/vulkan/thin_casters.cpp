@@ -136,12 +136,13 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
 }
 
 void ShadowRenderer::drawIndexedCaster(VkCommandBuffer cmd, const CasterInstance& instance,
-                                       const MeshDraw& mesh, std::uint32_t copies) const {
+                                       const MeshDraw& mesh, std::uint32_t copies) {
   // The cached pass draws per layer (the cache refuses kLayered), so the render mode says which
   // pipeline is bound and which widens.
   const bool layered = resolvedMode_ == RenderMode::kLayered;
   const VkPipeline thin = layered ? thinLayeredPipeline_ : thinPipeline_;
   const bool widen = instance.thin && thin != VK_NULL_HANDLE;
+  setCasterCull(cmd, instance);
   if (widen) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, thin);
   vkCmdDrawIndexed(cmd, mesh.indexCount, copies, mesh.firstIndex, mesh.vertexOffset, 0);
   if (widen) {

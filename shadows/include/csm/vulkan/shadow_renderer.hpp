@@ -139,6 +139,14 @@ struct RendererOptions {
   VkCullModeFlags cullMode = VK_CULL_MODE_NONE;
   /// Front face for cullMode.
   VkFrontFace frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  /// Where cullMode is VK_CULL_MODE_NONE: casters flagged CasterInstance::closed are drawn with
+  /// their faces turned away from the light culled. Along any light ray the nearest surface of
+  /// a closed caster faces the light, so every texel keeps its depth while about half of those
+  /// triangles are not rasterised; up to float rounding: a back face's depth plane evaluated at
+  /// a silhouette texel can round a few ulps nearer than the front face's (test
+  /// ClosedCasters.CullingKeepsEveryTexelsDepth, per-layer, layered and cached). False draws
+  /// them like every other caster (for comparison).
+  bool cullClosedCasters = true;
   /// See RenderMode.
   RenderMode renderMode = RenderMode::kAuto;
   /// Pipeline stages of the host that sample the shadow map and read the uniform block after the
@@ -223,6 +231,16 @@ struct CasterInstance {
   /// every render mode (per-layer, layered, the cache's passes). Flag what is under about a
   /// texel wide in the cascades it casts into (a cable's diameter against the texel size).
   bool thin = false;
+  /// Every LOD mesh of this caster is closed: each connected part watertight, its triangles
+  /// wound counter-clockwise seen from outside (the outward normal by the right-hand rule). The
+  /// depth pass then culls its faces turned away from the light (RendererOptions::
+  /// cullClosedCasters): a light ray enters a closed part through a face that looks at the
+  /// light, and leaves through one that does not, so those never hold the nearest depth. A
+  /// mirroring linearWs (negative determinant) is accounted for. Leave false (the default) for
+  /// open surfaces (terrain, a one-sided wall, leaf cards), whose back faces cast shadows too,
+  /// and for casters whose parts may cross the light's near plane on a device without
+  /// depthClamp. Thin casters are never culled.
+  bool closed = false;
 
   /// The mesh drawn for `lod`.
   [[nodiscard]] std::uint32_t meshForLod(std::uint32_t lod) const noexcept {
@@ -463,7 +481,8 @@ class ShadowRenderer {
   Status updateThinPipeline(std::uint32_t resolution, const RendererOptions& options);
   void destroyThinPipeline() noexcept;
   void drawIndexedCaster(VkCommandBuffer cmd, const CasterInstance& instance, const MeshDraw& mesh,
-                         std::uint32_t copies) const;
+                         std::uint32_t copies);
+  void setCasterCull(VkCommandBuffer cmd, const CasterInstance& instance);
   void destroyImage() noexcept;
   void destroyPipelines() noexcept;
   Status checkFrame(const CascadeFrame& frame) const;
@@ -517,6 +536,10 @@ class ShadowRenderer {
   ShadowSettings settings_{};
   RendererOptions options_{};
   RenderMode resolvedMode_ = RenderMode::kPerLayer;
+  // The cull mode and front face set in the command buffer being recorded (closed casters
+  // change them per draw; beginDepthRendering sets the options' again).
+  VkCullModeFlags drawCull_ = VK_CULL_MODE_NONE;
+  VkFrontFace drawFront_ = VK_FRONT_FACE_COUNTER_CLOCKWISE;
   UniformOptions uniformOptions_{};
   CascadeHook cascadeHook_;
   CsmUniforms uniforms_{};
