@@ -787,6 +787,18 @@ void WorldBuilder::statisticsAndClusters() {
     w.boundsWs.maxWs = glm::max(w.boundsWs.maxWs, ob.boundsWs.maxWs);
   }
 
+  // Which assets are closed (every LOD), for back-face culling in the lit and depth passes.
+  std::vector<bool> terrainAsset(w.meshes.size(), false);
+  for (const Object& ob : w.objects) {
+    if (ob.kind == Kind::kTerrain) terrainAsset[ob.mesh] = true;
+  }
+  for (std::size_t a = 0; a < w.meshes.size(); ++a) {
+    MeshAsset& asset = w.meshes[a];
+    asset.closed =
+        !terrainAsset[a] && std::all_of(asset.lods.begin(), asset.lods.end(),
+                                        [](const MeshData& m) { return isClosedOutward(m); });
+  }
+
   // The terrain chunks, then one cluster per cell (clusterM) and group of casting objects.
   const int kGroups = 3;  // 0 vegetation + rocks, 1 buildings + tower + user mesh, 2 thin casters
   auto groupOf = [](Kind k) {
@@ -840,8 +852,11 @@ void WorldBuilder::statisticsAndClusters() {
     c.boundsWs = {glm::dvec3(std::numeric_limits<double>::max()),
                   glm::dvec3(-std::numeric_limits<double>::max())};
     c.thin = m % kGroups == 2;
+    c.closed = true;
     for (std::uint32_t k : members[m]) {
       const Object& ob = w.objects[k];
+      // appendTransformed keeps the index order, so a mirroring transform turns a part inside out.
+      c.closed = c.closed && w.meshes[ob.mesh].closed && glm::determinant(ob.linear) > 0.0f;
       const glm::vec3 offset(ob.translationWs - c.originWs);
       // Distances grow at most by the transform's largest column length (its largest stretch
       // for the sample world's rotation-times-scale transforms).

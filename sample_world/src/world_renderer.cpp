@@ -177,17 +177,7 @@ void WorldRenderer::uploadMeshes(const World& world) {
 
 void WorldRenderer::buildClosedMeshes(const World& world) {
   closedMesh_.assign(assetRanges_.size(), false);
-  // Terrain chunks are open heightfields: not checked (the check is a map over every edge).
-  std::vector<bool> terrain(world.meshes.size(), false);
-  for (const Object& ob : world.objects) {
-    if (ob.kind == Kind::kTerrain) terrain[ob.mesh] = true;
-  }
-  for (std::size_t a = 0; a < world.meshes.size(); ++a) {
-    if (terrain[a]) continue;
-    bool closed = true;
-    for (const MeshData& m : world.meshes[a].lods) closed = closed && isClosedOutward(m);
-    closedMesh_[a] = closed;
-  }
+  for (std::size_t a = 0; a < world.meshes.size(); ++a) closedMesh_[a] = world.meshes[a].closed;
   // A placement that mirrors (negative determinant) turns the winding: draw both faces.
   for (const Object& ob : world.objects) {
     if (glm::determinant(ob.linear) <= 0.0f) closedMesh_[ob.mesh] = false;
@@ -244,6 +234,7 @@ void WorldRenderer::setUpShadowView(const World& world) {
     in.mesh = static_cast<std::uint32_t>(draws.size());
     in.translationWs = world.clusters[k].originWs;
     in.thin = world.clusters[k].thin;
+    in.closed = world.clusters[k].closed;
     for (std::uint32_t l = 1; l < kLodCount; ++l) {
       in.lodErrorM[l - 1] = world.clusters[k].lodErrorM[l];
     }
@@ -275,6 +266,7 @@ void WorldRenderer::setUpShadowView(const World& world) {
     csm::vk::CasterInstance in;
     in.mesh = cubeDrawIndex;
     in.dynamic = true;
+    in.closed = closedMesh_[cubeMesh_];
     instances.push_back(in);
     bounds.push_back({glm::dvec3(0.0), glm::dvec3(1.0)});
   }

@@ -49,6 +49,9 @@ struct MeshAsset {
   std::array<float, kLodCount> lodErrorM{};
   /// lodBoundM[l]: the error LOD l was built within, asset metres (0: not simplified).
   std::array<float, kLodCount> lodBoundM{};
+  /// Every LOD closed and wound outward (isClosedOutward); false for terrain chunks (open
+  /// heightfields, not checked).
+  bool closed = false;
 };
 
 /// What kind of thing an object is (colour, report statistics).
@@ -100,6 +103,10 @@ struct CasterCluster {
   /// The cluster of a chunk's thin casters (cables, fence segments, poles): flagged
   /// csm::vk::CasterInstance::thin (widened in the depth pass) when AppSettings::thinCasters.
   bool thin = false;
+  /// Every object of the cluster is closed and wound outward at every LOD, none mirrored: its
+  /// faces turned away from the light can be culled in the depth pass
+  /// (csm::vk::CasterInstance::closed). False for terrain chunks.
+  bool closed = false;
 };
 
 /// How to generate a world.

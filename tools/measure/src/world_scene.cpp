@@ -56,7 +56,8 @@ WorldScene sceneFromWorld(const world::World& w, bool flagThin) {
                        linear,
                        {0.6f, 0.65f, 0.5f, 1.0f},
                        c.asset >= 0 ? InstanceKind::kGround : InstanceKind::kBuilding,
-                       flagThin && c.thin});
+                       flagThin && c.thin,
+                       c.closed});
     out.lodMeshes.push_back(std::move(lodMeshes));
     out.lodErrorM.emplace_back(c.lodErrorM.begin(), c.lodErrorM.end());
   }

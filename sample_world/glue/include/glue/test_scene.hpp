@@ -33,6 +33,9 @@ struct Instance {
   InstanceKind kind = InstanceKind::kGround;
   /// Drawn as a thin caster (csm::vk::CasterInstance::thin: widened in the depth pass).
   bool thin = false;
+  /// The mesh is closed and wound outward (csm::vk::CasterInstance::closed: its faces turned
+  /// away from the light are culled in the depth pass).
+  bool closed = false;
 };
 
 /// A fixed receiver point on a surface (on a triangle of the scene, exactly).
