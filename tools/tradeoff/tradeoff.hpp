@@ -29,6 +29,10 @@ struct Options {
   uint32_t width = 640, height = 360;
   /// --lod-study: only the default configuration, with several per-cascade LOD schedules.
   bool lodStudy = false;
+  /// --timing-rounds N: after the sweep, N - 1 more rounds time every configuration again in
+  /// the same order (interleaved), and each row's ms are the median over the N rounds, so no
+  /// row is judged by where it fell in the run; [1, 20].
+  int timingRounds = 1;
 };
 
 struct Config {
@@ -54,6 +58,9 @@ struct Config {
   std::vector<uint32_t> schedule;
   /// RendererOptions::lodMaxErrorTexels when `lods` (0: the schedule alone).
   float maxErrorTexels = csm::vk::RendererOptions{}.lodMaxErrorTexels;
+  /// RendererOptions::cullClosedCasters: closed casters' faces turned away from the light culled
+  /// in the depth pass (the default; the same map, fewer triangles rasterised).
+  bool cullClosed = true;
   /// The LODs column: on (the default), off, a schedule "0122" and/or an error budget "e0.25".
   [[nodiscard]] std::string lodLabel() const {
     if (!lods) return "off";
@@ -72,7 +79,7 @@ struct Config {
            kernel == csm::PcfKernel::kTent3 && blendBand == d.blendBand &&
            format == VK_FORMAT_D32_SFLOAT && lods && schedule.empty() &&
            maxErrorTexels == csm::vk::RendererOptions{}.lodMaxErrorTexels && fit == d.boxFit &&
-           ladderSteps == d.ladderStepsPerOctave && !receivers;
+           ladderSteps == d.ladderStepsPerOctave && !receivers && cullClosed;
   }
   [[nodiscard]] std::string fitLabel() const {
     std::string s;
@@ -83,6 +90,7 @@ struct Config {
       s += " ladder" + std::to_string(int(ladderSteps));
     }
     if (receivers) s += histogram ? " hist" : " rcv";
+    if (!cullClosed) s += " noCull";
     return s;
   }
   /// The label without the fields at their default (for the plot).

@@ -2,6 +2,7 @@
 #include "tradeoff.hpp"
 
 #include <cstdio>
+#include <cstdlib>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -12,9 +13,11 @@ void usage(std::FILE* out) {
   std::fprintf(
       out,
       "usage: csm_tradeoff [--quick] [--path NAME] [--out DIR] [--budget-ms X]... [--replot] "
-      "[--width W --height H] [--lod-study]\n"
+      "[--width W --height H] [--lod-study] [--timing-rounds N]\n"
       "  --lod-study: only the default configuration, with per-cascade caster LOD schedules "
       "(0122 .. 0000) and without LODs.\n"
+      "  --timing-rounds N: time every configuration N times in interleaved rounds and report "
+      "the\n  median (default 1).\n"
       "  --budget-ms X (repeatable): recommend the most accurate configuration whose GPU ms "
       "fits X.\n"
       "  --replot: re-draw table, plot and recommendations from DIR/tradeoff.csv, no "
@@ -57,6 +60,16 @@ std::optional<int> parseArgs(int argc, char** argv, Options& o) {
       o.height = uint32_t(std::stoul(next()));
     } else if (a == "--lod-study") {
       o.lodStudy = true;
+    } else if (a == "--timing-rounds") {
+      const std::string v = next();
+      char* end = nullptr;
+      const long n = std::strtol(v.c_str(), &end, 10);
+      if (v.empty() || *end != '\0' || n < 1 || n > 20) {
+        std::fprintf(stderr, "--timing-rounds %s is invalid: allowed an integer in [1, 20]\n",
+                     v.c_str());
+        return 2;
+      }
+      o.timingRounds = int(n);
     } else if (a == "--help" || a == "-h") {
       usage(stdout);
       return 0;

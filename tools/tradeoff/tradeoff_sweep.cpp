@@ -68,6 +68,10 @@ std::vector<Config> sweepConfigs(const Options& o) {
     Config none;
     none.lods = false;
     configs.push_back(none);
+    // The default with closed casters drawn whole (both faces), for the culling's cost.
+    Config noCull;
+    noCull.cullClosed = false;
+    configs.push_back(noCull);
   }
   for (bool lods : {true, false}) {
     if (o.lodStudy) break;
@@ -167,6 +171,7 @@ std::optional<csm::ShadowSettings> configure(const SweepRig& rig, const Config& 
   csm::vk::RendererOptions ro;
   ro.depthFormat = cfg.format;
   ro.lodMaxErrorTexels = cfg.lods ? cfg.maxErrorTexels : 0.0f;
+  ro.cullClosedCasters = cfg.cullClosed;
   const csm::vk::Status st = harness.configure(s, ro);
   if (!st.ok()) {
     std::fprintf(stderr, "\nskipping %s: %s\n", cfg.label().c_str(), st.message().c_str());
@@ -222,13 +227,59 @@ csm_measure::ShimmerRun shimmerFromPose(const SweepRig& rig, const Config& cfg, 
       rig.shimmerFrames, cfg.kernel);
 }
 
+/// Pose `cam`'s timings in the configured harness: with `cfg.receivers`, the receiver range of
+/// the pose's full-range frame first (what the depth reduction reports for the frame before);
+/// then one warm-up frame and the fastest of kTimedFrames (lavapipe's timings vary by tens of
+/// percent from frame to frame with the host's scheduling; the minimum is stable).
+csm_measure::FrameTimings timePose(const SweepRig& rig, const Config& cfg,
+                                   const csm::ShadowSettings& s, const csm::Camera& cam) {
+  csm_measure::Harness& harness = rig.harness;
+  const VkExtent2D accuracyView = rig.accuracyView;
+  if (cfg.receivers) {
+    harness.setReceiverRange(std::nullopt);
+    csm::Camera rc = cam;
+    rc.aspect = double(accuracyView.width) / accuracyView.height;
+    csm::CascadeHistory hr;
+    const csm::CascadeFrame fr = harness.computeFrame(rc, rig.light, hr);
+    harness.setReceiverRange(
+        receiverRangeOf(harness.renderAccuracy(rc, fr, accuracyView, cfg.kernel), rc, rc.nearM,
+                        std::max(s.shadowDistanceM, 2.0 * rc.nearM)));
+  }
+  csm::CascadeHistory h;
+  const VkExtent2D view{rig.o.width, rig.o.height};
+  harness.timeFrame(cam, rig.light, h, view, cfg.kernel);
+  csm_measure::FrameTimings best{1e30, 1e30, 1e30};
+  for (int k = 0; k < rig.kTimedFrames; ++k) {
+    const csm_measure::FrameTimings ft = harness.timeFrame(cam, rig.light, h, view, cfg.kernel);
+    best.shadowGpuMs = std::min(best.shadowGpuMs, ft.shadowGpuMs);
+    best.litGpuMs = std::min(best.litGpuMs, ft.litGpuMs);
+    best.cpuMs = std::min(best.cpuMs, ft.cpuMs);
+  }
+  return best;
+}
+
+/// One more round of `cfg`'s timings over every pose (averaged like measureConfig's), or
+/// nothing when the harness refuses it.
+std::optional<csm_measure::FrameTimings> timeConfig(const SweepRig& rig, const Config& cfg) {
+  const std::optional<csm::ShadowSettings> settings = configure(rig, cfg);
+  if (!settings) return std::nullopt;
+  csm_measure::FrameTimings sum{0.0, 0.0, 0.0};
+  for (int p = 0; p < rig.poses; ++p) {
+    const csm::Camera cam = cameraAt(rig.path.at((p + 0.5) / rig.poses), rig.aspect);
+    const csm_measure::FrameTimings t = timePose(rig, cfg, *settings, cam);
+    sum.shadowGpuMs += t.shadowGpuMs / rig.poses;
+    sum.litGpuMs += t.litGpuMs / rig.poses;
+    sum.cpuMs += t.cpuMs / rig.poses;
+  }
+  return sum;
+}
+
 /// The row of one configuration, or nothing when the harness refuses it (printed).
 std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
-  const Options& o = rig.o;
   const csm_measure::RayTracer& tracer = rig.tracer;
   csm_measure::Harness& harness = rig.harness;
   const world::FlightPath* path = &rig.path;
-  const int poses = rig.poses, kTimedFrames = rig.kTimedFrames;
+  const int poses = rig.poses;
   const VkExtent2D accuracyView = rig.accuracyView;
   const csm::DirectionalLight light = rig.light;
   const double aspect = rig.aspect;
@@ -243,30 +294,7 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
   for (int p = 0; p < poses; ++p) {
     const double t = (p + 0.5) / poses;
     const csm::Camera cam = cameraAt(path->at(t), aspect);
-    if (cfg.receivers) {
-      // The receiver range of this pose's full-range frame (what the depth reduction reports
-      // for the frame before).
-      harness.setReceiverRange(std::nullopt);
-      csm::Camera rc = cam;
-      rc.aspect = double(accuracyView.width) / accuracyView.height;
-      csm::CascadeHistory hr;
-      const csm::CascadeFrame fr = harness.computeFrame(rc, light, hr);
-      harness.setReceiverRange(
-          receiverRangeOf(harness.renderAccuracy(rc, fr, accuracyView, cfg.kernel), rc, rc.nearM,
-                          std::max(s.shadowDistanceM, 2.0 * rc.nearM)));
-    }
-    csm::CascadeHistory h;
-    // Timing: one warm-up frame, then the fastest of kTimedFrames (lavapipe's timings vary by
-    // tens of percent from frame to frame with the host's scheduling; the minimum is stable).
-    harness.timeFrame(cam, light, h, {o.width, o.height}, cfg.kernel);
-    csm_measure::FrameTimings best{1e30, 1e30, 1e30};
-    for (int k = 0; k < kTimedFrames; ++k) {
-      const csm_measure::FrameTimings ft =
-          harness.timeFrame(cam, light, h, {o.width, o.height}, cfg.kernel);
-      best.shadowGpuMs = std::min(best.shadowGpuMs, ft.shadowGpuMs);
-      best.litGpuMs = std::min(best.litGpuMs, ft.litGpuMs);
-      best.cpuMs = std::min(best.cpuMs, ft.cpuMs);
-    }
+    const csm_measure::FrameTimings best = timePose(rig, cfg, s, cam);
     row.shadowMs += best.shadowGpuMs / poses;
     row.litMs += best.litGpuMs / poses;
     row.cpuMs += best.cpuMs / poses;
@@ -354,11 +382,46 @@ std::vector<Row> runSweep(const Options& o, std::string& info, std::string& devi
     if (std::optional<Row> row = measureConfig(rig, configs[ci])) rows.push_back(*row);
   }
   progress(configs.size(), configs.size(), "done", elapsed());
+  // More timing rounds, interleaved: every row again in order; each row keeps the median.
+  if (o.timingRounds > 1) {
+    std::vector<std::array<std::vector<double>, 3>> ms(rows.size());
+    for (size_t r = 0; r < rows.size(); ++r) {
+      ms[r] = {{{rows[r].shadowMs}, {rows[r].litMs}, {rows[r].cpuMs}}};
+    }
+    const size_t total = rows.size() * size_t(o.timingRounds - 1);
+    for (int round = 1; round < o.timingRounds; ++round) {
+      for (size_t r = 0; r < rows.size(); ++r) {
+        progress(size_t(round - 1) * rows.size() + r, total,
+                 "timing round " + std::to_string(round + 1) + ": " + rows[r].config.label(),
+                 elapsed());
+        if (const std::optional<csm_measure::FrameTimings> t = timeConfig(rig, rows[r].config)) {
+          ms[r][0].push_back(t->shadowGpuMs);
+          ms[r][1].push_back(t->litGpuMs);
+          ms[r][2].push_back(t->cpuMs);
+        }
+      }
+    }
+    progress(total, total, "done", elapsed());
+    auto median = [](std::vector<double> v) {
+      std::sort(v.begin(), v.end());
+      const size_t n = v.size();
+      return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+    };
+    for (size_t r = 0; r < rows.size(); ++r) {
+      rows[r].shadowMs = median(ms[r][0]);
+      rows[r].litMs = median(ms[r][1]);
+      rows[r].cpuMs = median(ms[r][2]);
+      std::fprintf(stderr, "%-52s shadow ms per round:", rows[r].config.label().c_str());
+      for (double v : ms[r][0]) std::fprintf(stderr, " %.2f", v);
+      std::fprintf(stderr, "\n");
+    }
+  }
   char buf[256];
   std::snprintf(buf, sizeof buf,
-                "device: %s; path %s, %d pose(s), view %ux%u (timing), %ux%u (accuracy)",
-                device.c_str(), o.path.c_str(), poses, o.width, o.height, accuracyView.width,
-                accuracyView.height);
+                "device: %s; path %s, %d pose(s), view %ux%u (timing, median of %d round(s)), "
+                "%ux%u (accuracy)",
+                device.c_str(), o.path.c_str(), poses, o.width, o.height, o.timingRounds,
+                accuracyView.width, accuracyView.height);
   info = buf;
   std::ofstream(o.out + "/tradeoff_info.txt") << info << "\n";
   return rows;
