@@ -133,6 +133,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   }
   changed |= ImGui::Checkbox("receiver splits", &s.receiverSplits);
   changed |= ImGui::Checkbox("thin casters widened", &s.thinCasters);
+  changed |= ImGui::Checkbox("cull closed casters", &s.cullClosedCasters);
   changed |= ImGui::Checkbox("caster LODs", &s.casterLods);
   changed |= ImGui::Checkbox("depth pre-pass", &s.depthPrepass);
   changed |= ImGui::Checkbox("deferred shading", &s.deferred);

@@ -199,6 +199,7 @@ const std::vector<Entry>& table() {
       boolean("shadow.stabilize", [](AppSettings& s) -> bool& { return s.shadow.stabilize; }),
       boolean("shadow.cache", [](AppSettings& s) -> bool& { return s.shadowCache; }),
       boolean("shadow.thinCasters", [](AppSettings& s) -> bool& { return s.thinCasters; }),
+      boolean("shadow.cullClosed", [](AppSettings& s) -> bool& { return s.cullClosedCasters; }),
       number<float>("shadow.thinWiden", "texels in [0, 4]", 0, 4, false,
                     [](AppSettings& s) -> float& { return s.thinWidenTexels; }),
       number<std::uint64_t>(

@@ -518,6 +518,7 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   options.cache = settings.shadowCache && settings.shadow.stabilize;
   options.cacheBudgetTexels = settings.cacheBudgetTexels;
   options.thinCasterWidenTexels = settings.thinCasters ? settings.thinWidenTexels : 0.0f;
+  options.cullClosedCasters = settings.cullClosedCasters;
   if (settings.casterLods) {
     for (std::uint32_t c = 0; c < csm::kMaxCascades; ++c) {
       options.cascadeLod[c] = std::min(settings.cascadeLod[c], kLodCount - 1);
