@@ -586,6 +586,8 @@ ParsedMesh parsePly(std::string_view data) {
       }
       haveFaces = true;
     }
+    // Items without properties hold no data (and no byte bounds their count): nothing to read.
+    if (e.properties.empty()) continue;
     for (std::uint64_t item = 0; item < e.count; ++item) {
       const std::string where = e.name + " " + num(item);
       std::array<double, 3> p{};

@@ -64,6 +64,7 @@ csm_case(ply_vertex_nan 2 "vertex 0: x = nan is not a finite number" --mesh @IN@
 csm_case(ply_extent_3e38 2 "vertex 1: x = 3e\\+38 is outside the allowed" --mesh @IN@/ply_extent_3e38.ply)
 csm_case(ply_binary_inf 2 "vertex 0: x = inf is not a finite number" --mesh @IN@/ply_binary_inf.ply)
 csm_case(ply_no_end_header 2 "truncated: the header has no 'end_header'" --mesh @IN@/ply_no_end_header.ply)
+csm_case(ply_empty_element_1e12 2 "ply_empty_element_1e12.ply: .*no 'vertex' element" --mesh @IN@/ply_empty_element_1e12.ply)
 csm_case(ply_bad_format 2 "header line 2: format 'utf8'" --mesh @IN@/ply_bad_format.ply)
 csm_case(ply_no_format 2 "the header has no 'format' line" --mesh @IN@/ply_no_format.ply)
 csm_case(ply_bad_type 2 "header line 4: type 'float128'" --mesh @IN@/ply_bad_type.ply)

@@ -58,6 +58,9 @@ mkdir -p mesh_dir.obj
 { plyhead ascii 3 1; printf '0 0 0\n3e38 0 0\n0 -3e38 0\n3 0 1 2\n'; } >ply_extent_3e38.ply
 { plyhead binary_big_endian 3 1; printf '\x7f\x80\0\0\0\0\0\0\0\0\0\0' ; printf '\0%.0s' $(seq 24); printf '\x03\0\0\0\0\0\0\0\x01\0\0\0\x02'; } >ply_binary_inf.ply
 printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n' >ply_no_end_header.ply
+# An element without properties declaring 10^12 items (found by the ply fuzzer: it was looped
+# over, item by item, for minutes), and no vertex element.
+printf 'ply\nformat ascii 1.0\nelement junk 1000000000000\nend_header\n-\n' >ply_empty_element_1e12.ply
 printf 'ply\nformat utf8 1.0\nelement vertex 3\nend_header\n' >ply_bad_format.ply
 printf 'ply\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n0 0 0\n' >ply_no_format.ply
 printf 'ply\nformat ascii 1.0\nelement vertex 3\nproperty float128 x\nend_header\n' >ply_bad_type.ply
