@@ -544,18 +544,19 @@ void WorldBuilder::terrain() {
 // ---- Prototypes ------------------------------------------------------------------------------
 void WorldBuilder::prototypes() {
   // Trees are cones (and a lumpy crown): rebuilt with fewer sides for their LODs.
+  auto conesAlone = [](const std::vector<ConeSpec>& cones) -> ShapeBuilder {
+    return [&cones](double budgetM) {
+      Shape s;
+      addCones(s, cones, budgetM);
+      return s;
+    };
+  };
   const std::vector<ConeSpec> coniferCones = {{-0.5f, 3.0f, 0.35f, 0.25f, 8},  // trunk
                                               {2.5f, 8.0f, 3.2f, 0.0f, 12},
                                               {6.0f, 11.5f, 2.4f, 0.0f, 12, 0.2f},
                                               {9.5f, 14.0f, 1.5f, 0.0f, 10, 0.4f}};
   trees.push_back(addAsset(makeAsset(  // trunk + three stacked cones, ~14 m
-      "conifer",
-      [&](double budgetM) {
-        Shape s;
-        addCones(s, coniferCones, budgetM);
-        return s;
-      },
-      kTreeMaxScale)));
+      "conifer", conesAlone(coniferCones), kTreeMaxScale)));
   const std::vector<ConeSpec> broadTrunk = {{-0.5f, 4.5f, 0.45f, 0.3f, 8}};
   trees.push_back(addAsset(makeAsset(  // trunk + lumpy crown, ~11 m
       "broadleaf",
@@ -572,13 +573,7 @@ void WorldBuilder::prototypes() {
   const std::vector<ConeSpec> pineCones = {{-0.5f, 12.0f, 0.4f, 0.2f, 8},
                                            {8.0f, 22.0f, 2.2f, 0.0f, 10}};
   trees.push_back(addAsset(makeAsset(  // tall thin pine, ~22 m
-      "pine",
-      [&](double budgetM) {
-        Shape s;
-        addCones(s, pineCones, budgetM);
-        return s;
-      },
-      kTreeMaxScale)));
+      "pine", conesAlone(pineCones), kTreeMaxScale)));
   for (int k = 0; k < 4; ++k) {
     Shape rock;
     rock.blob({0.0f, 0.3f, 0.0f}, {1.0f, 0.7f, 1.1f}, [&](const glm::vec3& v) {

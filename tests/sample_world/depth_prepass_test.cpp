@@ -16,6 +16,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -103,6 +104,14 @@ json runFlight(const std::string& path, const std::string& settings, const fs::p
   return rep;
 }
 
+// Each report of a comparison had validation on and heard nothing.
+void expectValidationClean(std::initializer_list<const json*> reports) {
+  for (const json* rep : reports) {
+    EXPECT_TRUE((*rep)["validation"]["enabled"].get<bool>());
+    EXPECT_EQ((*rep)["validation"]["messages"].get<std::uint64_t>(), 0u);
+  }
+}
+
 class Prepass : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(Prepass, PrepassAndCullingSameImageAsLitPassAloneValidationClean) {
@@ -111,10 +120,7 @@ TEST_P(Prepass, PrepassAndCullingSameImageAsLitPassAloneValidationClean) {
   const json on = runFlight(path, kForward, base / "on");
   const json off = runFlight(path, kLitAlone, base / "off");
   ASSERT_TRUE(on.is_object() && off.is_object());
-  for (const json* rep : {&on, &off}) {
-    EXPECT_TRUE((*rep)["validation"]["enabled"].get<bool>());
-    EXPECT_EQ((*rep)["validation"]["messages"].get<std::uint64_t>(), 0u);
-  }
+  expectValidationClean({&on, &off});
   EXPECT_TRUE(on["settings"]["view.depthPrepass"].get<bool>());
   EXPECT_TRUE(on["settings"]["view.cullBackFaces"].get<bool>());
   EXPECT_FALSE(off["settings"]["view.depthPrepass"].get<bool>());
@@ -172,10 +178,7 @@ TEST_P(Deferred, SameImageAsTheForwardLitPassValidationClean) {
   const json deferred = runFlight(path, kDeferred, base / "deferred");
   const json forward = runFlight(path, kForward, base / "forward");
   ASSERT_TRUE(deferred.is_object() && forward.is_object());
-  for (const json* rep : {&deferred, &forward}) {
-    EXPECT_TRUE((*rep)["validation"]["enabled"].get<bool>());
-    EXPECT_EQ((*rep)["validation"]["messages"].get<std::uint64_t>(), 0u);
-  }
+  expectValidationClean({&deferred, &forward});
   EXPECT_TRUE(deferred["settings"]["view.deferred"].get<bool>());
   EXPECT_FALSE(forward["settings"]["view.deferred"].get<bool>());
   for (const json& f : deferred["per_frame"]) {
