@@ -323,6 +323,44 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
   return row;
 }
 
+/// `rounds` - 1 more timing rounds of `rows`, interleaved (every row again, in order); each row
+/// keeps the median of its rounds (the sweep's own measurement is the first), and each round's
+/// shadow ms go to stderr.
+void retimeInRounds(const SweepRig& rig, std::vector<Row>& rows, int rounds,
+                    const std::function<double()>& elapsed) {
+  std::vector<std::array<std::vector<double>, 3>> ms(rows.size());
+  for (size_t r = 0; r < rows.size(); ++r) {
+    ms[r] = {{{rows[r].shadowMs}, {rows[r].litMs}, {rows[r].cpuMs}}};
+  }
+  const size_t total = rows.size() * size_t(rounds - 1);
+  for (int round = 1; round < rounds; ++round) {
+    for (size_t r = 0; r < rows.size(); ++r) {
+      progress(size_t(round - 1) * rows.size() + r, total,
+               "timing round " + std::to_string(round + 1) + ": " + rows[r].config.label(),
+               elapsed());
+      if (const std::optional<csm_measure::FrameTimings> t = timeConfig(rig, rows[r].config)) {
+        ms[r][0].push_back(t->shadowGpuMs);
+        ms[r][1].push_back(t->litGpuMs);
+        ms[r][2].push_back(t->cpuMs);
+      }
+    }
+  }
+  progress(total, total, "done", elapsed());
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    const size_t n = v.size();
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  };
+  for (size_t r = 0; r < rows.size(); ++r) {
+    rows[r].shadowMs = median(ms[r][0]);
+    rows[r].litMs = median(ms[r][1]);
+    rows[r].cpuMs = median(ms[r][2]);
+    std::fprintf(stderr, "%-52s shadow ms per round:", rows[r].config.label().c_str());
+    for (double v : ms[r][0]) std::fprintf(stderr, " %.2f", v);
+    std::fprintf(stderr, "\n");
+  }
+}
+
 }  // namespace
 
 std::vector<Row> runSweep(const Options& o, std::string& info, std::string& device,
@@ -382,40 +420,7 @@ std::vector<Row> runSweep(const Options& o, std::string& info, std::string& devi
     if (std::optional<Row> row = measureConfig(rig, configs[ci])) rows.push_back(*row);
   }
   progress(configs.size(), configs.size(), "done", elapsed());
-  // More timing rounds, interleaved: every row again in order; each row keeps the median.
-  if (o.timingRounds > 1) {
-    std::vector<std::array<std::vector<double>, 3>> ms(rows.size());
-    for (size_t r = 0; r < rows.size(); ++r) {
-      ms[r] = {{{rows[r].shadowMs}, {rows[r].litMs}, {rows[r].cpuMs}}};
-    }
-    const size_t total = rows.size() * size_t(o.timingRounds - 1);
-    for (int round = 1; round < o.timingRounds; ++round) {
-      for (size_t r = 0; r < rows.size(); ++r) {
-        progress(size_t(round - 1) * rows.size() + r, total,
-                 "timing round " + std::to_string(round + 1) + ": " + rows[r].config.label(),
-                 elapsed());
-        if (const std::optional<csm_measure::FrameTimings> t = timeConfig(rig, rows[r].config)) {
-          ms[r][0].push_back(t->shadowGpuMs);
-          ms[r][1].push_back(t->litGpuMs);
-          ms[r][2].push_back(t->cpuMs);
-        }
-      }
-    }
-    progress(total, total, "done", elapsed());
-    auto median = [](std::vector<double> v) {
-      std::sort(v.begin(), v.end());
-      const size_t n = v.size();
-      return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-    };
-    for (size_t r = 0; r < rows.size(); ++r) {
-      rows[r].shadowMs = median(ms[r][0]);
-      rows[r].litMs = median(ms[r][1]);
-      rows[r].cpuMs = median(ms[r][2]);
-      std::fprintf(stderr, "%-52s shadow ms per round:", rows[r].config.label().c_str());
-      for (double v : ms[r][0]) std::fprintf(stderr, " %.2f", v);
-      std::fprintf(stderr, "\n");
-    }
-  }
+  if (o.timingRounds > 1) retimeInRounds(rig, rows, o.timingRounds, elapsed);
   char buf[256];
   std::snprintf(buf, sizeof buf,
                 "device: %s; path %s, %d pose(s), view %ux%u (timing, median of %d round(s)), "
