@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <limits>
 #include <stdexcept>
 
 namespace csm_measure {
@@ -203,13 +205,23 @@ nlohmann::json AccuracyStats::toJson(uint32_t cascadeCount) const {
           {"texel_to_pixel_log2_histogram", texelToPixel.toJson()}};
 }
 
-AccuracyStats measureAccuracy(std::span<const PixelSample> pixels, const csm::CascadeFrame& frame,
-                              const RayTracer& tracer, const csm::DirectionalLight& light) {
-  AccuracyStats st;
-  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
+namespace {
+
+// The pixels measureAccuracy judges (finite outputs, interpolated normal facing the light) and
+// their truth: positions, normals, indices into the pixels, shadow-ray visibility.
+struct JudgedPixels {
   std::vector<glm::dvec3> pos;
   std::vector<glm::vec3> nrm;
   std::vector<size_t> index;
+  std::vector<float> vis;
+  uint64_t nonFinite = 0;
+  uint64_t backFacing = 0;
+};
+
+JudgedPixels judgedPixels(std::span<const PixelSample> pixels, const RayTracer& tracer,
+                          const csm::DirectionalLight& light) {
+  JudgedPixels j;
+  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
   for (size_t i = 0; i < pixels.size(); ++i) {
     const PixelSample& p = pixels[i];
     const bool ok = std::isfinite(p.shadow) && std::isfinite(p.footprintM) &&
@@ -218,23 +230,39 @@ AccuracyStats measureAccuracy(std::span<const PixelSample> pixels, const csm::Ca
                     std::isfinite(p.normalWs.x) && std::isfinite(p.normalWs.y) &&
                     std::isfinite(p.normalWs.z) && p.cascade >= -1;
     if (!ok) {
-      ++st.nonFinite;
+      ++j.nonFinite;
       continue;
     }
     if (!(glm::dot(glm::dvec3(p.normalWs), toLight) > 0.0)) {
-      ++st.backFacing;
+      ++j.backFacing;
       continue;
     }
-    pos.push_back(p.posWs);
-    nrm.push_back(p.normalWs);
-    index.push_back(i);
+    j.pos.push_back(p.posWs);
+    j.nrm.push_back(p.normalWs);
+    j.index.push_back(i);
   }
-  std::vector<float> vis(pos.size());
-  tracer.visibility(pos, nrm, light.directionWs, vis);
-  for (size_t k = 0; k < index.size(); ++k) {
-    const PixelSample& p = pixels[index[k]];
+  j.vis.resize(j.pos.size());
+  tracer.visibility(j.pos, j.nrm, light.directionWs, j.vis);
+  return j;
+}
+
+bool inShadowRange(const PixelSample& p, const csm::CascadeFrame& frame) noexcept {
+  return p.cascade >= 0 && p.cascade < int(frame.cascadeCount);
+}
+
+}  // namespace
+
+AccuracyStats measureAccuracy(std::span<const PixelSample> pixels, const csm::CascadeFrame& frame,
+                              const RayTracer& tracer, const csm::DirectionalLight& light) {
+  AccuracyStats st;
+  const JudgedPixels j = judgedPixels(pixels, tracer, light);
+  st.nonFinite = j.nonFinite;
+  st.backFacing = j.backFacing;
+  const std::vector<float>& vis = j.vis;
+  for (size_t k = 0; k < j.index.size(); ++k) {
+    const PixelSample& p = pixels[j.index[k]];
     const double s = std::clamp(double(p.shadow), 0.0, 1.0);
-    if (p.cascade < 0 || p.cascade >= int(frame.cascadeCount)) {
+    if (!inShadowRange(p, frame)) {
       st.outside.add(s, vis[k]);
       continue;
     }
@@ -245,6 +273,81 @@ AccuracyStats measureAccuracy(std::span<const PixelSample> pixels, const csm::Ca
     }
   }
   return st;
+}
+
+uint64_t MissCauses::sharedWith(const MissCauses& other) const {
+  std::vector<std::pair<uint32_t, uint32_t>> both;
+  std::set_intersection(pixels.begin(), pixels.end(), other.pixels.begin(), other.pixels.end(),
+                        std::back_inserter(both));
+  return both.size();
+}
+
+nlohmann::json MissCauses::toJson() const {
+  return {{"total", total()},
+          {"facing_away_geometrically", facingAway},
+          {"false_shadow", falseShadow},
+          {"missed_thin_occluder", missedThin},
+          {"missed_contact", missedContact},
+          {"missed_far", missedFar},
+          {"thin_chord_m", kThinChordM},
+          {"contact_m", kContactM}};
+}
+
+MissCauses classifyMisses(std::span<const PixelSample> pixels, const csm::CascadeFrame& frame,
+                          const RayTracer& tracer, const csm::DirectionalLight& light,
+                          const glm::dvec3& cameraWs) {
+  MissCauses m;
+  const glm::dvec3 toLight = -glm::normalize(light.directionWs);
+  const JudgedPixels j = judgedPixels(pixels, tracer, light);
+  for (size_t k = 0; k < j.index.size(); ++k) {
+    const PixelSample& p = pixels[j.index[k]];
+    const double s = std::clamp(double(p.shadow), 0.0, 1.0);
+    if (!inShadowRange(p, frame) || std::abs(s - j.vis[k]) <= 0.5) continue;
+    m.pixels.emplace_back(p.x, p.y);
+    // The face the pixel centre's camera ray meets, oriented toward the camera.
+    const glm::dvec3 view = glm::normalize(p.posWs - cameraWs);
+    glm::vec3 faceN(0.0f);
+    if (tracer.intersect(cameraWs, view, nullptr, &faceN)) {
+      glm::dvec3 n(faceN);
+      if (glm::dot(n, view) > 0.0) n = -n;
+      if (!(glm::dot(n, toLight) > 0.0)) {
+        ++m.facingAway;
+        continue;
+      }
+    }
+    if (j.vis[k] > 0.5f) {
+      ++m.falseShadow;
+      continue;
+    }
+    // The shadow ray as measureAccuracy casts it (same lift), its first occluder, and that
+    // occluder's exit: a hit whose face turns the other way along the ray than the entry's.
+    const glm::dvec3 origin =
+        p.posWs + RayTracer::kDefaultLiftM * (glm::dvec3(p.normalWs) + toLight);
+    glm::dvec3 entry(0.0);
+    glm::vec3 entryN(0.0f);
+    if (!tracer.intersect(origin, toLight, &entry, &entryN)) {
+      ++m.missedFar;  // the occlusion query hit an edge the nearest-hit query missed
+      continue;
+    }
+    const double entryT = glm::dot(entry - origin, toLight);
+    double chord = std::numeric_limits<double>::infinity();
+    glm::dvec3 exit(0.0);
+    glm::vec3 exitN(0.0f);
+    if (tracer.intersect(entry + 1e-3 * toLight, toLight, &exit, &exitN) &&
+        (glm::dot(glm::dvec3(exitN), toLight) > 0.0) !=
+            (glm::dot(glm::dvec3(entryN), toLight) > 0.0)) {
+      chord = glm::dot(exit - entry, toLight);
+    }
+    if (chord < MissCauses::kThinChordM) {
+      ++m.missedThin;
+    } else if (entryT < MissCauses::kContactM) {
+      ++m.missedContact;
+    } else {
+      ++m.missedFar;
+    }
+  }
+  std::sort(m.pixels.begin(), m.pixels.end());
+  return m;
 }
 
 bool frameIsFinite(const csm::CascadeFrame& frame) noexcept {

@@ -63,6 +63,11 @@ class Scene {
   /// camera that looks from local (0, h, +z) toward -z. Deterministic.
   static Scene makeTestScene(const TestSceneDesc& desc);
 
+  Scene() = default;
+  /// An empty scene whose local origin (the ray tracers' anchor) is `originWs`: a scene built
+  /// by hand 1e7 m from the world origin keeps its rays precise.
+  explicit Scene(const glm::dvec3& originWs) : originWs_(originWs) {}
+
   /// Appends a mesh and returns its index.
   uint32_t addMesh(MeshData mesh);
   /// Appends an instance (its bounds are computed from the mesh's transformed vertices).

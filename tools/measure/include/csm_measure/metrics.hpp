@@ -116,6 +116,47 @@ struct AccuracyStats {
 AccuracyStats measureAccuracy(std::span<const PixelSample> pixels, const csm::CascadeFrame& frame,
                               const RayTracer& tracer, const csm::DirectionalLight& light);
 
+/// Why the misclassified pixels of a frame are wrong: every pixel that measureAccuracy counts in
+/// `overall` with |s - v| > 0.5, put in the first of these classes that fits it.
+struct MissCauses {
+  /// The first occluder's chord along the light below which it counts as thin (m): fence rails
+  /// (6 x 10 cm), cables (3 cm), a pole's cross arm; thinner than the texels of distant cascades,
+  /// they can fall between texel centres.
+  static constexpr double kThinChordM = 0.25;
+  /// Occluders within this distance along the light (m) are contact shadows, which the bias
+  /// (a fraction of a texel to a few texels) can lose.
+  static constexpr double kContactM = 2.0;
+  /// The camera ray through the pixel's position meets a face whose geometric normal faces away
+  /// from the light while the pixel's interpolated normal faces it: faceted terrain at the
+  /// terminator, or a corner where the pixel centre's ray meets another face than the raster's.
+  /// The truth ray starts outside such a surface; the shadow map sees the surface itself.
+  uint64_t facingAway = 0;
+  /// Truth lit, shadow map shadowed.
+  uint64_t falseShadow = 0;
+  /// Truth shadowed, map lit, by an occluder whose chord along the light is < kThinChordM.
+  uint64_t missedThin = 0;
+  /// Truth shadowed, map lit, by a thicker occluder (or an open surface) within kContactM.
+  uint64_t missedContact = 0;
+  /// Truth shadowed, map lit, by an occluder further along the light.
+  uint64_t missedFar = 0;
+  /// (x, y) of every pixel counted, sorted: to compare two configurations pixel by pixel.
+  std::vector<std::pair<uint32_t, uint32_t>> pixels;
+  [[nodiscard]] uint64_t total() const noexcept {
+    return facingAway + falseShadow + missedThin + missedContact + missedFar;
+  }
+  /// How many of these pixels are misclassified in `other` too.
+  [[nodiscard]] uint64_t sharedWith(const MissCauses& other) const;
+  [[nodiscard]] nlohmann::json toJson() const;
+};
+
+/// The causes of a frame's misclassified pixels (the same pixels, truth and filter as
+/// measureAccuracy, whose overall.misclassified equals total()), found with more rays: the
+/// camera ray from `cameraWs` through each pixel's position, the shadow ray's first occluder
+/// and its exit face.
+MissCauses classifyMisses(std::span<const PixelSample> pixels, const csm::CascadeFrame& frame,
+                          const RayTracer& tracer, const csm::DirectionalLight& light,
+                          const glm::dvec3& cameraWs);
+
 /// Whether a frame's cascade data are all finite.
 bool frameIsFinite(const csm::CascadeFrame& frame) noexcept;
 

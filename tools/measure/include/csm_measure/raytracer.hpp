@@ -14,6 +14,9 @@ namespace csm_measure {
 /// Occlusion queries against a Scene's triangles. Not copyable; thread-compatible.
 class RayTracer {
  public:
+  /// visibility()'s default lift off the surface (m).
+  static constexpr double kDefaultLiftM = 2e-3;
+
   /// Builds the Embree scene (every instance's triangles, transformed to anchor-relative float).
   explicit RayTracer(const Scene& scene);
   ~RayTracer();
@@ -24,7 +27,8 @@ class RayTracer {
   /// the ray from the point (lifted off its surface by `liftM` along the normal, and by
   /// `liftM` toward the light) to infinity along -lightDirWs hits nothing, else 0.
   void visibility(std::span<const glm::dvec3> posWs, std::span<const glm::vec3> normalWs,
-                  const glm::dvec3& lightDirWs, std::span<float> out, double liftM = 2e-3) const;
+                  const glm::dvec3& lightDirWs, std::span<float> out,
+                  double liftM = kDefaultLiftM) const;
 
   /// Nearest hit of a ray (world origin, unit direction); false when nothing is hit.
   bool intersect(const glm::dvec3& originWs, const glm::dvec3& dirWs, glm::dvec3* hitWs,
