@@ -33,6 +33,9 @@ struct Options {
   /// the same order (interleaved), and each row's ms are the median over the N rounds, so no
   /// row is judged by where it fell in the run; [1, 20].
   int timingRounds = 1;
+  /// --fit-resolution N: the fit study's shadow-map side for every configuration (0: the
+  /// fly-through's, 2048); a power of two in [256, 16384].
+  uint32_t fitResolution = 0;
 };
 
 struct Config {

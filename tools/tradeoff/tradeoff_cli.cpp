@@ -14,6 +14,7 @@ void usage(std::FILE* out) {
       out,
       "usage: csm_tradeoff [--quick] [--path NAME] [--out DIR] [--budget-ms X]... [--replot] "
       "[--width W --height H] [--lod-study] [--timing-rounds N]\n"
+      "                    [--fit-study [--fit-resolution N]]\n"
       "  --lod-study: only the default configuration, with per-cascade caster LOD schedules "
       "(0122 .. 0000) and without LODs.\n"
       "  --timing-rounds N: time every configuration N times in interleaved rounds and report "
@@ -24,6 +25,8 @@ void usage(std::FILE* out) {
       "measuring.\n"
       "  --fit-study: sphere vs tight box x full range vs receiver-driven splits on the zoom "
       "path\n  at 8 degrees and the forest path at 60 degrees; writes DIR/fit_study.json.\n"
+      "  --fit-resolution N: the fit study's shadow maps N x N (a power of two in [256, "
+      "16384];\n  default the fly-through's 2048).\n"
       "  sweeps cascades 1..6 x resolution 512..8192 x caster LODs on/off, then split "
       "lambda,\n  PCF kernel, blend band and depth format around the defaults; writes "
       "DIR/tradeoff.csv and\n  DIR/tradeoff.png (Pareto front of GPU ms vs "
@@ -70,6 +73,17 @@ std::optional<int> parseArgs(int argc, char** argv, Options& o) {
         return 2;
       }
       o.timingRounds = int(n);
+    } else if (a == "--fit-resolution") {
+      const std::string v = next();
+      char* end = nullptr;
+      const long n = std::strtol(v.c_str(), &end, 10);
+      if (v.empty() || *end != '\0' || n < 256 || n > 16384 || (n & (n - 1)) != 0) {
+        std::fprintf(stderr,
+                     "--fit-resolution %s is invalid: allowed a power of two in [256, 16384]\n",
+                     v.c_str());
+        return 2;
+      }
+      o.fitResolution = uint32_t(n);
     } else if (a == "--help" || a == "-h") {
       usage(stdout);
       return 0;

@@ -42,28 +42,6 @@ struct FitConfig {
   bool bounds = false;
 };
 
-// The shadow pass of every configuration again, interleaved (3 rounds, fastest kept): the
-// machine's load drifts over a sequential run, so the ms are compared within a round.
-void retimeInterleaved(csm_measure::Harness& harness, std::span<const FitConfig> configs,
-                       const world::AppSettings& app,
-                       std::span<const std::optional<csm::ReceiverDepthRange>> ranges,
-                       const csm::Camera& cam, const csm::DirectionalLight& light, VkExtent2D view,
-                       std::vector<nlohmann::json>& poseRows) {
-  for (int round = 0; round < 3; ++round) {
-    for (std::size_t k = 0; k < configs.size(); ++k) {
-      csm::ShadowSettings s = app.shadow;
-      s.boxFit = configs[k].fit;
-      s.receiverSplitScheme = configs[k].scheme;
-      if (!harness.configure(s).ok()) throw std::runtime_error("configure failed");
-      harness.setReceiverRange(ranges[k]);
-      csm::CascadeHistory h;
-      harness.timeFrame(cam, light, h, view, app.kernel);
-      const double ms = harness.timeFrame(cam, light, h, view, app.kernel).shadowGpuMs;
-      poseRows[k]["shadow_gpu_ms"] = std::min(poseRows[k]["shadow_gpu_ms"].get<double>(), ms);
-    }
-  }
-}
-
 // One Markdown row of the study's table.
 void printFitRow(const char* path, double t, double fovDeg, const nlohmann::json& j) {
   std::printf("| %s | t=%.1f, fov %.0f deg | %s | %.4f | %llu | %llu | %.2f | %llu |\n", path, t,
@@ -102,7 +80,17 @@ struct FitPathContext {
   const csm::DirectionalLight& light;
   VkExtent2D timingView;
   VkExtent2D accuracyView;
+  uint32_t resolution;  ///< every configuration's shadow-map side
 };
+
+// The shadow settings of one configuration: the fly-through's, with its fit and scheme.
+csm::ShadowSettings fitSettings(const FitPathContext& ctx, const FitConfig& fc) {
+  csm::ShadowSettings s = ctx.app.shadow;
+  s.boxFit = fc.fit;
+  s.receiverSplitScheme = fc.scheme;
+  s.resolution = ctx.resolution;
+  return s;
+}
 
 // One pose: its timing and accuracy cameras, and the receivers of its first (full-range) frame.
 struct FitPose {
@@ -112,6 +100,8 @@ struct FitPose {
   std::optional<csm::ReceiverDepthRange> range;
   std::vector<glm::dvec3> receiverPosWs;  // the full-range frame's receiver pixels
   double medianDepthM = 0.0;
+  // The first (full-range) configuration's misclassified pixels, to count the shared ones.
+  std::optional<csm_measure::MissCauses> firstMisses;
 };
 
 FitPose makeFitPose(const world::FlightPath& path, double t, double aspect,
@@ -144,7 +134,7 @@ void recordReceivers(FitPose& pose, const std::vector<csm_measure::PixelSample>&
 // The study's JSON row of one configuration at one pose.
 nlohmann::json fitRowJson(const FitPathContext& ctx, const FitConfig& fc, const FitPose& pose,
                           const csm::CascadeFrame& frame, const csm_measure::AccuracyStats& acc,
-                          double shadowMs) {
+                          const csm_measure::MissCauses& causes, double shadowMs) {
   double texel = 0.0;
   for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
     if (pose.medianDepthM >= frame.splitsM[c] && pose.medianDepthM < frame.splitsM[c + 1]) {
@@ -174,11 +164,35 @@ nlohmann::json fitRowJson(const FitPathContext& ctx, const FitConfig& fc, const 
   j["receiver_fit"] = receiverFit;
   j["misclassified"] = acc.overall.misclassified;
   j["accuracy"] = acc.toJson(frame.cascadeCount);
+  j["misclassified_causes"] = causes.toJson();
+  j["misclassified_shared_with_first"] =
+      pose.firstMisses ? causes.sharedWith(*pose.firstMisses) : causes.total();
   j["receiver_pixels"] = acc.overall.pixels;
   j["shadow_gpu_ms"] = shadowMs;
   j["shadow_triangles"] = ctx.harness.shadowTriangles();
   j["device"] = ctx.harness.context().properties().deviceName;
   return j;
+}
+
+// The shadow pass of every configuration again, interleaved (3 rounds, fastest kept): the
+// machine's load drifts over a sequential run, so the ms are compared within a round.
+void retimeInterleaved(const FitPathContext& ctx, std::span<const FitConfig> configs,
+                       std::span<const std::optional<csm::ReceiverDepthRange>> ranges,
+                       const csm::Camera& cam, std::vector<nlohmann::json>& poseRows) {
+  csm_measure::Harness& harness = ctx.harness;
+  for (int round = 0; round < 3; ++round) {
+    for (std::size_t k = 0; k < configs.size(); ++k) {
+      if (!harness.configure(fitSettings(ctx, configs[k])).ok()) {
+        throw std::runtime_error("configure failed");
+      }
+      harness.setReceiverRange(ranges[k]);
+      csm::CascadeHistory h;
+      harness.timeFrame(cam, ctx.light, h, ctx.timingView, ctx.app.kernel);
+      const double ms =
+          harness.timeFrame(cam, ctx.light, h, ctx.timingView, ctx.app.kernel).shadowGpuMs;
+      poseRows[k]["shadow_gpu_ms"] = std::min(poseRows[k]["shadow_gpu_ms"].get<double>(), ms);
+    }
+  }
 }
 
 // One configuration at one pose: shadow-pass GPU ms (warm-up, fastest of 2) and accuracy against
@@ -187,9 +201,7 @@ nlohmann::json fitRowJson(const FitPathContext& ctx, const FitConfig& fc, const 
 nlohmann::json measureFitConfig(const FitPathContext& ctx, const FitConfig& fc, FitPose& pose,
                                 std::vector<std::optional<csm::ReceiverDepthRange>>& ranges) {
   csm_measure::Harness& harness = ctx.harness;
-  csm::ShadowSettings s = ctx.app.shadow;
-  s.boxFit = fc.fit;
-  s.receiverSplitScheme = fc.scheme;
+  const csm::ShadowSettings s = fitSettings(ctx, fc);
   if (!harness.configure(s).ok()) throw std::runtime_error("configure failed");
   std::optional<csm::ReceiverDepthRange> cfgRange = fc.receivers ? pose.range : std::nullopt;
   if (fc.bounds && cfgRange) {
@@ -217,7 +229,14 @@ nlohmann::json measureFitConfig(const FitPathContext& ctx, const FitConfig& fc, 
   const csm_measure::AccuracyStats acc =
       csm_measure::measureAccuracy(px, frame, ctx.tracer, ctx.light);
   if (!pose.range) recordReceivers(pose, px, s.shadowDistanceM);
-  return fitRowJson(ctx, fc, pose, frame, acc, shadowMs);
+  const csm_measure::MissCauses causes =
+      csm_measure::classifyMisses(px, frame, ctx.tracer, ctx.light, pose.accCam.positionWs);
+  if (causes.total() != acc.overall.misclassified) {
+    throw std::logic_error("classifyMisses counted other pixels than measureAccuracy");
+  }
+  nlohmann::json row = fitRowJson(ctx, fc, pose, frame, acc, causes, shadowMs);
+  if (!pose.firstMisses) pose.firstMisses = causes;
+  return row;
 }
 
 // One path of the study: its world, Embree scene and harness, then at each pose every
@@ -240,8 +259,10 @@ void studyFitPath(const char* pathName, const std::vector<double>& poses, world:
   const world::AppSettings app;
   harness.setCasterLods(worldScene.lodMeshes, app.cascadeLod);
   const csm::DirectionalLight light{glm::normalize(glm::dvec3(0.45, -0.8, -0.35))};
-  const FitPathContext ctx{pathName,    harness, tracer, app, light, {o.width, o.height},
-                           accuracyView};
+  const FitPathContext ctx{pathName,     harness,
+                           tracer,       app,
+                           light,        {o.width, o.height},
+                           accuracyView, o.fitResolution ? o.fitResolution : app.shadow.resolution};
   const double aspect = double(o.width) / double(o.height);
   for (double t : poses) {
     FitPose pose = makeFitPose(*path, t, aspect, accuracyView);
@@ -250,12 +271,34 @@ void studyFitPath(const char* pathName, const std::vector<double>& poses, world:
     for (const FitConfig& fc : kFitConfigs) {
       poseRows.push_back(measureFitConfig(ctx, fc, pose, ranges));
     }
-    retimeInterleaved(harness, kFitConfigs, app, ranges, pose.cam, light, ctx.timingView, poseRows);
+    retimeInterleaved(ctx, kFitConfigs, ranges, pose.cam, poseRows);
     for (nlohmann::json& j : poseRows) {
       printFitRow(pathName, t, glm::degrees(pose.cam.fovYRad), j);
       report["rows"].push_back(j);
     }
   }
+}
+
+// The second table: why each configuration's misclassified pixels are wrong
+// (csm_measure::classifyMisses), and how many of them the first configuration of the pose
+// (the sphere over the full range) gets wrong too.
+void printCausesTable(const nlohmann::json& rows) {
+  std::printf(
+      "\n| path | pose | configuration | misclassified | also misclassified by the first row | "
+      "facing away geometrically | false shadow | missed: thin occluder | missed: contact | "
+      "missed: far |\n|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const nlohmann::json& j : rows) {
+    const nlohmann::json& c = j["misclassified_causes"];
+    auto n = [](const nlohmann::json& v) { return (unsigned long long)v.get<std::uint64_t>(); };
+    std::printf(
+        "| %s | t=%.1f, fov %.0f deg | %s | %llu | %llu | %llu | %llu | %llu | %llu | %llu |\n",
+        j["path"].get<std::string>().c_str(), j["t"].get<double>(), j["fov_deg"].get<double>(),
+        j["configuration"].get<std::string>().c_str(), n(c["total"]),
+        n(j["misclassified_shared_with_first"]), n(c["facing_away_geometrically"]),
+        n(c["false_shadow"]), n(c["missed_thin_occluder"]), n(c["missed_contact"]),
+        n(c["missed_far"]));
+  }
+  std::fflush(stdout);
 }
 
 int runFitStudy(const Options& o) {
@@ -272,11 +315,12 @@ int runFitStudy(const Options& o) {
   nlohmann::json report;
   studyFitPath("zoom", {1.0}, wd, o, accuracyView, report);
   studyFitPath("forest", {0.2, 0.5, 0.8}, wd, o, accuracyView, report);
-  report["what"] =
-      "csm_tradeoff --fit-study: fly-through shadow settings (4 x 2048^2, 1500 m, lambda 0.8, "
-      "near 0.5 m), accuracy view " +
-      std::to_string(accuracyView.width) + "x" + std::to_string(accuracyView.height) +
-      ", timing view " + std::to_string(o.width) + "x" + std::to_string(o.height);
+  printCausesTable(report["rows"]);
+  const uint32_t res = o.fitResolution ? o.fitResolution : world::AppSettings{}.shadow.resolution;
+  report["what"] = "csm_tradeoff --fit-study: fly-through shadow settings (4 x " +
+                   std::to_string(res) + "^2, 1500 m, lambda 0.8, near 0.5 m), accuracy view " +
+                   std::to_string(accuracyView.width) + "x" + std::to_string(accuracyView.height) +
+                   ", timing view " + std::to_string(o.width) + "x" + std::to_string(o.height);
   csm_measure::writeJson(o.out + "/fit_study.json", report);
   std::fprintf(stderr, "wrote %s/fit_study.json\n", o.out.c_str());
   return 0;
