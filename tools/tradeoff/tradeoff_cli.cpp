@@ -1,6 +1,7 @@
 // csm_tradeoff: the command line.
 #include "tradeoff.hpp"
 
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
@@ -38,6 +39,19 @@ void usage(std::FILE* out) {
   std::fprintf(out, "\n");
 }
 
+namespace {
+
+// A whole decimal number, all of `v`; nothing when it is not one (or out of long's range).
+std::optional<long> wholeNumber(const std::string& v) {
+  char* end = nullptr;
+  errno = 0;
+  const long n = std::strtol(v.c_str(), &end, 10);
+  if (v.empty() || *end != '\0' || errno == ERANGE) return std::nullopt;
+  return n;
+}
+
+}  // namespace
+
 std::optional<int> parseArgs(int argc, char** argv, Options& o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -65,25 +79,25 @@ std::optional<int> parseArgs(int argc, char** argv, Options& o) {
       o.lodStudy = true;
     } else if (a == "--timing-rounds") {
       const std::string v = next();
-      char* end = nullptr;
-      const long n = std::strtol(v.c_str(), &end, 10);
-      if (v.empty() || *end != '\0' || n < 1 || n > 20) {
+      const std::optional<long> n = wholeNumber(v);
+      if (!n || *n < 1 || *n > 20) {
         std::fprintf(stderr, "--timing-rounds %s is invalid: allowed an integer in [1, 20]\n",
                      v.c_str());
         return 2;
       }
-      o.timingRounds = int(n);
+      o.timingRounds = int(*n);
     } else if (a == "--fit-resolution") {
+      // The module's own check of ShadowSettings::resolution decides what is allowed.
       const std::string v = next();
-      char* end = nullptr;
-      const long n = std::strtol(v.c_str(), &end, 10);
-      if (v.empty() || *end != '\0' || n < 256 || n > 16384 || (n & (n - 1)) != 0) {
-        std::fprintf(stderr,
-                     "--fit-resolution %s is invalid: allowed a power of two in [256, 16384]\n",
-                     v.c_str());
+      const std::optional<long> n = wholeNumber(v);
+      csm::ShadowSettings s;
+      s.resolution = n && *n > 0 && *n <= long(csm::kMaxResolution) ? uint32_t(*n) : 0u;
+      if (const std::optional<csm::ValidationError> e = csm::validate(s)) {
+        std::fprintf(stderr, "--fit-resolution %s is invalid: allowed %s\n", v.c_str(),
+                     e->allowed.c_str());
         return 2;
       }
-      o.fitResolution = uint32_t(n);
+      o.fitResolution = s.resolution;
     } else if (a == "--help" || a == "-h") {
       usage(stdout);
       return 0;
