@@ -351,19 +351,23 @@ TEST(ShadowView, CascadesDrawTheLodTheirTexelErrorBudgetAllows) {
 }
 
 // Cached and uncached passes pack the uniform block alike: with D16 the depth floor carries
-// D16's quantum in both (the cached pass once left UniformOptions::depthBits at 32).
+// D16's quantum in both (the cached pass once left UniformOptions::depthBits at 32). Stabilised
+// per-layer cascades are windowed (toroidal layers) cached or not; unstabilised ones are not.
 TEST(ShadowView, CachedAndUncachedPassesPackTheDepthFormatsQuantum) {
   {
     ShadowScene scene;
-    for (bool cache : {false, true}) {
-      SCOPED_TRACE(cache ? "cached" : "uncached");
+    for (int mode = 0; mode < 3; ++mode) {
+      const bool cache = mode == 1, stabilize = mode != 2;
+      SCOPED_TRACE(cache ? "cached" : (stabilize ? "uncached" : "unstabilised"));
       csm::vk::RendererOptions options;
       options.depthFormat = VK_FORMAT_D16_UNORM;
       options.cache = cache;
-      CSM_ASSERT_OK(scene.update(testSettings(4, 512), options));
+      csm::ShadowSettings settings = testSettings(4, 512);
+      settings.stabilize = stabilize;
+      CSM_ASSERT_OK(scene.update(settings, options));
       (void)scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
       EXPECT_EQ(scene.renderer().uniforms().depthFloorQuantum, csm::depthQuantum(16));
-      EXPECT_EQ(scene.renderer().uniforms().wrappedLayers, cache ? 1u : 0u);
+      EXPECT_EQ(scene.renderer().uniforms().wrappedLayers, stabilize ? 1u : 0u);
     }
   }
   EXPECT_EQ(validationMessages(), 0u);

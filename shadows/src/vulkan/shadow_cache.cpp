@@ -1,20 +1,25 @@
-// Cached cascades (RendererOptions::cache): static casters' depth kept per cascade across
-// frames, only newly exposed / invalidated texels re-rendered, dynamic casters drawn every frame
-// over a copy of it.
+// Windowed cascades: stabilised per-layer cascades drawn in world-anchored windows, and the cache
+// (RendererOptions::cache) on top of them: static casters' depth kept per cascade across frames,
+// only newly exposed / invalidated texels re-rendered, dynamic casters drawn every frame over a
+// copy of it. Uncached, every texel is drawn every frame in the same windows, so the cache
+// changes the cost and never the depth.
 //
 // Addressing. Texels are fixed in the world: a cascade's box starts at world texel index
 // (boxX, boxY) of the light-space grid anchored at the world origin (the snapped box centre).
 // World texel (i, j) lives at layer texel ((i - anchorX) mod R, (j - anchorY) mod R): toroidal,
 // so a cascade that moves keeps every texel it still covers where it is and only the exposed
-// rows/columns are drawn (scissored). The depth pass projects about the window's anchor (fixed
-// while the window lives), and each block of R texels is drawn with the viewport shifted by a
-// whole multiple of R, so a world texel is always rasterised with the same vertex positions,
-// viewport and tile: whichever frame draws it, its depth is bit-identical.
+// rows/columns are drawn (scissored). Block (mx, my) of R x R texels of the anchor-relative
+// index space is drawn with the viewport over the whole layer and the geometry projected about
+// the block's own origin (anchor + m R texels, composed in double), so a world texel is always
+// rasterised with the same vertex positions, viewport and tile: whichever frame draws it, cached
+// or not, its depth is bit-identical. (Shifting the viewport by -m R instead would put the
+// geometry outside the clip volume, where Vulkan clips it: lavapipe's guard band drew some of it
+// and lost the rest, which is how the fly-through lost its shadows.)
 //
 // Depth window. The depth range is absolute in light space, quantised in quarters of the needed
 // range and kept while it covers what the cascade needs (hysteresis), so stored depths stay
-// valid as the camera moves; a new window (texel size, light direction, depth range, viewport
-// range) re-renders the layer.
+// valid as the camera moves; a new window (texel size, light direction, depth range) re-renders
+// the layer.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -74,19 +79,31 @@ constexpr VkPipelineStageFlags2 kDepthStages =
 constexpr VkAccessFlags2 kDepthAccess =
     VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
 
-// Model -> a cached window's clip space (`Window`: ShadowRenderer::CacheWindow, a private type
-// deduced here), drawn about the window's anchor: layer pixel x = world texel index - anchorX
-// (before the block shift).
+// The light-space point a window's block (mx, my) is projected about, and the scale to clip
+// space (`Window`: ShadowRenderer::CacheWindow, a private type deduced here): layer pixel x =
+// world texel index - anchorX - mx * R. Every block is drawn with the same viewport [0, R)^2;
+// its geometry is shifted in light space (in double) instead, so what a block draws lies inside
+// the clip volume (a viewport shifted off the attachment would rely on fragments outside the
+// viewport, which Vulkan clips away).
 template <class Window>
-glm::mat4 anchorTransform(const Window& w, std::int64_t res, const glm::dmat3& basisT,
-                          const CasterInstance& inst) {
+void blockProjection(const Window& w, std::int64_t res, std::int64_t mx, std::int64_t my,
+                     glm::dvec3& originLs, glm::dvec3& scale) {
   const double half = 0.5 * double(res) * w.texel;
-  const glm::dvec3 anchorLs(double(w.anchorX) * w.texel + half, double(w.anchorY) * w.texel + half,
-                            0.0);
-  const glm::dvec3 scale(1.0 / half, 1.0 / half, 1.0 / (w.zFar - w.zNear));
+  originLs = glm::dvec3(double(w.anchorX + mx * res) * w.texel + half,
+                        double(w.anchorY + my * res) * w.texel + half, w.zNear);
+  scale = glm::dvec3(1.0 / half, 1.0 / half, 1.0 / (w.zFar - w.zNear));
+}
+
+// Model -> clip space of block (mx, my) of a window: the same vertex positions whichever frame
+// draws a world texel, so its depth is bit-identical.
+template <class Window>
+glm::mat4 anchorTransform(const Window& w, std::int64_t res, std::int64_t mx, std::int64_t my,
+                          const glm::dmat3& basisT, const CasterInstance& inst) {
+  glm::dvec3 originLs, scale;
+  blockProjection(w, res, mx, my, originLs, scale);
   const glm::dmat3 linear = basisT * glm::dmat3(inst.linearWs);
-  // In light space about the anchor: subtract in double (both may be ~1e7 m).
-  const glm::dvec3 t = basisT * inst.translationWs - anchorLs - glm::dvec3(0, 0, w.zNear);
+  // In light space about the block's origin: subtract in double (both may be ~1e7 m).
+  const glm::dvec3 t = basisT * inst.translationWs - originLs;
   return scaledAffine(linear, t, scale);
 }
 
@@ -120,7 +137,7 @@ void split(const Window& w, std::int64_t res, const TexelRect& r, std::vector<La
 
 /// Viewport and scissor of one layer rectangle: the viewport shifted by its block.
 void setLayerRect(VkCommandBuffer cmd, const LayerRect& lr, std::int64_t res) {
-  const VkViewport vp{-float(lr.mx * res), -float(lr.my * res), float(res), float(res), 0.0f, 1.0f};
+  const VkViewport vp{0.0f, 0.0f, float(res), float(res), 0.0f, 1.0f};
   vkCmdSetViewport(cmd, 0, 1, &vp);
   vkCmdSetScissor(cmd, 0, 1, &lr.scissor);
 }
@@ -231,20 +248,16 @@ Status ShadowRenderer::checkCacheOptions(const ShadowSettings& settings,
 // ---------------------------------------------------------------------------------------------
 // Windows
 
+bool ShadowRenderer::windowedFor(const ShadowSettings& settings, const RendererOptions& options,
+                                 RenderMode mode) noexcept {
+  return options.cache || (settings.stabilize && mode == RenderMode::kPerLayer);
+}
+
 void ShadowRenderer::applyCacheWindows(CascadeFrame& frame) {
-  if (!options_.cache || frame.resolution != resolution_) return;
+  if (!windowed() || frame.resolution != resolution_) return;
   const std::int64_t res = resolution_;
   const glm::dmat3& basis = frame.lightBasisWs;
   const glm::dmat3 basisT = glm::transpose(basis);
-  const float* bounds = properties_.limits.viewportBoundsRange;
-  // Block m of the anchor-relative index space is drawn with the viewport at x = -m * R.
-  auto blockOk = [&](std::int64_t u) {
-    for (std::int64_t m : {floorDiv(u, res), floorDiv(u + res - 1, res)}) {
-      const double x = -double(m) * double(res);
-      if (x < double(bounds[0]) + 1.0 || x + double(res) > double(bounds[1]) - 1.0) return false;
-    }
-    return true;
-  };
   std::array<bool, kMaxCascades> covered{};
   std::vector<TexelRect> stale;
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
@@ -259,9 +272,7 @@ void ShadowRenderer::applyCacheWindows(CascadeFrame& frame) {
     const double needFar = centerLs.z + c.depthFarLs;
     const double needLen = needFar - needNear;
     const bool keep = w.valid && w.texel == texel && w.lightDirection == frame.lightDirectionWs &&
-                      needNear >= w.zNear && needFar <= w.zFar &&
-                      w.zFar - w.zNear <= 2.5 * needLen && blockOk(boxX - w.anchorX) &&
-                      blockOk(boxY - w.anchorY);
+                      needNear >= w.zNear && needFar <= w.zFar && w.zFar - w.zNear <= 2.5 * needLen;
     if (!keep) {
       w = CacheWindow{};
       w.valid = true;
@@ -314,7 +325,7 @@ bool ShadowRenderer::shownCovers(std::uint32_t i, const Cascade& c, const glm::d
 void ShadowRenderer::applyCacheBudget(CascadeFrame& frame,
                                       const std::array<bool, kMaxCascades>& covered) {
   const glm::dmat3& basis = frame.lightBasisWs;
-  const std::uint64_t budget = options_.cacheBudgetTexels;
+  const std::uint64_t budget = options_.cache ? options_.cacheBudgetTexels : 0;
   std::vector<std::uint32_t> order;
   auto refresh = [&](std::uint32_t i) {
     CacheShown& sh = shown_[i];
@@ -470,7 +481,22 @@ struct ShadowRenderer::CachedPass {
   std::vector<VkImageCopy> copyRegions;
   std::vector<PieceHit> hits;
 
-  void setRect(const LayerRect& lr) const { setLayerRect(cmd, lr, res); }
+  std::int64_t blockX = 0, blockY = 0;  // the block of the rectangle set last
+  // The texel rectangles of the casters of `list` in the cascade being drawn (every texel
+  // when the host gave no bounds: each block then draws every caster, scissored).
+  void computeCasterRects(const std::vector<std::uint32_t>& list, double texel) {
+    constexpr std::int64_t kAll = std::int64_t(1) << 62;
+    for (std::uint32_t idx : list) {
+      casterRects[idx] = casters.boundsWs.empty() ? TexelRect{-kAll, -kAll, kAll, kAll}
+                                                  : boxTexels(casters.boundsWs[idx], basisT, texel);
+    }
+  }
+
+  void setRect(const LayerRect& lr) {
+    setLayerRect(cmd, lr, res);
+    blockX = lr.mx;
+    blockY = lr.my;
+  }
 
   // Draws caster `idx` (at the LOD of the uncached pass: the schedule and the texel error
   // budget) under the current viewport and scissor; returns its triangles.
@@ -480,7 +506,7 @@ struct ShadowRenderer::CachedPass {
         casterLod(inst, r.options_.cascadeLod[cascade], w.texel, r.options_.lodMaxErrorTexels))];
     if (mesh.indexCount == 0) return 0;
     bindMeshBuffers(cmd, mesh, bound, r.layout_.indexType);
-    const DepthPushPerLayer push{anchorTransform(w, res, basisT, inst), cascade};
+    const DepthPushPerLayer push{anchorTransform(w, res, blockX, blockY, basisT, inst), cascade};
     vkCmdPushConstants(cmd, r.pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                        &push);
     r.drawIndexedCaster(cmd, inst, mesh, 1);
@@ -656,10 +682,8 @@ bool ShadowRenderer::recordCachedCascade(CachedPass& pass, std::uint32_t i,
   st.wantedTexels = sh.wanted;
   const TexelRect box = pass.boxes[i];
   bool dynamicNow = false;
-  for (std::uint32_t idx : list) {
-    pass.casterRects[idx] = boxTexels(pass.casters.boundsWs[idx], pass.basisT, win.texel);
-    dynamicNow = dynamicNow || pass.casters.instances[idx].dynamic;
-  }
+  pass.computeCasterRects(list, win.texel);
+  for (std::uint32_t idx : list) dynamicNow = dynamicNow || pass.casters.instances[idx].dynamic;
 
   // What of the static layer is stale: everything (new window), the newly exposed rows and
   // columns, and what lies under invalidated boxes. A deferred cascade draws none of it.
@@ -897,29 +921,129 @@ void ShadowRenderer::recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMa
   if (endLabel_) endLabel_(cmd);
 }
 
-Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame,
-                                        const CasterList& casters, const CullResult& visible) {
-  Status s = checkCacheWindows(frame);
-  if (!s.ok()) return s;
+// The frame to record: `frame` when it carries the windows (applyCacheWindows, as ShadowView
+// does before culling), else `own`, a windowed copy (uncached: the host culled the frame as
+// computed; the windows only deepen the depth range, so its lists hold every caster the
+// windowed box can show). Null when the cache needs the windows before culling.
+const CascadeFrame* ShadowRenderer::windowedFrame(const CascadeFrame& frame, CascadeFrame& own) {
+  if (checkCacheWindows(frame).ok()) return &frame;
+  if (options_.cache) return nullptr;
+  own = frame;
+  applyCacheWindows(own);
+  return &own;
+}
+
+// Every texel of cascade `i` rendered into the sampled layer (windowed, uncached): the box's
+// blocks, each caster drawn over the blocks its bounds touch, static and dynamic alike. The same
+// vertices, viewport and tiles as the cached pass, so the same depth in every texel.
+void ShadowRenderer::recordFullCascade(CachedPass& pass, std::uint32_t i,
+                                       const std::vector<std::uint32_t>& list) {
+  const CacheWindow& win = shown_[i].window;
+  CascadeCacheStats& st = cacheStats_[i];
+  pass.basisT = glm::transpose(shown_[i].basis);
+  pass.computeCasterRects(list, win.texel);
+  if (cascadeHook_) cascadeHook_(pass.cmd, i);
+  beginDepthRendering(pass.cmd, layerViews_[i], 1, true, cascadeLabel(i, "full"), pipeline_);
+  pass.bound = nullptr;
+  split(win, resolution_, pass.boxes[i], pass.layerRects);
+  for (const LayerRect& lr : pass.layerRects) {
+    pass.setRect(lr);
+    st.staticTriangles += pass.drawRect(i, win, list, false, lr);
+    st.dynamicTriangles += pass.drawRect(i, win, list, true, lr);
+  }
+  st.staticTexels = std::uint64_t(resolution_) * resolution_;
+  st.wantedTexels = st.staticTexels;
+  st.newWindow = true;
+  endLayer(pass.cmd);
+}
+
+Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frameIn,
+                                        const CasterList& casters, const CullResult* visible) {
+  CascadeFrame own;
+  const CascadeFrame* framePtr = windowedFrame(frameIn, own);
+  if (framePtr == nullptr) return checkCacheWindows(frameIn);
+  const CascadeFrame& frame = *framePtr;
+  // Without cull lists every caster is drawn in every cascade (its bounds still pick blocks).
+  std::vector<std::uint32_t> all;
+  if (visible == nullptr) {
+    all.resize(casters.instances.size());
+    for (std::size_t k = 0; k < all.size(); ++k) all[k] = static_cast<std::uint32_t>(k);
+  }
+  auto listOf = [&](std::uint32_t c) -> const std::vector<std::uint32_t>& {
+    return visible != nullptr ? visible->visible[c] : all;
+  };
 
   const bool wasUndefined = countRecord();
   CachedPass pass(*this, cmd, casters, resolution_);
   packCachedUniforms(frame, pass);
-  recordCachedBegin(cmd, wasUndefined);
-
-  bool any = false;
-  std::uint32_t copiedMask = 0;
   cacheStats_ = {};
   pass.casterRects.resize(casters.instances.size());
+  if (!options_.cache) {
+    recordDiscardingStart(cmd, "csm shadow pass (windowed)");
+    bool any = false;
+    for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+      if (frame.cascades[i].empty) continue;
+      recordFullCascade(pass, i, listOf(i));
+      any = true;
+    }
+    if (cascadeHook_ && any) cascadeHook_(cmd, kCascadeHookEnd);
+    recordEnd(cmd);
+    return {};
+  }
+
+  recordCachedBegin(cmd, wasUndefined);
+  bool any = false;
+  std::uint32_t copiedMask = 0;
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     if (frame.cascades[i].empty) continue;
-    if (!recordCachedCascade(pass, i, visible.visible[i])) continue;
+    if (!recordCachedCascade(pass, i, listOf(i))) continue;
     any = true;
     copiedMask |= 1u << i;
   }
   if (cascadeHook_ && any) cascadeHook_(cmd, kCascadeHookEnd);
 
   recordCachedEnd(cmd, copiedMask);
+  return {};
+}
+
+// The callback form with windowed cascades: the host's draws once per block of each cascade's
+// box, projected about the block (CascadeDrawContext::setTransform), viewport and scissor set.
+Status ShadowRenderer::recordWindowedCallbackPass(VkCommandBuffer cmd, const CascadeFrame& frameIn,
+                                                  const CascadeDrawCallback& draw,
+                                                  const CullResult* visible) {
+  CascadeFrame own;
+  const CascadeFrame& frame = *windowedFrame(frameIn, own);  // uncached: never null
+  countRecord();
+  const CasterList none{};
+  CachedPass pass(*this, cmd, none, resolution_);
+  packCachedUniforms(frame, pass);
+  cacheStats_ = {};
+  recordDiscardingStart(cmd, "csm shadow pass (windowed)");
+  bool any = false;
+  for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
+    if (frame.cascades[c].empty) continue;
+    if (cascadeHook_) cascadeHook_(cmd, c);
+    any = true;
+    const CacheWindow& win = shown_[c].window;
+    beginDepthRendering(cmd, layerViews_[c], 1, true, cascadeLabel(c, "full"), pipeline_);
+    split(win, resolution_, pass.boxes[c], pass.layerRects);
+    for (const LayerRect& lr : pass.layerRects) {
+      pass.setRect(lr);
+      CascadeDrawContext ctx;
+      ctx.cmd = cmd;
+      ctx.cascade = c;
+      ctx.visible = visible ? &visible->visible[c] : nullptr;
+      ctx.pipelineLayout = pipelineLayout_;
+      ctx.cameraPositionWs = frame.cameraPositionWs;
+      ctx.frame = &frame;
+      ctx.anchored = true;
+      blockProjection(win, resolution_, lr.mx, lr.my, ctx.originLs, ctx.clipPerMetre);
+      draw(ctx);
+    }
+    endLayer(cmd);
+  }
+  if (cascadeHook_ && any) cascadeHook_(cmd, kCascadeHookEnd);
+  recordEnd(cmd);
   return {};
 }
 

@@ -170,11 +170,15 @@ const char* errorCodeName(ErrorCode code) noexcept {
 
 void CascadeDrawContext::setTransform(const glm::dvec3& translationWs,
                                       const glm::mat3& linearWs) const {
-  const DepthPushPerLayer push{frame != nullptr
-                                   ? modelToShadowClip(frame->cascades[cascade],
-                                                       frame->lightBasisWs, translationWs, linearWs)
-                                   : glm::mat4(1.0f),
-                               cascade};
+  glm::mat4 m(1.0f);
+  if (frame != nullptr && anchored) {
+    const glm::dmat3 toLight = glm::transpose(frame->lightBasisWs);
+    m = scaledAffine(toLight * glm::dmat3(linearWs), toLight * translationWs - originLs,
+                     clipPerMetre);
+  } else if (frame != nullptr) {
+    m = modelToShadowClip(frame->cascades[cascade], frame->lightBasisWs, translationWs, linearWs);
+  }
+  const DepthPushPerLayer push{m, cascade};
   vkCmdPushConstants(cmd, pipelineLayout, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                      &push);
 }
@@ -611,10 +615,12 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
   RenderMode mode = RenderMode::kPerLayer;
   Status s = resolveOptions(settings, options, &mode);
   if (!s.ok()) return s;
+  // Windowed addressing (stabilised, per-layer) samples through the REPEAT samplers.
+  const bool wrap = windowedFor(settings, options, mode);
   const bool newImage = image_ == VK_NULL_HANDLE || settings.resolution != resolution_ ||
                         settings.cascadeCount != layerCount_ ||
                         options.depthFormat != options_.depthFormat ||
-                        options.cache != options_.cache;
+                        options.cache != options_.cache || wrap != wrapSampling_;
   const bool newPipelines = !pipelinesBuilt_ || options.depthFormat != options_.depthFormat;
   // Nothing waits for the GPU: what is replaced is retired (collectRetired).
   if (newPipelines) {
@@ -623,7 +629,7 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
   }
   if (newImage) {
     const bool oldWrap = wrapSampling_;
-    wrapSampling_ = options.cache;
+    wrapSampling_ = wrap;
     s = createImage(settings, options.depthFormat);
     if (!s.ok()) {
       wrapSampling_ = oldWrap;
@@ -1028,7 +1034,12 @@ CsmUniforms ShadowRenderer::packFrameUniforms(const CascadeFrame& frame) const {
 void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame) {
   countRecord();
   uniforms_ = packFrameUniforms(frame);
-  // Earlier samplers of the map finish before it is discarded and rendered again.
+  recordDiscardingStart(cmd, "csm shadow pass");
+}
+
+// The start of a pass that renders every layer whole: earlier samplers of the map finish before
+// it is discarded and rendered again; then the uniform block (uniforms_).
+void ShadowRenderer::recordDiscardingStart(VkCommandBuffer cmd, const char* label) {
   auto toAttachment = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
   toAttachment.srcStageMask = options_.consumerStages;
   toAttachment.srcAccessMask = VK_ACCESS_2_NONE;
@@ -1042,7 +1053,7 @@ void ShadowRenderer::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame)
   toAttachment.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
   toAttachment.image = image_;
   toAttachment.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
-  recordPassStart(cmd, "csm shadow pass", {&toAttachment, 1});
+  recordPassStart(cmd, label, {&toAttachment, 1});
 }
 
 void ShadowRenderer::recordEnd(VkCommandBuffer cmd) {
@@ -1158,8 +1169,13 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
                         "bounds for %zu instances",
                         casters.boundsWs.size(), instanceCount));
     }
-    return recordCachedPass(cmd, frame, casters, *visible);
+  } else if (!casters.boundsWs.empty() && casters.boundsWs.size() != instanceCount) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("casters.boundsWs has %zu bounds for %zu instances: give one per instance "
+                      "or none",
+                      casters.boundsWs.size(), instanceCount));
   }
+  if (windowed()) return recordCachedPass(cmd, frame, casters, visible);
   recordBegin(cmd, frame);
   // The mesh cascade c draws instance i with: its LOD by the schedule and the texel error budget.
   auto lodMesh = [&](std::size_t i, std::uint32_t c) {
@@ -1264,6 +1280,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
                   "options.cache = true: use the caster-list form of recordShadowPass (the "
                   "cache draws scissored regions with the casters' bounds)");
   }
+  if (windowed()) return recordWindowedCallbackPass(cmd, frame, draw, visible);
   recordBegin(cmd, frame);
   bool any = false;
   for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {

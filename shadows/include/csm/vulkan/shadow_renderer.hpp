@@ -169,6 +169,9 @@ struct RendererOptions {
   /// cascade's depth window is world-anchored; dynamic casters are drawn every frame over a copy
   /// of the static depth. csm.glsl reads the same world texels (wrap offsets in the uniforms).
   /// Costs one more depth image of the same size (cacheBytes()). Needs settings.stabilize.
+  /// Stabilised per-layer cascades are drawn in the same world-anchored windows whether cached
+  /// or not (uncached, every texel is drawn every frame), so turning the cache on changes the
+  /// cost, never the depth: the layers are bit-identical either way (test CacheWorld.*).
   bool cache = false;
   /// Cached cascades: the most static texels re-rendered per frame in the cascades beyond the
   /// first cacheExactCascades (which are always exact and not counted). A cascade whose refresh
@@ -321,14 +324,23 @@ struct CascadeDrawContext {
   glm::dvec3 cameraPositionWs{0.0};
   /// The frame being recorded (its cascade `cascade` gives the transform setTransform pushes).
   const CascadeFrame* frame = nullptr;
+  /// Windowed cascades (stabilised, per-layer: see RendererOptions::cache): the light-space
+  /// point the draws are projected about and the scale to clip space, set by the renderer for
+  /// each block of the layer it calls the callback for. Unused (anchored false) otherwise.
+  bool anchored = false;
+  glm::dvec3 originLs{0.0};
+  glm::dvec3 clipPerMetre{1.0};
 
   /// Sets the model transform of the following draws: pushes model -> the cascade's shadow clip
-  /// space, composed in double about the cascade's snapped box centre (camera-independent, so
-  /// sub-texel camera motion re-renders a bit-identical map).
+  /// space, composed in double about the cascade's snapped box centre, or the block's anchor
+  /// when windowed (camera-independent, so sub-texel camera motion re-renders a bit-identical
+  /// map).
   void setTransform(const glm::dvec3& translationWs, const glm::mat3& linearWs) const;
 };
 
-/// Called once per non-empty cascade by the callback form of recordShadowPass.
+/// Called by the callback form of recordShadowPass once per non-empty cascade, or with windowed
+/// cascades once per block of the layer the cascade's box covers (up to four; viewport and
+/// scissor already set): draw the same casters each time, with setTransform.
 using CascadeDrawCallback = std::function<void(const CascadeDrawContext&)>;
 
 /// The `cascade` a CascadeHook gets after the pass's last render pass ended.
@@ -417,9 +429,10 @@ class ShadowRenderer {
   // --- Cached cascades (RendererOptions::cache) -------------------------------------------------
   /// Fits each non-empty cascade of `frame` into its cached depth window (world-anchored,
   /// quantised, with hysteresis; a new window when the texel size, the light, the needed depth
-  /// range or the viewport range no longer fits) and rewrites the cascade's depth range and
+  /// range no longer fits) and rewrites the cascade's depth range and
   /// viewProjCr to that window's. Call it before culling (ShadowView does); the cached
-  /// recordShadowPass refuses a frame it was not applied to. No-op without the cache.
+  /// recordShadowPass refuses a frame it was not applied to (uncached, it windows a copy of the
+  /// frame itself). No-op unless the cascades are windowed (settings.stabilize, per-layer).
   void applyCacheWindows(CascadeFrame& frame);
   /// Marks the static depth under a world box stale in every cascade (a static caster added,
   /// removed or moved; terrain streamed in): only the texels under it are re-rendered at the
@@ -494,6 +507,7 @@ class ShadowRenderer {
   void recordPassStart(VkCommandBuffer cmd, const char* label,
                        std::span<const VkImageMemoryBarrier2> images);
   void recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame);
+  void recordDiscardingStart(VkCommandBuffer cmd, const char* label);
   void recordEnd(VkCommandBuffer cmd);
   void beginDepthRendering(VkCommandBuffer cmd, VkImageView view, std::uint32_t layers, bool clear,
                            const std::string& label, VkPipeline pipeline);
@@ -502,8 +516,18 @@ class ShadowRenderer {
   void setName(std::uint64_t handle, VkObjectType type, const char* name) const;
   Status createStaticImage(const ShadowSettings& settings, VkFormat format);
   void retireStaticImage() noexcept;
+  // Windowed addressing (shadow_cache.cpp): stabilised per-layer cascades are drawn about
+  // world-anchored windows, cached or not, so that the cache changes the cost, never the depth.
+  [[nodiscard]] static bool windowedFor(const ShadowSettings& settings,
+                                        const RendererOptions& options, RenderMode mode) noexcept;
+  [[nodiscard]] bool windowed() const noexcept {
+    return windowedFor(settings_, options_, resolvedMode_);
+  }
   Status recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame, const CasterList& casters,
-                          const CullResult& visible);
+                          const CullResult* visible);
+  Status recordWindowedCallbackPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                                    const CascadeDrawCallback& draw, const CullResult* visible);
+  const CascadeFrame* windowedFrame(const CascadeFrame& frame, CascadeFrame& own);
   // applyCacheWindows()'s steps (shadow_cache.cpp).
   bool shownCovers(std::uint32_t cascade, const Cascade& c, const glm::dmat3& basis) const;
   void applyCacheBudget(CascadeFrame& frame, const std::array<bool, kMaxCascades>& covered);
@@ -512,6 +536,8 @@ class ShadowRenderer {
   Status checkCacheWindows(const CascadeFrame& frame) const;
   void packCachedUniforms(const CascadeFrame& frame, CachedPass& pass);
   void recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined);
+  void recordFullCascade(CachedPass& pass, std::uint32_t cascade,
+                         const std::vector<std::uint32_t>& list);
   bool recordCachedCascade(CachedPass& pass, std::uint32_t cascade,
                            const std::vector<std::uint32_t>& list);
   void recordStaticRects(CachedPass& pass, std::uint32_t cascade,
