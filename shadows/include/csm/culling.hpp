@@ -27,6 +27,14 @@ class CasterSet {
   /// Adds an axis-aligned box and returns the caster's index, or refuses non-finite corners or
   /// min > max on any axis (nothing is added then).
   Result<std::uint32_t> addBox(const glm::dvec3& minWs, const glm::dvec3& maxWs);
+  /// Caster i is drawn widened by `texels` of each cascade in the light's plane (a thin caster,
+  /// RendererOptions::thinCasterWidenTexels): it reaches a cascade whose box, grown by that many
+  /// of its texels in x and y, its bounds meet. Refuses a margin outside [0, 64] or an index out
+  /// of range. No rebuild needed.
+  Result<std::uint32_t> setMarginTexels(std::uint32_t i, float texels);
+  [[nodiscard]] float marginTexels(std::uint32_t i) const noexcept {
+    return i < margin_.size() ? margin_[i] : 0.0f;
+  }
   /// Removes every caster.
   void clear() noexcept;
   /// Reserves room for `count` casters.
@@ -57,10 +65,11 @@ class CasterSet {
   std::vector<double> centerX_, centerY_, centerZ_;
   std::vector<float> halfX_, halfY_, halfZ_;
   std::vector<std::uint8_t> kind_;  // 0 sphere (half extents all = radius), 1 box
+  std::vector<float> margin_;       // texels each caster is widened by (empty: none)
+  float maxMargin_ = 0.0f;          // the largest of them (tree nodes are tested with it)
   std::vector<std::uint32_t> order_;
   std::vector<Node> nodes_;
   bool built_ = false;
-
 };
 
 /// Per-cascade lists of caster indices to draw.
@@ -73,7 +82,8 @@ struct CullResult {
 
 /// Fills `out.visible[c]` for each non-empty cascade c of `frame` with every caster whose bounds
 /// intersect the cascade's light box extruded without limit toward the light (x, y within the
-/// box, light-space z <= depthFarLs), in increasing index order, except casters whose bounds
+/// box grown by the caster's margin in the cascade's texels, light-space z <= depthFarLs), in
+/// increasing index order, except casters whose bounds
 /// span fewer than `minCasterTexels` of that cascade's texels (0: keep all). Exact per caster
 /// (sphere-box and box-box separating-axis tests); the hierarchy only skips what cannot
 /// intersect. Reuses `out`'s storage.

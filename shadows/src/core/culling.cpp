@@ -190,7 +190,23 @@ Result<std::uint32_t> CasterSet::addBox(const glm::dvec3& minWs, const glm::dvec
   return index;
 }
 
+Result<std::uint32_t> CasterSet::setMarginTexels(std::uint32_t i, float texels) {
+  if (i >= size()) {
+    return ValidationError{"caster index", double(i),
+                           "an index below the set's size " + std::to_string(size())};
+  }
+  if (!(texels >= 0.0f && texels <= 64.0f)) {
+    return ValidationError{"caster.marginTexels", double(texels), "texels in [0, 64]"};
+  }
+  if (margin_.size() < size()) margin_.resize(size(), 0.0f);
+  margin_[i] = texels;
+  maxMargin_ = std::max(maxMargin_, texels);
+  return i;
+}
+
 void CasterSet::clear() noexcept {
+  margin_.clear();
+  maxMargin_ = 0.0f;
   centerX_.clear();
   centerY_.clear();
   centerZ_.clear();
@@ -287,13 +303,30 @@ void CasterSet::build() {
 
 namespace {
 
-// Shared by both culling paths: the exact per-caster test, size threshold included.
-bool casterVisible(const Volume& v, const glm::dvec3& c, const glm::dvec3& e,
-                   bool sphere) noexcept {
+// `v` grown by `texels` of its texels in the light's x and y (a widened caster's reach; tree
+// nodes are tested against the volume grown by the set's largest margin).
+Volume grown(const Volume& v, float texels) noexcept {
+  if (!(texels > 0.0f)) return v;
+  Volume g = v;
+  const double m = double(texels) * v.texelM;
+  g.hx += m;
+  g.hy += m;
+  for (int j = 0; j < 3; ++j) {
+    const double r = m * (v.absAxis[0][j] + v.absAxis[1][j]);
+    g.worldLo[j] -= r;
+    g.worldHi[j] += r;
+  }
+  return g;
+}
+
+// Shared by both culling paths: the exact per-caster test, size threshold and margin included.
+bool casterVisible(const Volume& v, const glm::dvec3& c, const glm::dvec3& e, bool sphere,
+                   float marginTexels) noexcept {
   if (v.minSizeM > 0.0f && lightSpaceSize(v, e, sphere) < static_cast<double>(v.minSizeM)) {
     return false;
   }
-  return sphere ? sphereIntersects(v, c, e.x) : boxIntersects(v, c, e, true);
+  const Volume g = grown(v, marginTexels);
+  return sphere ? sphereIntersects(g, c, e.x) : boxIntersects(g, c, e, true);
 }
 
 }  // namespace
@@ -312,7 +345,9 @@ void cullCastersBruteForce(const CasterSet& casters, const CascadeFrame& frame,
       const glm::dvec3 c(casters.centerX_[i], casters.centerY_[i], casters.centerZ_[i]);
       const glm::dvec3 e(casters.halfX_[i], casters.halfY_[i], casters.halfZ_[i]);
       ++out.castersTested;
-      if (casterVisible(v, c, e, casters.kind_[i] == 0)) out.visible[ci].push_back(i);
+      if (casterVisible(v, c, e, casters.kind_[i] == 0, casters.marginTexels(i))) {
+        out.visible[ci].push_back(i);
+      }
     }
   }
 }
@@ -328,11 +363,12 @@ void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minC
   for (auto& list : out.visible) list.clear();
   if (casters.nodes_.empty()) return;
 
-  std::array<Volume, kMaxCascades> volumes;
+  std::array<Volume, kMaxCascades> volumes, nodeVolumes;
   std::uint32_t rootMask = 0;
   for (std::uint32_t ci = 0; ci < frame.cascadeCount; ++ci) {
     if (frame.cascades[ci].empty) continue;
     volumes[ci] = makeVolume(frame, frame.cascades[ci], minCasterTexels);
+    nodeVolumes[ci] = grown(volumes[ci], casters.maxMargin_);
     rootMask |= 1u << ci;
   }
   if (rootMask == 0) return;
@@ -354,7 +390,7 @@ void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minC
     std::uint32_t mask = 0;
     for (std::uint32_t m = item.mask; m != 0; m &= m - 1) {
       const auto ci = static_cast<std::uint32_t>(std::countr_zero(m));
-      if (nodeIntersects(volumes[ci], nodeCenter - volumes[ci].centerWs, nodeHalf)) {
+      if (nodeIntersects(nodeVolumes[ci], nodeCenter - volumes[ci].centerWs, nodeHalf)) {
         mask |= 1u << ci;
       }
     }
@@ -372,7 +408,9 @@ void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minC
       for (std::uint32_t m = mask; m != 0; m &= m - 1) {
         const auto ci = static_cast<std::uint32_t>(std::countr_zero(m));
         ++out.castersTested;
-        if (casterVisible(volumes[ci], c, e, sphere)) out.visible[ci].push_back(i);
+        if (casterVisible(volumes[ci], c, e, sphere, casters.marginTexels(i))) {
+          out.visible[ci].push_back(i);
+        }
       }
     }
   }

@@ -55,8 +55,10 @@ std::int64_t floorMod(std::int64_t a, std::int64_t b) noexcept {
 }
 
 /// The world texel rectangle a world box covers in a cascade (light-space grid about the
-/// origin), widened by one texel each side (a caster covers a texel by its centre).
-TexelRect boxTexels(const AabbWs& box, const glm::dmat3& basisT, double texel) noexcept {
+/// origin), widened by one texel each side (a caster covers a texel by its centre) and by
+/// `marginTexels` more (a thin caster's rim).
+TexelRect boxTexels(const AabbWs& box, const glm::dmat3& basisT, double texel,
+                    float marginTexels = 0.0f) noexcept {
   double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
   for (int k = 0; k < 8; ++k) {
     const glm::dvec3 p((k & 1) ? box.maxWs.x : box.minWs.x, (k & 2) ? box.maxWs.y : box.minWs.y,
@@ -70,7 +72,8 @@ TexelRect boxTexels(const AabbWs& box, const glm::dmat3& basisT, double texel) n
   auto toIndex = [&](double v) {
     return static_cast<std::int64_t>(std::clamp(std::floor(v / texel), -4e18, 4e18));
   };
-  return {toIndex(lo[0]) - 1, toIndex(lo[1]) - 1, toIndex(hi[0]) + 2, toIndex(hi[1]) + 2};
+  const std::int64_t m = 1 + static_cast<std::int64_t>(std::ceil(marginTexels));
+  return {toIndex(lo[0]) - m, toIndex(lo[1]) - m, toIndex(hi[0]) + 1 + m, toIndex(hi[1]) + 1 + m};
 }
 
 /// The stages and accesses of a depth attachment (the depth pass's reads and writes).
@@ -486,9 +489,12 @@ struct ShadowRenderer::CachedPass {
   // when the host gave no bounds: each block then draws every caster, scissored).
   void computeCasterRects(const std::vector<std::uint32_t>& list, double texel) {
     constexpr std::int64_t kAll = std::int64_t(1) << 62;
+    const float thin = r.thinMarginTexels();
     for (std::uint32_t idx : list) {
-      casterRects[idx] = casters.boundsWs.empty() ? TexelRect{-kAll, -kAll, kAll, kAll}
-                                                  : boxTexels(casters.boundsWs[idx], basisT, texel);
+      casterRects[idx] = casters.boundsWs.empty()
+                             ? TexelRect{-kAll, -kAll, kAll, kAll}
+                             : boxTexels(casters.boundsWs[idx], basisT, texel,
+                                         casters.instances[idx].thin ? thin : 0.0f);
     }
   }
 

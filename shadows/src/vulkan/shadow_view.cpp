@@ -21,6 +21,7 @@ Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOpt
   settings_ = settings;
   options_ = options;
   hasSettings_ = true;
+  applyThinMargins();
   // A frame compute() made before stays recordable only if it agrees with the new settings in
   // what the pass and the shader read (the renderer checks and names any difference).
   return {};
@@ -140,6 +141,19 @@ void ShadowView::adoptCasters(std::span<const MeshDraw> meshes,
   instances_.assign(instances.begin(), instances.end());
   boundsWs_ = std::move(bounds);
   computed_ = false;
+  applyThinMargins();
+}
+
+// Thin casters reach beyond their bounds by the depth pass's widening: they are culled with it,
+// so that no cascade whose box their rim reaches goes without them.
+void ShadowView::applyThinMargins() {
+  const float margin = renderer_->thinMarginTexels();
+  for (std::size_t i = 0; i < instances_.size() && i < casterSet_.size(); ++i) {
+    const float m = instances_[i].thin ? margin : 0.0f;
+    if (m != casterSet_.marginTexels(static_cast<std::uint32_t>(i))) {
+      (void)casterSet_.setMarginTexels(static_cast<std::uint32_t>(i), m);
+    }
+  }
 }
 
 // A cascade the cache budget deferred across a change of light still shows the light basis it

@@ -135,6 +135,13 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
   return {};
 }
 
+float ShadowRenderer::thinMarginTexels() const noexcept {
+  if (thinPipeline_ == VK_NULL_HANDLE) return 0.0f;
+  // The geometry stage's rim reaches texel centres within thinWidenTexels_ of the triangle;
+  // overestimation covers any texel the widened triangle touches (half a diagonal more).
+  return thinWidenTexels_ + (device_.conservativeRasterizationEnabled ? 0.5f : 0.0f);
+}
+
 void ShadowRenderer::drawIndexedCaster(VkCommandBuffer cmd, const CasterInstance& instance,
                                        const MeshDraw& mesh, std::uint32_t copies) {
   // The cached pass draws per layer (the cache refuses kLayered), so the render mode says which

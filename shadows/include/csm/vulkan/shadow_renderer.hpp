@@ -412,6 +412,11 @@ class ShadowRenderer {
   [[nodiscard]] VkSampler comparisonSampler() const noexcept { return compareSampler_; }
   /// A plain nearest sampler for reading raw depth (debug outputs, thumbnails).
   [[nodiscard]] VkSampler depthSampler() const noexcept { return depthSampler_; }
+  /// How far, in texels of each cascade, a caster flagged CasterInstance::thin reaches beyond
+  /// its bounds in the depth pass (RendererOptions::thinCasterWidenTexels through the geometry
+  /// stage; half a texel more with conservative rasterisation); 0 when thin casters are drawn as
+  /// they are. ShadowView culls them with this margin (CasterSet::setMarginTexels).
+  [[nodiscard]] float thinMarginTexels() const noexcept;
   /// The layout the image is in after a recorded pass.
   [[nodiscard]] static constexpr VkImageLayout sampledLayout() noexcept {
     return VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;

@@ -130,6 +130,7 @@ class ShadowView {
  private:
   ShadowView() = default;
   void adoptCasters(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances);
+  void applyThinMargins();
   void cullDeferred(const CascadeFrame& frame);
 
   std::unique_ptr<ShadowRenderer> renderer_;
