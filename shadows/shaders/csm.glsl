@@ -113,7 +113,8 @@ CsmSelection csmSelectCascade(float viewDepth) {
   return sel;
 }
 
-/// How far (texels) the chosen kernel reads from its centre (mirror of csm::kernelRadiusTexels).
+/// How far (texels) the chosen kernel reads from its centre, one texel beyond its bilinear taps'
+/// centres (mirror of csm::kernelRadiusTexels; see CSM_KERNEL_RADIUS_*).
 float csmKernelRadius() {
   if (csmKernel == CSM_KERNEL_TENT3) return CSM_KERNEL_RADIUS_TENT3;
   if (csmKernel == CSM_KERNEL_TENT5) return CSM_KERNEL_RADIUS_TENT5;
@@ -173,14 +174,39 @@ float csmTap(vec2 t, float layer, float depth) {
   return csmCompareTap(t * csmU.invResolution, layer, depth);
 }
 
-// Tent kernels from bilinear comparison taps (weights and positions: "Optimized PCF",
-// M. Pettineo's Shadows sample, after The Witness): an NxN tent costs ((N+1)/2)^2 taps.
-// `scale` spaces the taps about `t` (kernels of constant world size); 1 = exact tent.
-float csmTentTap(vec2 t, vec2 base, vec2 o, float scale, float layer, float depth) {
-  return csmTap(t + (base + o - t) * scale, layer, depth);
+/// The receiver's plane in the map of cascade i: change of stored depth per texel of offset along
+/// the map's x and y (from the normal, so it also works in compute shaders). Every filter compares
+/// each tap with this plane at the tap (receiver-plane depth bias): a wide kernel on a slope does
+/// not read its own receiver's texels as blockers, at every orientation against the texel grid,
+/// without moving the receiver sideways by the kernel's width.
+vec2 csmReceiverDepthSlope(int i, vec3 normalWs) {
+  const mat4 m = csmU.cascades[i].viewProjCr;
+  const vec3 rightWs = normalize(vec3(m[0][0], m[1][0], m[2][0]));
+  const vec3 upWs = normalize(vec3(m[0][1], m[1][1], m[2][1]));
+  // Light-space normal; lit surfaces face against the light (z < 0). Slopes beyond 1:100 from
+  // the light direction (a sun under 0.6 degrees over a plane) are clamped: every receiver a
+  // sun of 1 degree or more lights keeps its exact plane (a clamp at 1:8 shadowed planes under
+  // a 2-degree sun by up to 0.5).
+  const vec3 nLs = vec3(dot(normalWs, rightWs), dot(normalWs, upWs),
+                        dot(normalWs, csmU.lightDirection.xyz));
+  const float nz = min(nLs.z, -0.01);
+  const float texelM = csmU.cascades[i].texelSizeM;
+  const float metresPerDepth = max(csmU.cascades[i].depthRangeM, 1e-6);
+  return -(nLs.xy / nz) * (texelM / metresPerDepth);
 }
 
-float csmPcfTent(vec2 t, float scale, float layer, float depth) {
+// Tent kernels from bilinear comparison taps (weights and positions: "Optimized PCF",
+// M. Pettineo's Shadows sample, after The Witness): an NxN tent costs ((N+1)/2)^2 taps.
+// `base` is the texel corner nearest t (texel centres at i + 0.5); the tap offsets o are relative
+// to the centre of the texel below and left of it, base - 0.5, so that the tent is centred on t.
+// `scale` spaces the taps about `t` (kernels of constant world size); 1 = exact tent. Each tap
+// compares with the receiver's plane at the tap (`slope`: csmReceiverDepthSlope).
+float csmTentTap(vec2 t, vec2 base, vec2 o, float scale, float layer, float depth, vec2 slope) {
+  const vec2 q = t + (base - 0.5 + o - t) * scale;
+  return csmTap(q, layer, depth + dot(slope, q - t));
+}
+
+float csmPcfTent(vec2 t, float scale, float layer, float depth, vec2 slope) {
   const vec2 base = floor(t + 0.5);
   const vec2 st = t + 0.5 - base;
   const float s = st.x;
@@ -191,10 +217,10 @@ float csmPcfTent(vec2 t, float scale, float layer, float depth) {
     const vec2 w1 = vec2(1.0 + 2.0 * s, 1.0 + 2.0 * r);
     const vec2 p0 = vec2((2.0 - s) / w0.x, (2.0 - r) / w0.y) - 1.0;
     const vec2 p1 = vec2(s / w1.x, r / w1.y) + 1.0;
-    sum += w0.x * w0.y * csmTentTap(t, base, vec2(p0.x, p0.y), scale, layer, depth);
-    sum += w1.x * w0.y * csmTentTap(t, base, vec2(p1.x, p0.y), scale, layer, depth);
-    sum += w0.x * w1.y * csmTentTap(t, base, vec2(p0.x, p1.y), scale, layer, depth);
-    sum += w1.x * w1.y * csmTentTap(t, base, vec2(p1.x, p1.y), scale, layer, depth);
+    sum += w0.x * w0.y * csmTentTap(t, base, vec2(p0.x, p0.y), scale, layer, depth, slope);
+    sum += w1.x * w0.y * csmTentTap(t, base, vec2(p1.x, p0.y), scale, layer, depth, slope);
+    sum += w0.x * w1.y * csmTentTap(t, base, vec2(p0.x, p1.y), scale, layer, depth, slope);
+    sum += w1.x * w1.y * csmTentTap(t, base, vec2(p1.x, p1.y), scale, layer, depth, slope);
     return sum / 16.0;
   }
   if (csmKernel == CSM_KERNEL_TENT5) {
@@ -204,7 +230,7 @@ float csmPcfTent(vec2 t, float scale, float layer, float depth) {
     const vec3 pv = vec3((3.0 - 2.0 * r) / wv.x - 2.0, (3.0 + r) / wv.y, r / wv.z + 2.0);
     for (int j = 0; j < 3; ++j) {
       for (int i = 0; i < 3; ++i) {
-        sum += wu[i] * wv[j] * csmTentTap(t, base, vec2(pu[i], pv[j]), scale, layer, depth);
+        sum += wu[i] * wv[j] * csmTentTap(t, base, vec2(pu[i], pv[j]), scale, layer, depth, slope);
       }
     }
     return sum / 144.0;
@@ -218,7 +244,7 @@ float csmPcfTent(vec2 t, float scale, float layer, float depth) {
                        -(7.0 * r + 5.0) / wv.z + 1.0, -r / wv.w + 3.0);
   for (int j = 0; j < 4; ++j) {
     for (int i = 0; i < 4; ++i) {
-      sum += wu[i] * wv[j] * csmTentTap(t, base, vec2(pu[i], pv[j]), scale, layer, depth);
+      sum += wu[i] * wv[j] * csmTentTap(t, base, vec2(pu[i], pv[j]), scale, layer, depth, slope);
     }
   }
   return sum / 2704.0;
@@ -238,12 +264,15 @@ float csmNoiseAngle(vec2 pixel) {
   return 6.28318531 * fract(52.9829189 * fract(dot(floor(pixel), vec2(0.06711056, 0.00583715))));
 }
 
-float csmPcfPoisson(vec2 t, float scale, float layer, float depth, vec2 pixel) {
+float csmPcfPoisson(vec2 t, float scale, float layer, float depth, vec2 pixel, vec2 slope) {
   const float a = csmNoiseAngle(pixel);
-  const float radius = 2.0 * scale;  // disk radius in texels; the bilinear tap adds ~0.5
+  const float radius = 2.0 * scale;  // disk radius in texels; the bilinear tap adds one
   const mat2 rot = mat2(cos(a), sin(a), -sin(a), cos(a)) * radius;
   float sum = 0.0;
-  for (int i = 0; i < 16; ++i) sum += csmTap(t + rot * kCsmPoisson[i], layer, depth);
+  for (int i = 0; i < 16; ++i) {
+    const vec2 o = rot * kCsmPoisson[i];
+    sum += csmTap(t + o, layer, depth + dot(slope, o));
+  }
   return sum / 16.0;
 }
 
@@ -258,21 +287,6 @@ float csmPcfPoisson(vec2 t, float scale, float layer, float depth, vec2 pixel) {
 // receiver's plane at that texel's centre (the plane from the normal, so it also works in compute
 // shaders), not with one depth per tap: wide kernels on slopes do not shadow themselves, and no
 // normal offset moves the receiver (and so the shadow edge) sideways.
-
-/// Receiver plane in the map of cascade i: change of stored depth per texel of offset.
-vec2 csmPcssDepthSlope(int i, vec3 normalWs) {
-  const mat4 m = csmU.cascades[i].viewProjCr;
-  const vec3 rightWs = normalize(vec3(m[0][0], m[1][0], m[2][0]));
-  const vec3 upWs = normalize(vec3(m[0][1], m[1][1], m[2][1]));
-  // Light-space normal; lit surfaces face against the light (z < 0). Slopes beyond 1:8 from the
-  // light direction are clamped (grazing receivers are dark by shading anyway).
-  const vec3 nLs = vec3(dot(normalWs, rightWs), dot(normalWs, upWs),
-                        dot(normalWs, csmU.lightDirection.xyz));
-  const float nz = min(nLs.z, -0.125);
-  const float texelM = csmU.cascades[i].texelSizeM;
-  const float metresPerDepth = max(csmU.cascades[i].depthRangeM, 1e-6);
-  return -(nLs.xy / nz) * (texelM / metresPerDepth);
-}
 
 /// Rotation of the tap pattern at map texel t of cascade i: a hash of the WORLD texel (the map's
 /// texel index plus the world-grid index of its texel 0), so the pattern stays on the ground when
@@ -383,7 +397,7 @@ vec3 csmPcssCoord(int i, vec3 posCr, vec2 slope) {
 
 /// PCSS shadow factor of cascade i at a receiver.
 float csmPcss(int i, vec3 posCr, vec3 normalWs) {
-  const vec2 slope = csmPcssDepthSlope(i, normalWs);
+  const vec2 slope = csmReceiverDepthSlope(i, normalWs);
   const vec3 c = csmPcssCoord(i, posCr, slope);
   const float texelM = max(csmU.cascades[i].texelSizeM, 1e-9);
   const float tanHalf = csmU.tanHalfLightAngle;
@@ -412,24 +426,28 @@ float csmPcss(int i, vec3 posCr, vec3 normalWs) {
 }
 
 /// Shadow-map coordinates of a receiver in cascade i, bias applied: xy in texels, z the depth to
-/// compare. The bias needs no tuning per scene, light angle, resolution or depth format:
-///  - normal offset: the receiver moves along its normal by normalOffsetTexels x reach x texel x
-///    sin(theta) (theta: angle between normal and light; reach: how far the kernel reads, in
-///    texels). That puts it reach x texel x tan(theta) in front of its own plane along the light,
-///    which is how much the plane's stored depth varies over the texels the kernel reads; moved
-///    sideways by at most reach x texel (bounded even at grazing light, unlike a depth-only
-///    tan(theta) bias);
+/// compare. The bias needs no tuning per scene, light angle, resolution, depth format or kernel:
+///  - receiver plane: every tap of a filter compares with the receiver's plane extended to the tap
+///    (csmReceiverDepthSlope), so a wide kernel does not find its own receiver in its footprint;
+///  - normal offset: what remains is the bilinear tap itself, which compares its 2x2 texels (up to
+///    one texel from the tap along each of the map's axes) with one depth. The receiver moves along
+///    its normal by normalOffsetTexels x texel x (|n_x| + |n_y|) (n_x, n_y: the normal's parts
+///    along the map's texel axes), which puts it texel x (|n_x| + |n_y|) / |n_z| in front of its
+///    own plane along the light: exactly how much the plane's stored depth varies over a texel in
+///    x and one in y, whatever the plane's orientation against the texel grid (on the grid's
+///    diagonal sqrt(2) times more than along an axis); it moves sideways by at most
+///    normalOffsetTexels x texel x sqrt(2), bounded even at grazing light;
 ///  - depth floor: depthFloorTexels texels of the cascade (metres) plus depthFloorQuantum units of
 ///    stored depth (the format's quantum: a D16 step or 16 ulp of D32), toward the light. It is
 ///    all that remains when the light hits a surface head-on (theta = 0).
-/// Receivers facing away from the light (cos theta <= 0) get the largest normal offset; csmShadow
-/// does not sample for them at all. Usable by any kernel (the offset follows csmKernelRadius()).
+/// Receivers facing away from the light (cos theta <= 0) are not sampled (csmShadow).
 vec3 csmShadowCoord(int i, vec3 posCr, vec3 normalWs) {
   const float texelM = csmU.cascades[i].texelSizeM;
-  const float cosTheta = clamp(dot(normalWs, -csmU.lightDirection.xyz), 0.0, 1.0);
-  const float sinTheta = sqrt(max(1.0 - cosTheta * cosTheta, 0.0));
-  const float reachTexels = max(csmKernelRadius() * csmU.cascades[i].kernelScale, 1.0);
-  const float offsetM = csmU.normalOffsetTexels * texelM * reachTexels * sinTheta;
+  // The normal's components along the map's texel axes (the rows of the cascade's matrix).
+  const mat4 m = csmU.cascades[i].viewProjCr;
+  const float nx = dot(normalWs, normalize(vec3(m[0][0], m[1][0], m[2][0])));
+  const float ny = dot(normalWs, normalize(vec3(m[0][1], m[1][1], m[2][1])));
+  const float offsetM = csmU.normalOffsetTexels * texelM * (abs(nx) + abs(ny));
   const vec4 clip = csmU.cascades[i].viewProjCr * vec4(posCr + normalWs * offsetM, 1.0);
   const float metresPerDepth = max(csmU.cascades[i].depthRangeM, 1e-30);
   const float floorDepth =
@@ -463,8 +481,11 @@ float csmSampleCascade(int i, vec3 posCr, vec3 normalWs, vec2 pixel) {
   const float layer = float(i);
   const float scale = csmU.cascades[i].kernelScale;
   if (csmKernel == CSM_KERNEL_1TAP) return csmTap(c.xy, layer, c.z);
-  if (csmKernel == CSM_KERNEL_POISSON16) return csmPcfPoisson(c.xy, scale, layer, c.z, pixel);
-  return csmPcfTent(c.xy, scale, layer, c.z);
+  const vec2 slope = csmReceiverDepthSlope(i, normalWs);
+  if (csmKernel == CSM_KERNEL_POISSON16) {
+    return csmPcfPoisson(c.xy, scale, layer, c.z, pixel, slope);
+  }
+  return csmPcfTent(c.xy, scale, layer, c.z, slope);
 }
 
 /// The shadow factor of a receiver: 1 lit, 0 in shadow; outside every cascade 1; 0 where the

@@ -37,10 +37,12 @@ namespace {
 constexpr std::uint32_t kWidth = 160, kHeight = 90;
 constexpr std::uint32_t kResolution = 512;
 
-/// Frames per flight: CSM_CACHE_WORLD_FRAMES, else 120 (each flight spans its whole path).
+/// Frames per flight: CSM_CACHE_WORLD_FRAMES, else 36 (each flight spans its whole path, so a
+/// cascade moves tens to hundreds of texels a frame: every frame exposes rows and columns, wraps,
+/// and new blocks; 9 flights, 324 frames in all).
 int flightFrames() {
   const char* env = std::getenv("CSM_CACHE_WORLD_FRAMES");
-  return env != nullptr ? std::max(2, std::atoi(env)) : 120;
+  return env != nullptr ? std::max(2, std::atoi(env)) : 36;
 }
 
 /// One renderer of the world and the buffer its shadow layers are read back into.
@@ -186,6 +188,11 @@ struct Flight {
   std::string config;  // default, budget, receivers, pcss
 };
 
+// Test names and failure messages show the flight, not its bytes.
+void PrintTo(const Flight& f, std::ostream* os) {
+  *os << f.path << "/" << f.config;
+}
+
 std::string flightName(const ::testing::TestParamInfo<Flight>& info) {
   return info.param.path + "_" + info.param.config;
 }
@@ -273,9 +280,8 @@ INSTANTIATE_TEST_SUITE_P(Paths, CacheWorld,
                          ::testing::Values(Flight{"forest", "default"}, Flight{"fast", "default"},
                                            Flight{"rotate", "default"}, Flight{"zoom", "default"},
                                            Flight{"far", "default"}, Flight{"cables", "default"},
-                                           Flight{"forest", "budget"}, Flight{"fast", "budget"},
-                                           Flight{"forest", "receivers"},
-                                           Flight{"zoom", "receivers"}, Flight{"fast", "pcss"}),
+                                           Flight{"fast", "budget"}, Flight{"forest", "receivers"},
+                                           Flight{"fast", "pcss"}),
                          flightName);
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <string>
@@ -152,6 +153,44 @@ TEST_P(Flight, HeadlessValidatedReportAndShadows) {
 
 INSTANTIATE_TEST_SUITE_P(Paths, Flight,
                          ::testing::Values("forest", "fast", "rotate", "zoom", "far"),
+                         [](const auto& info) { return info.param; });
+
+/// The bytes of a file.
+std::string fileBytes(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+class CacheOnOff : public ::testing::TestWithParam<std::string> {};
+
+// Turning the cache on changes the cost, never the image: the same flight with shadow.cache
+// on and off writes byte-identical shadow-factor screenshots (what a user compares first).
+TEST_P(CacheOnOff, ShadowScreenshotsByteIdentical) {
+  const std::string path = GetParam();
+  std::array<fs::path, 2> dirs;
+  for (int k = 0; k < 2; ++k) {
+    dirs[k] = fs::path(CSM_TEST_ARTEFACT_DIR) / ("cache_" + path + (k == 0 ? "_on" : "_off"));
+    fs::remove_all(dirs[k]);
+    const ProcessResult r =
+        runApp("--headless --frames 12 --shot-every 5 --validation --path " + path + " --out " +
+               dirs[k].string() + " --set view.width=320 --set view.height=180" +
+               " --set shadow.resolution=1024 --set shadow.cache=" + (k == 0 ? "true" : "false"));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+  }
+  int compared = 0;
+  for (const auto& entry : fs::directory_iterator(dirs[0])) {
+    const std::string name = entry.path().filename().string();
+    if (!name.ends_with("_shadow.png")) continue;
+    const std::string on = fileBytes(entry.path()), off = fileBytes(dirs[1] / name);
+    ASSERT_FALSE(on.empty()) << name;
+    EXPECT_TRUE(on == off) << path << ": " << name << " differs with the cache on and off";
+    ++compared;
+  }
+  EXPECT_EQ(compared, 4) << "screenshots of frames 0, 5, 10 and 11";
+}
+
+INSTANTIATE_TEST_SUITE_P(Paths, CacheOnOff,
+                         ::testing::Values("forest", "fast", "rotate", "zoom", "far", "cables"),
                          [](const auto& info) { return info.param; });
 
 }  // namespace

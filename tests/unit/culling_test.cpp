@@ -1,6 +1,9 @@
 // Culling drops only what cannot cast into a cascade, and the hierarchy agrees with brute force.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <limits>
+
 #include "test_util.hpp"
 
 namespace csm {
@@ -155,6 +158,63 @@ TEST(Culling, EmptyCascadesAndEmptySets) {
   EXPECT_FALSE(set.built());  // an add invalidates the hierarchy; queries fall back
   cullCasters(set, f, 0.0f, out);
   EXPECT_EQ(out.visible[0].size(), 1u);
+}
+
+}  // namespace
+}  // namespace csm
+
+namespace csm {
+namespace {
+
+// A caster widened in the depth pass (a thin caster's rim) reaches a cascade whose box, grown by
+// its margin in that cascade's texels, its bounds meet: small boxes just outside a cascade's box
+// are kept with a margin and dropped without, the hierarchy agrees with brute force, and bad
+// margins are refused by name.
+TEST(Culling, MarginsGrowTheBoxByTheCastersTexels) {
+  for (const glm::dvec3& origin : {glm::dvec3(0, 20, 0), glm::dvec3(1e7, 20, -1e7)}) {
+    const CascadeFrame f = makeFrame(origin, glm::dvec3(0.3, -1, 0.2));
+    const Cascade& k = f.cascades[1];
+    const double texel = k.texelSizeM();
+    // A 1 cm box centred gap + 0.5 cm beyond the box's +x face, at the box centre's depth.
+    const glm::dmat3& b = f.lightBasisWs;
+    auto placed = [&](double gapTexels) {
+      return k.boxCenterWs + b[0] * (k.halfExtentLs.x + gapTexels * texel + 0.005);
+    };
+    CasterSet set;
+    for (double gap : {0.5, 1.5, 3.0}) {
+      const glm::dvec3 c = placed(gap);
+      ASSERT_TRUE(set.addBox(c - glm::dvec3(0.005), c + glm::dvec3(0.005)).ok());
+    }
+    for (std::uint32_t i = 0; i < 3; ++i) ASSERT_TRUE(set.setMarginTexels(i, 2.0f).ok());
+    // The same three without a margin, for comparison.
+    for (double gap : {0.5, 1.5, 3.0}) {
+      const glm::dvec3 c = placed(gap);
+      ASSERT_TRUE(set.addBox(c - glm::dvec3(0.005), c + glm::dvec3(0.005)).ok());
+    }
+    set.build();
+    CullResult tree, brute;
+    cullCasters(set, f, 0.0f, tree);
+    cullCastersBruteForce(set, f, 0.0f, brute);
+    EXPECT_EQ(tree.visible[1], brute.visible[1]);
+    const auto& v = tree.visible[1];
+    auto kept = [&](std::uint32_t i) { return std::find(v.begin(), v.end(), i) != v.end(); };
+    EXPECT_TRUE(kept(0)) << "0.5 texels out, margin 2";
+    EXPECT_TRUE(kept(1)) << "1.5 texels out, margin 2";
+    EXPECT_FALSE(kept(2)) << "3 texels out, margin 2";
+    EXPECT_FALSE(kept(3)) << "0.5 texels out, no margin";
+    EXPECT_FALSE(kept(4));
+    EXPECT_FALSE(kept(5));
+    EXPECT_FLOAT_EQ(set.marginTexels(0), 2.0f);
+    EXPECT_FLOAT_EQ(set.marginTexels(3), 0.0f);
+  }
+  CasterSet set;
+  ASSERT_TRUE(set.addSphere(glm::dvec3(0.0), 1.0).ok());
+  for (float bad : {-1.0f, 65.0f, std::numeric_limits<float>::quiet_NaN()}) {
+    auto r = set.setMarginTexels(0, bad);
+    ASSERT_FALSE(r.ok());
+    EXPECT_NE(r.error().message().find("caster.marginTexels"), std::string::npos);
+  }
+  EXPECT_FALSE(set.setMarginTexels(1, 1.0f).ok()) << "index out of range";
 }
 
 }  // namespace

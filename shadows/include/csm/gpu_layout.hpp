@@ -42,7 +42,8 @@ enum class PcfKernel : std::uint32_t {
 [[nodiscard]] const char* kernelName(PcfKernel kernel) noexcept;
 
 /// How far (in texels of the kernel's own cascade, before kernelScale) a kernel reads from its
-/// centre: the radius the normal offset is scaled by. Mirrors csmKernelRadius() in csm.glsl.
+/// centre, bilinear footprint included. Mirrors csmKernelRadius() in csm.glsl
+/// (CSM_KERNEL_RADIUS_*).
 [[nodiscard]] float kernelRadiusTexels(PcfKernel kernel) noexcept;
 
 /// One cascade as the shader sees it (std140 array element, 112 bytes; csm.glsl's CsmCascade).

@@ -27,16 +27,20 @@
 // comparison taps that wide. Taps: CSM_SPEC_PCSS_TAPS.
 #define CSM_KERNEL_PCSS 5
 #define CSM_KERNEL_COUNT 6
-// How far (texels of the kernel's own cascade, before its scale) each kernel reads from its
-// centre: the radius the normal offset is scaled by. csmKernelRadius() (GLSL) and
-// csm::kernelRadiusTexels() (C++) both return these. PCSS has no normal offset: it compares each
-// texel with the receiver's plane and lifts that plane in depth (csmPcssCoord in csm.glsl); its
-// radius here is used only where csmShadowCoord serves PCSS (the debug views).
+// How far (texels of the kernel's own cascade) each kernel reads from its centre: the texels
+// whose comparison result carries any weight. Each bilinear comparison tap blends the 2x2 texels
+// about it, so a kernel reads one texel beyond its taps' centres: a single tap reads 1; the
+// optimised tents ((N+1)/2 taps per axis) reach (N+1)/2 (2, 3, 4: a 3x3 tent's outer row still
+// weighs 1/40 at 1.9 texels); the Poisson disk's taps lie within 2 texels (x its scale), plus one.
+// With CsmCascadeGpu::kernelScale s the taps spread s times wider: reach 1 + (radius - 1) s.
+// csmKernelRadius() (GLSL) and csm::kernelRadiusTexels() (C++) both return these (blend-band and
+// edge tests use them). The bias no longer scales with them: every tap compares with the
+// receiver's plane at the tap, and the normal offset covers one bilinear tap (csmShadowCoord).
 #define CSM_KERNEL_RADIUS_1TAP 1.0
-#define CSM_KERNEL_RADIUS_TENT3 1.5
-#define CSM_KERNEL_RADIUS_TENT5 2.5
-#define CSM_KERNEL_RADIUS_TENT7 3.5
-#define CSM_KERNEL_RADIUS_POISSON16 2.5
+#define CSM_KERNEL_RADIUS_TENT3 2.0
+#define CSM_KERNEL_RADIUS_TENT5 3.0
+#define CSM_KERNEL_RADIUS_TENT7 4.0
+#define CSM_KERNEL_RADIUS_POISSON16 3.0
 #define CSM_KERNEL_RADIUS_PCSS 1.25
 
 // Specialisation constant ids used by csm.glsl.

@@ -64,13 +64,16 @@ struct ShadowSettings {
   /// raster slope bias only pushes steep casters (walls under a high sun) away from their
   /// receivers, which lights the ground next to them (measured: README, "Bias").
   float depthBiasSlope = 0.0f;
-  /// Normal-offset bias, as a multiple of the PCF kernel's reach: the shader moves the receiver
-  /// along its normal by normalOffsetTexels x reach (texels: the kernel's radius, at least 1) x
-  /// the cascade's texel size (m) x sin(angle between normal and light). That puts the receiver
-  /// in front of its own plane, along the light, by reach x texel x tan(angle): exactly how far
-  /// the plane's stored depth varies across the kernel's footprint, so 1 is the least that has no
-  /// acne on planes; the default adds margin for texels on the footprint's diagonal. [0, 16].
-  float normalOffsetTexels = 1.5f;
+  /// Normal-offset bias of the bilinear comparison tap, in texels: every tap of a filter compares
+  /// with the receiver's plane at the tap (receiver-plane depth bias, csm.glsl), and each tap
+  /// compares its 2x2 texels with one depth, so the shader moves the receiver along its normal by
+  /// normalOffsetTexels x the cascade's texel size (m) x (|n_x| + |n_y|), the normal's parts along
+  /// the map's texel axes. That puts it texel x (|n_x| + |n_y|) / |n_z| in front of its plane
+  /// along the light: how far the plane's stored depth varies over one texel in x and one in y,
+  /// at every orientation of the plane against the texel grid. So 1 is the least that has no acne
+  /// on planes; the default adds a quarter (1.1 left a receiver in a depth tie that flickered in
+  /// the extremes test; measured: shadows/docs/bias.md). [0, 16].
+  float normalOffsetTexels = 1.25f;
   /// Constant depth floor of the shadow test in texels of the receiver's cascade (metres =
   /// depthFloorTexels x texel size), subtracted along the light in the shader on top of the
   /// depth format's own quantum (added automatically: one step of D16, 16 ulp of D32). It is the

@@ -47,6 +47,92 @@ glm::dvec3 facetNormal(const RayTracer& tracer, const glm::dvec3& posWs, const g
   return glm::dot(g, n) < 0.0 ? -g : g;
 }
 
+// Marks lit facing pixels (idx[k], vis[k] >= 0.5) near an occluder instance (any kind but the
+// ground): its bounds, projected across the light (basis lu, lv), come within edgeRadiusTexels of
+// the pixel and some corner lies in front of the pixel's plane, toward the light.
+void markNearOccluders(std::span<const PixelSample> pixels, const std::vector<size_t>& idx,
+                       const std::vector<float>& vis, const csm::CascadeFrame& frame,
+                       const Scene& scene, const glm::dvec3& toLight, const glm::dvec3& lu,
+                       const glm::dvec3& lv, const BiasTruthDesc& desc,
+                       std::vector<uint8_t>& nearEdge) {
+  struct Box2 {
+    glm::dvec2 lo, hi;
+    glm::dvec3 corners[8];
+  };
+  std::vector<Box2> boxes;
+  for (size_t i = 0; i < scene.instances().size(); ++i) {
+    if (scene.instances()[i].kind == InstanceKind::kGround) continue;
+    const csm::AabbWs& b = scene.instanceBounds(i);
+    Box2 box{glm::dvec2(1e300), glm::dvec2(-1e300), {}};
+    for (int c = 0; c < 8; ++c) {
+      const glm::dvec3 p((c & 1) ? b.maxWs.x : b.minWs.x, (c & 2) ? b.maxWs.y : b.minWs.y,
+                         (c & 4) ? b.maxWs.z : b.minWs.z);
+      box.corners[c] = p;
+      const glm::dvec2 q(glm::dot(p, lu), glm::dot(p, lv));
+      box.lo = glm::min(box.lo, q);
+      box.hi = glm::max(box.hi, q);
+    }
+    boxes.push_back(box);
+  }
+  for (size_t k = 0; k < idx.size(); ++k) {
+    if (nearEdge[k] || vis[k] < 0.5f) continue;
+    const PixelSample& p = pixels[idx[k]];
+    const glm::dvec3 n = glm::normalize(glm::dvec3(p.normalWs));
+    if (!(glm::dot(n, toLight) > desc.minFacing)) continue;
+    const double r = desc.edgeRadiusTexels * pixelTexel(p, frame);
+    const glm::dvec2 q(glm::dot(p.posWs, lu), glm::dot(p.posWs, lv));
+    for (const Box2& box : boxes) {
+      const glm::dvec2 d = glm::max(glm::max(box.lo - q, q - box.hi), glm::dvec2(0.0));
+      if (glm::dot(d, d) > r * r) continue;
+      bool inFront = false;
+      for (const glm::dvec3& c : box.corners) inFront = inFront || glm::dot(c - p.posWs, n) > 0.01;
+      if (inFront) {
+        nearEdge[k] = 1;
+        break;
+      }
+    }
+  }
+}
+
+// Marks lit facing pixels whose surface meets other geometry or ends within the kernel's reach:
+// rays along the surface in 8 directions, each long enough to cover edgeRadiusTexels across the
+// light, and from each ray's end back onto the surface.
+void markSurfaceFeatures(std::span<const PixelSample> pixels, const std::vector<size_t>& idx,
+                         const std::vector<float>& vis, const csm::CascadeFrame& frame,
+                         const RayTracer& tracer, const glm::dvec3& toLight,
+                         const BiasTruthDesc& desc, std::vector<uint8_t>& nearEdge) {
+  for (size_t k = 0; k < idx.size(); ++k) {
+    if (nearEdge[k] || vis[k] < 0.5f) continue;
+    const PixelSample& p = pixels[idx[k]];
+    const glm::dvec3 n = glm::normalize(glm::dvec3(p.normalWs));
+    if (!(glm::dot(n, toLight) > desc.minFacing)) continue;
+    const double texel = pixelTexel(p, frame);
+    const double reach = desc.featureRadiusTexels * texel;
+    const glm::dvec3 origin = p.posWs + std::min(0.01, 0.25 * texel) * n;
+    glm::dvec3 tu, tv;
+    basis(n, tu, tv);
+    for (int d = 0; d < kDirections; ++d) {
+      const double a = 6.283185307179586 * d / kDirections;
+      const glm::dvec3 dir = std::cos(a) * tu + std::sin(a) * tv;
+      // A step along the surface moves the light-space footprint by its part across the light.
+      const double across = glm::length(dir - glm::dot(dir, toLight) * toLight);
+      const double len = std::min(reach / std::max(across, 1e-3), 64.0 * texel);
+      glm::dvec3 hit;
+      if (tracer.intersect(origin, dir, &hit, nullptr) && glm::length(hit - origin) <= len) {
+        nearEdge[k] = 1;  // the surface meets other geometry (a concave corner, a contact)
+        break;
+      }
+      // Does the surface go on there? Not where it ends at a convex corner or its outline.
+      const double along = std::min(len, desc.featureRadiusTexels * texel);
+      const glm::dvec3 end = origin + along * dir;
+      if (!tracer.intersect(end, -n, &hit, nullptr) || glm::length(hit - end) > 0.25 * along) {
+        nearEdge[k] = 1;
+        break;
+      }
+    }
+  }
+}
+
 }  // namespace
 
 BiasTruth computeBiasTruth(std::span<const PixelSample> pixels, uint32_t width, uint32_t height,
@@ -112,6 +198,11 @@ BiasTruth computeBiasTruth(std::span<const PixelSample> pixels, uint32_t width, 
   for (size_t j = 0; j < ringPos.size(); ++j) {
     if (ringVis[j] < 0.5f) nearEdge[ringOwner[j]] = 1;
   }
+  if (desc.occluders != nullptr) {
+    markNearOccluders(pixels, idx, vis, frame, *desc.occluders, toLight, lu, lv, desc, nearEdge);
+  }
+  if (desc.surfaceFeatures)
+    markSurfaceFeatures(pixels, idx, vis, frame, tracer, toLight, desc, nearEdge);
 
   for (size_t k = 0; k < idx.size(); ++k) {
     const PixelSample& p = pixels[idx[k]];
@@ -164,6 +255,7 @@ BiasStats scoreBias(std::span<const PixelSample> pixels, const BiasTruth& truth,
         ++st.litInterior;
         st.litInteriorDark += dark ? 1 : 0;
         st.litInteriorDimmed += p.shadow < 0.9f ? 1 : 0;
+        st.litInteriorBelow099 += p.shadow < 0.99f ? 1 : 0;
         [[fallthrough]];
       case BiasClass::kLitNearEdge:
         ++st.litFacing;
@@ -193,6 +285,7 @@ nlohmann::json BiasStats::toJson() const {
           {"lit_interior", litInterior},
           {"lit_interior_dark", litInteriorDark},
           {"lit_interior_dimmed", litInteriorDimmed},
+          {"lit_interior_below_099", litInteriorBelow099},
           {"contact", contact},
           {"contact_lit", contactLit},
           {"contact_facing", contactFacing},

@@ -37,6 +37,22 @@ struct BiasTruthDesc {
   /// Contact lines: a shadowed pixel with other geometry within this many texels along its own
   /// surface (8 directions in the tangent plane) lies next to a contact line.
   double contactTexels = 2.0;
+  /// Optional: the scene, whose instances other than the ground are potential occluders. A lit
+  /// pixel is also "near an edge" when such an instance's bounds, seen along the light, come
+  /// within edgeRadiusTexels of it and reach in front of its plane (toward the light): a caster
+  /// thinner than the disk's spacing (a 8 cm pole under 25 cm texels) casts a shadow the disk
+  /// probe can miss, yet every kernel blurs it over its reach. Null: the disk probe alone.
+  const Scene* occluders = nullptr;
+  /// A lit pixel is also "near an edge" when its own surface meets other geometry or ends within
+  /// the lookup's reach: a ray along the surface (8 directions in its plane, each as long as
+  /// featureRadiusTexels seen across the light, at most 64 texels) hits something (the terrain
+  /// at the foot of a lit wall, whose texels a wide kernel reads in front of the wall's plane),
+  /// or the surface is not found under the ray's end, within featureRadiusTexels (a building's
+  /// corner, beyond which the normal offset carries the lookup).
+  bool surfaceFeatures = false;
+  /// The widest lookup: tent 7x7 reads 4 texels about a point that the normal offset moves by
+  /// up to 1.25 x (|n_x| + |n_y|) <= 1.8 texels across the light (csmShadowCoord): 6 texels.
+  double featureRadiusTexels = 6.0;
 };
 
 /// Truth per pixel of one view (index y * width + x; pixels not drawn are kIgnored).
@@ -61,6 +77,9 @@ struct BiasStats {
   uint64_t litInteriorDark = 0;  ///< acne: interior lit pixels shaded < 0.5
   /// Interior lit pixels shaded < 0.9: faint acne (dots of 0.8) that the 0.5 threshold misses.
   uint64_t litInteriorDimmed = 0;
+  /// Interior lit pixels shaded < 0.99: any visible darkening (a 0.9 stipple crawls when the
+  /// camera moves); the issue-24 acne measure.
+  uint64_t litInteriorBelow099 = 0;
   uint64_t contact = 0;     ///< kShadowContact
   uint64_t contactLit = 0;  ///< leaks: of those, shaded > 0.5
   /// Contact pixels that face the light (N.L > minFacing), where shading can show a leak, and
@@ -76,6 +95,10 @@ struct BiasStats {
   /// Faint acne: interior lit pixels shaded < 0.9.
   [[nodiscard]] double dimmed() const noexcept {
     return litInterior ? double(litInteriorDimmed) / double(litInterior) : 0.0;
+  }
+  /// "false_shadow_below_099": interior lit pixels shaded < 0.99.
+  [[nodiscard]] double below099() const noexcept {
+    return litInterior ? double(litInteriorBelow099) / double(litInterior) : 0.0;
   }
   /// The issue's raw "false_shadow_lit_facing" (edges included).
   [[nodiscard]] double acneRaw() const noexcept {
