@@ -97,7 +97,11 @@ class WorldRenderer {
     glm::vec2 pixel;
     glm::vec2 uv;
     glm::vec4 color;
-    glm::vec4 depth;
+    // Thumbnails (overlay_2d.frag): x cascade (< 0: solid colour), y world height (m, above the
+    // bounding sphere's centre) of box texel (0, 0) at depth 0, z the sphere's radius, w side px;
+    // relief: world height per box texel along x, y and per unit of stored depth.
+    glm::vec4 thumb;
+    glm::vec3 relief;
   };
   struct Slot {
     engine::Buffer frameUniforms;
