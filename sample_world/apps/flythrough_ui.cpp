@@ -68,7 +68,14 @@ void cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& tim
       ImGui::TableNextColumn();
       ImGui::Text("%llu", static_cast<unsigned long long>(st.triangles[c]));
       ImGui::TableNextColumn();
-      ImGui::Text("%u", st.lod[c]);
+      const world::FrameStats::LodRange& lod = st.lod[c];  // "-", "1" or "0-2"
+      if (lod.clusters == 0) {
+        ImGui::TextUnformatted("-");
+      } else if (lod.finest == lod.coarsest) {
+        ImGui::Text("%u", lod.finest);
+      } else {
+        ImGui::Text("%u-%u", lod.finest, lod.coarsest);
+      }
       ImGui::TableNextColumn();
       ImGui::Text("%.2f", gpuMs("shadow c" + std::to_string(c)));
     }

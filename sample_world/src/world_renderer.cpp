@@ -712,14 +712,15 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
   const csm::CullResult& culled = shadow_->cull();
   stats.casters = {};
   stats.triangles = {};
+  stats.lod = {};
   for (std::uint32_t c = 0; c < cascades.cascadeCount; ++c) {
     if (cascades.cascades[c].empty) continue;
     // The LOD the module draws each cluster with (schedule and texel error budget); stats.lod
-    // is the coarsest one the cascade drew.
+    // is the range of those the cascade drew.
     const csm::vk::RendererOptions& options = shadow_->options();
     const double texelM =
         std::min(cascades.cascades[c].texelSizeLs.x, cascades.cascades[c].texelSizeLs.y);
-    stats.lod[c] = 0;
+    FrameStats::LodRange& lods = stats.lod[c];
     for (std::uint32_t k : culled.visible[c]) {
       if (k >= clusterRanges_.size()) {  // a dynamic caster (the cube, every LOD)
         ++stats.casters[c];
@@ -730,9 +731,11 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
           std::min(csm::vk::casterLod(shadow_->instances()[k], options.cascadeLod[c], texelM,
                                       options.lodMaxErrorTexels),
                    kLodCount - 1);
-      stats.lod[c] = std::max(stats.lod[c], lod);
       const engine::MeshRange& r = clusterRanges_[k][lod];
       if (r.indexCount == 0) continue;
+      lods.finest = lods.clusters == 0 ? lod : std::min(lods.finest, lod);
+      lods.coarsest = lods.clusters == 0 ? lod : std::max(lods.coarsest, lod);
+      ++lods.clusters;
       ++stats.casters[c];
       stats.triangles[c] += r.indexCount / 3;
     }
