@@ -17,7 +17,9 @@ void main() {
   if (!gl_FrontFacing) n = -n;  // open and thin meshes are seen from both sides
   // The bias follows the facet the shadow map holds (coarse cones and canopies); lighting the
   // smooth normal.
-  const vec3 ng = csmGeometricNormal(dFdx(inPositionCr), dFdy(inPositionCr), n);
-  outColor = vec4(worldShade(inPositionCr, n, ng, inColor.rgb, inColor.a > 0.5, gl_FragCoord.xy),
-                  1.0);
+  const vec3 dPdx = dFdx(inPositionCr), dPdy = dFdy(inPositionCr);
+  const vec3 ng = csmGeometricNormal(dPdx, dPdy, n);
+  outColor = vec4(
+      worldShade(inPositionCr, n, ng, inColor.rgb, inColor.a > 0.5, gl_FragCoord.xy, dPdx, dPdy),
+      1.0);
 }

@@ -15,10 +15,25 @@ layout(std140, set = 0, binding = 0) uniform WorldFrame {
   mat4 invViewProjCr;  // clip -> camera-relative world (the deferred pass's pixel rays)
 } frame;
 
+/// The texel checker's contrast at a receiver of cascade i: full where a shadow-map texel covers
+/// 4 pixels or more, fading to 0 where it covers 2 or fewer (a checker of smaller cells only
+/// aliases into moire). `dPdx`, `dPdy`: the position's change to the next pixel along x and y;
+/// through the cascade's affine matrix they give the texel coordinates' screen derivatives, so
+/// `fw` is fwidth(texel coordinates).
+float worldCheckerContrast(int i, vec3 dPdx, vec3 dPdy) {
+  const mat3 toTexels = mat3(csmU.cascades[i].viewProjCr) * (0.5 * csmU.resolution);
+  const vec2 fw = abs((toTexels * dPdx).xy) + abs((toTexels * dPdy).xy);
+  const float pixelsPerTexel = 1.0 / max(max(fw.x, fw.y), 1e-6);
+  return clamp(0.5 * (pixelsPerTexel - 2.0), 0.0, 1.0);
+}
+
 /// The colour of a surface point: `posCr` camera-relative, `n` the unit shading normal facing the
 /// viewer, `ng` the facet normal the shadow bias follows (csmGeometricNormal), `base` the albedo,
-/// `receives` whether it is shadowed at all, `pixel` gl_FragCoord.xy.
-vec3 worldShade(vec3 posCr, vec3 n, vec3 ng, vec3 base, bool receives, vec2 pixel) {
+/// `receives` whether it is shadowed at all, `pixel` gl_FragCoord.xy, `dPdx` and `dPdy` the change
+/// of posCr to the next pixel along x and y (the texel checker's footprint; taken by the caller
+/// in uniform control flow, or from neighbouring pixels where there are no derivatives).
+vec3 worldShade(vec3 posCr, vec3 n, vec3 ng, vec3 base, bool receives, vec2 pixel, vec3 dPdx,
+                vec3 dPdy) {
   const vec3 toLight = -normalize(frame.lightDirection.xyz);
   const vec3 toEye = normalize(-posCr);
   const float s = receives ? csmShadow(posCr, ng, pixel) : 1.0;
@@ -42,7 +57,7 @@ vec3 worldShade(vec3 posCr, vec3 n, vec3 ng, vec3 base, bool receives, vec2 pixe
         const vec3 c = csmShadowCoord(sel.index, posCr, vec3(0.0));
         const vec2 cell = floor(c.xy);
         const float checker = mod(cell.x + cell.y, 2.0);
-        color *= 0.78 + 0.22 * checker;
+        color *= 1.0 - 0.22 * worldCheckerContrast(sel.index, dPdx, dPdy) * (1.0 - checker);
       }
     }
   }

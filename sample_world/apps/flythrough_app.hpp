@@ -7,6 +7,7 @@
 #include <chrono>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -72,9 +73,20 @@ void writeReport(const json& report, const std::string& out);
 
 // ---- The ImGui panels (flythrough_ui.cpp)
 void keepOnScreen();
-void cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& timer,
-                        const std::map<std::string, double>& gpu, double cpuFrameMs,
-                        std::uint64_t validationMessages, bool pinned);
+/// A GPU scope's time in `gpu` (the timer's results), or nothing where none was measured (yet):
+/// the first frames, a scope that did not run, no timestamp support.
+std::optional<double> gpuScopeMs(const std::map<std::string, double>& gpu,
+                                 const std::string& scope);
+/// What the statistics window showed: where (pixels, its size as laid out this frame), in which
+/// text size, and the GPU time of each scope it printed (nothing: printed "-").
+struct StatsPanel {
+  float x = 0.0f, y = 0.0f, width = 0.0f, height = 0.0f;
+  float fontPixels = 0.0f;
+  std::map<std::string, std::optional<double>> gpuMs;
+};
+StatsPanel cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& timer,
+                              const std::map<std::string, double>& gpu, double cpuFrameMs,
+                              std::uint64_t validationMessages, bool pinned);
 bool settingsPanel(world::AppSettings& s, const std::string& error);
 
 // ---- Camera control and input (flythrough_camera.cpp)

@@ -21,6 +21,19 @@ void savePng(const std::string& file, const engine::CpuImage& img) {
   if (auto e = world::writePngAtomically(file, img)) throw std::runtime_error(*e);
 }
 
+/// The statistics panel of an overlay screenshot: its rectangle (pixels), its text size and the
+/// GPU times it printed (null where it printed "-": no measurement yet).
+json panelJson(const StatsPanel& p) {
+  json gpu = json::object();
+  for (const auto& [scope, ms] : p.gpuMs) gpu[scope] = ms ? json(*ms) : json(nullptr);
+  return {{"x", p.x},
+          {"y", p.y},
+          {"width", p.width},
+          {"height", p.height},
+          {"font_px", p.fontPixels},
+          {"gpu_ms", gpu}};
+}
+
 /// The headless flight's GPU objects, and what it remembers between frames: which frame each
 /// in-flight slot's timestamps belong to, the GPU times per frame, and the last frame's numbers
 /// (the overlay of a screenshot shows them).
@@ -79,7 +92,8 @@ class HeadlessFlight {
             {"overlay_file", std::string(name) + "_overlay.png"},
             {"shadow_file", std::string(name) + "_shadow.png"},
             {"shadowed_fraction", fraction},
-            {"geometry_coverage", coverage}};
+            {"geometry_coverage", coverage},
+            {"overlay_panel", panelJson(panel_)}};
   }
 
   /// Waits for the GPU and returns the GPU times of every frame.
@@ -117,8 +131,8 @@ class HeadlessFlight {
       for (int warm = 0; warm < 2; ++warm) {
         if (warm == 1) imgui_->endFrame();
         imgui_->newFrame(f->extent, 1.0 / 30.0);
-        cascadeStatsWindow(lastStats_, *timer_, lastGpu_, lastCpuFrameMs_,
-                           engine::validationMessageCount(), true);
+        panel_ = cascadeStatsWindow(lastStats_, *timer_, lastGpu_, lastCpuFrameMs_,
+                                    engine::validationMessageCount(), true);
       }
       imgui_->endFrame();
       imgui_->record(*f);
@@ -139,6 +153,7 @@ class HeadlessFlight {
   std::map<std::string, double> lastGpu_;
   world::FrameStats lastStats_;
   double lastCpuFrameMs_ = 0.0;
+  StatsPanel panel_;  // what the last overlay screenshot's statistics panel showed
 };
 
 }  // namespace

@@ -36,12 +36,18 @@ json cascadesJson(const world::FrameStats& st) {
   json arr = json::array();
   for (std::uint32_t c = 0; c < st.cascadeCount; ++c) {
     const csm::Cascade& cs = st.cascades.cascades[c];
+    const world::FrameStats::LodRange& lod = st.lod[c];
+    // "lod" (the coarsest, as before), "lod_min" and "lod_max": 0 where no cluster was drawn
+    // ("lod_clusters" 0).
     arr.push_back({{"split_near_m", cs.splitNearM},
                    {"split_far_m", cs.splitFarM},
                    {"sphere_radius_m", cs.sphereRadiusM},
                    {"texel_m", cs.texelSizeM()},
                    {"empty", cs.empty},
-                   {"lod", st.lod[c]},
+                   {"lod", lod.coarsest},
+                   {"lod_min", lod.finest},
+                   {"lod_max", lod.coarsest},
+                   {"lod_clusters", lod.clusters},
                    {"casters", st.casters[c]},
                    {"triangles", st.triangles[c]},
                    {"texels_rendered", st.texelsRendered[c]},

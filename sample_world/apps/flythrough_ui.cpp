@@ -7,7 +7,10 @@
 #include "enum_combo.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <optional>
 #include <string>
 
 namespace flythrough {
@@ -22,32 +25,84 @@ void keepOnScreen() {
   if (clamped.x != pos.x || clamped.y != pos.y) ImGui::SetWindowPos(clamped);
 }
 
-/// The per-cascade statistics window of the overlay (also in the windowed panel).
-void cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& timer,
-                        const std::map<std::string, double>& gpu, double cpuFrameMs,
-                        std::uint64_t validationMessages, bool pinned) {
-  if (pinned) {
-    ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_Always);
-    ImGui::SetNextWindowBgAlpha(0.6f);
+namespace {
+
+/// "12.34", or "-" where no time was measured (yet): a GPU time absent from the timer's results.
+std::string msText(const std::optional<double>& ms) {
+  if (!ms) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.2f", *ms);
+  return buf;
+}
+
+/// A count in three or four characters: 812, 33.5k, 1.16M.
+std::string countText(std::uint64_t n) {
+  char buf[32];
+  if (n < 1000) {
+    std::snprintf(buf, sizeof(buf), "%llu", static_cast<unsigned long long>(n));
+  } else if (n < 1000000) {
+    std::snprintf(buf, sizeof(buf), "%.1fk", double(n) * 1e-3);
+  } else {
+    std::snprintf(buf, sizeof(buf), "%.2fM", double(n) * 1e-6);
   }
+  return buf;
+}
+
+/// Metres with one decimal below 100 m, whole metres above.
+std::string metresText(double m) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), m < 100.0 ? "%.1f" : "%.0f", m);
+  return buf;
+}
+
+/// "-" (no cluster drawn), "1" (one LOD) or "0-2" (finest-coarsest).
+std::string lodText(const world::FrameStats::LodRange& lod) {
+  if (lod.clusters == 0) return "-";
+  if (lod.finest == lod.coarsest) return std::to_string(lod.finest);
+  return std::to_string(lod.finest) + "-" + std::to_string(lod.coarsest);
+}
+
+}  // namespace
+
+std::optional<double> gpuScopeMs(const std::map<std::string, double>& gpu,
+                                 const std::string& scope) {
+  const auto it = gpu.find(scope);
+  if (it == gpu.end() || !std::isfinite(it->second)) return std::nullopt;
+  return it->second;
+}
+
+/// The per-cascade statistics window of the overlay (also in the windowed panel): compact, in the
+/// font ImGuiLayer sized for the view, with tight spacing scaled alike.
+StatsPanel cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& timer,
+                              const std::map<std::string, double>& gpu, double cpuFrameMs,
+                              std::uint64_t validationMessages, bool pinned) {
+  StatsPanel shown;
+  const float k = ImGui::GetFontSize() / 13.0f;
+  if (pinned) {
+    ImGui::SetNextWindowPos(ImVec2(4.0f * k, 4.0f * k), ImGuiCond_Always);
+    ImGui::SetNextWindowBgAlpha(0.75f);
+  }
+  ImGui::PushStyleVar(ImGuiStyleVar_WindowPadding, ImVec2(4.0f * k, 3.0f * k));
+  ImGui::PushStyleVar(ImGuiStyleVar_ItemSpacing, ImVec2(6.0f * k, 1.0f * k));
+  ImGui::PushStyleVar(ImGuiStyleVar_CellPadding, ImVec2(3.0f * k, 0.0f));
   ImGui::Begin("Cascades", nullptr,
                pinned ? ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize
                       : ImGuiWindowFlags_AlwaysAutoResize);
-  auto gpuMs = [&](const std::string& k) {
-    auto it = gpu.find(k);
-    return it == gpu.end() ? 0.0 : it->second;
+  auto gpuMs = [&](const std::string& scope) {
+    const std::optional<double> ms = gpuScopeMs(gpu, scope);
+    shown.gpuMs[scope] = ms;
+    return msText(ms);
   };
-  ImGui::Text("frame: cpu %.2f ms (setup %.2f, cull %.2f, record %.2f)", cpuFrameMs, st.cpuSetupMs,
+  ImGui::Text("cpu %.1f ms (setup %.1f, cull %.1f, record %.1f)", cpuFrameMs, st.cpuSetupMs,
               st.cpuCullMs, st.cpuRecordMs);
-  ImGui::Text("gpu: shadow %.2f ms, lit %.2f ms, overlay %.2f ms%s", gpuMs("shadow"), gpuMs("lit"),
-              gpuMs("overlay"), timer.supported() ? "" : " (no timestamps)");
+  ImGui::Text("gpu ms: shadow %s, lit %s, overlay %s%s", gpuMs("shadow").c_str(),
+              gpuMs("lit").c_str(), gpuMs("overlay").c_str(),
+              timer.supported() ? "" : " (no timestamps)");
   if (!pinned) keepOnScreen();
-  ImGui::Text("validation messages: %llu   lit: %u instances, %.2f Mtri",
-              static_cast<unsigned long long>(validationMessages), st.litInstances,
-              st.litTriangles * 1e-6);
-  if (ImGui::BeginTable("c", 8, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingFixedFit)) {
-    for (const char* h :
-         {"#", "split (m)", "radius m", "texel m", "casters", "tris", "lod", "gpu ms"}) {
+  ImGui::Text("lit %u inst, %.2f Mtri; validation msgs %llu", st.litInstances,
+              st.litTriangles * 1e-6, static_cast<unsigned long long>(validationMessages));
+  if (ImGui::BeginTable("c", 8, ImGuiTableFlags_BordersInnerV | ImGuiTableFlags_SizingFixedFit)) {
+    for (const char* h : {"#", "split m", "r m", "texel m", "cast", "tris", "lod", "gpu ms"}) {
       ImGui::TableSetupColumn(h);
     }
     ImGui::TableHeadersRow();
@@ -56,25 +111,33 @@ void cascadeStatsWindow(const world::FrameStats& st, const engine::GpuTimer& tim
       const glm::vec3 t = csm::cascadeTint(static_cast<int>(c));
       ImGui::TableNextRow();
       ImGui::TableNextColumn();
-      ImGui::TextColored(ImVec4(t.r, t.g, t.b, 1.0f), "%u%s", c, cs.empty ? " (empty)" : "");
+      ImGui::TextColored(ImVec4(t.r, t.g, t.b, 1.0f), "%u%s", c, cs.empty ? " empty" : "");
       ImGui::TableNextColumn();
-      ImGui::Text("%.1f-%.1f", cs.splitNearM, cs.splitFarM);
+      ImGui::Text("%s-%s", metresText(cs.splitNearM).c_str(), metresText(cs.splitFarM).c_str());
       ImGui::TableNextColumn();
-      ImGui::Text("%.1f", cs.sphereRadiusM);
+      ImGui::TextUnformatted(metresText(cs.sphereRadiusM).c_str());
       ImGui::TableNextColumn();
       ImGui::Text("%.3f", cs.texelSizeM());
       ImGui::TableNextColumn();
-      ImGui::Text("%u", st.casters[c]);
+      ImGui::TextUnformatted(countText(st.casters[c]).c_str());
       ImGui::TableNextColumn();
-      ImGui::Text("%llu", static_cast<unsigned long long>(st.triangles[c]));
+      ImGui::TextUnformatted(countText(st.triangles[c]).c_str());
       ImGui::TableNextColumn();
-      ImGui::Text("%u", st.lod[c]);
+      ImGui::TextUnformatted(lodText(st.lod[c]).c_str());
       ImGui::TableNextColumn();
-      ImGui::Text("%.2f", gpuMs("shadow c" + std::to_string(c)));
+      ImGui::TextUnformatted(gpuMs("shadow c" + std::to_string(c)).c_str());
     }
     ImGui::EndTable();
   }
+  const ImVec2 pos = ImGui::GetWindowPos(), size = ImGui::GetWindowSize();
+  shown.x = pos.x;
+  shown.y = pos.y;
+  shown.width = size.x;
+  shown.height = size.y;
+  shown.fontPixels = ImGui::GetFontSize();
   ImGui::End();
+  ImGui::PopStyleVar(3);
+  return shown;
 }
 
 bool settingsPanel(world::AppSettings& s, const std::string& error) {

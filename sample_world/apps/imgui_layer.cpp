@@ -5,6 +5,8 @@
 #include <imgui_impl_glfw.h>
 #include <imgui_impl_vulkan.h>
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 #include <string>
 
@@ -15,6 +17,11 @@ namespace {
 void checkVk(VkResult r) {
   if (r != VK_SUCCESS) throw std::runtime_error("imgui vulkan backend: " + engine::vkResultName(r));
 }
+
+// The built-in font (ProggyClean, drawn for 13 px) baked once per size the panels use: text
+// rasterised at its size stays sharp where a scaled atlas would blur.
+constexpr float kFontSizes[] = {10.0f, 11.0f, 12.0f, 13.0f, 14.0f, 16.0f, 18.0f, 20.0f};
+constexpr float kFontDesignPixels = 13.0f;
 }  // namespace
 
 ImGuiLayer::ImGuiLayer(engine::Context& ctx, VkFormat colorFormat, GLFWwindow* window)
@@ -78,6 +85,11 @@ ImGuiLayer::ImGuiLayer(engine::Context& ctx, VkFormat colorFormat, GLFWwindow* w
   ImGui::StyleColorsDark();
   ImGuiIO& io = ImGui::GetIO();
   io.IniFilename = nullptr;  // no imgui.ini left behind
+  for (float px : kFontSizes) {
+    ImFontConfig font;
+    font.SizePixels = px;
+    io.Fonts->AddFontDefault(&font);
+  }
   if (window_) ImGui_ImplGlfw_InitForVulkan(window_, true);
   ImGui_ImplVulkan_InitInfo init{};
   init.Instance = ctx.instance();
@@ -111,9 +123,27 @@ void ImGuiLayer::releaseFramebuffers() {
   framebuffers_.clear();
 }
 
+float ImGuiLayer::fontPixels(std::uint32_t viewHeight) {
+  return std::clamp(std::round(static_cast<float>(viewHeight) / 32.0f), 10.0f, 20.0f);
+}
+
 void ImGuiLayer::newFrame(VkExtent2D extent, double dt) {
   ImGui_ImplVulkan_NewFrame();
   ImGuiIO& io = ImGui::GetIO();
+  // The largest baked size not above the view's (fonts are in kFontSizes order).
+  const float px = fontPixels(extent.height);
+  if (px != fontPixels_) {
+    int pick = 0;
+    for (int k = 0; k < io.Fonts->Fonts.Size; ++k) {
+      if (kFontSizes[k] <= px) pick = k;
+    }
+    io.FontDefault = io.Fonts->Fonts[pick];
+    ImGuiStyle& style = ImGui::GetStyle();
+    style = ImGuiStyle();
+    ImGui::StyleColorsDark(&style);
+    style.ScaleAllSizes(kFontSizes[pick] / kFontDesignPixels);
+    fontPixels_ = px;
+  }
   if (window_) {
     ImGui_ImplGlfw_NewFrame();
   } else {

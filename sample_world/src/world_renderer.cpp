@@ -391,7 +391,8 @@ void WorldRenderer::createPipelines() {
       {0, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(OverlayVertex, pixel)},
       {1, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(OverlayVertex, uv)},
       {2, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(OverlayVertex, color)},
-      {3, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(OverlayVertex, depth)},
+      {3, 0, VK_FORMAT_R32G32B32A32_SFLOAT, offsetof(OverlayVertex, thumb)},
+      {4, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(OverlayVertex, relief)},
   };
   for (int k = 0; k < 2; ++k) {
     engine::GraphicsPipelineBuilder b;
@@ -711,14 +712,15 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
   const csm::CullResult& culled = shadow_->cull();
   stats.casters = {};
   stats.triangles = {};
+  stats.lod = {};
   for (std::uint32_t c = 0; c < cascades.cascadeCount; ++c) {
     if (cascades.cascades[c].empty) continue;
     // The LOD the module draws each cluster with (schedule and texel error budget); stats.lod
-    // is the coarsest one the cascade drew.
+    // is the range of those the cascade drew.
     const csm::vk::RendererOptions& options = shadow_->options();
     const double texelM =
         std::min(cascades.cascades[c].texelSizeLs.x, cascades.cascades[c].texelSizeLs.y);
-    stats.lod[c] = 0;
+    FrameStats::LodRange& lods = stats.lod[c];
     for (std::uint32_t k : culled.visible[c]) {
       if (k >= clusterRanges_.size()) {  // a dynamic caster (the cube, every LOD)
         ++stats.casters[c];
@@ -729,9 +731,11 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
           std::min(csm::vk::casterLod(shadow_->instances()[k], options.cascadeLod[c], texelM,
                                       options.lodMaxErrorTexels),
                    kLodCount - 1);
-      stats.lod[c] = std::max(stats.lod[c], lod);
       const engine::MeshRange& r = clusterRanges_[k][lod];
       if (r.indexCount == 0) continue;
+      lods.finest = lods.clusters == 0 ? lod : std::min(lods.finest, lod);
+      lods.coarsest = lods.clusters == 0 ? lod : std::max(lods.coarsest, lod);
+      ++lods.clusters;
       ++stats.casters[c];
       stats.triangles[c] += r.indexCount / 3;
     }
@@ -1012,14 +1016,17 @@ void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& 
   const csm::CascadeFrame& cascades = shadow_->frame();
   const csm::CullResult& culled = shadow_->cull();
   const glm::vec4 solid(-1.0f, 0.0f, 1.0f, 0.0f);
-  auto quad = [&](glm::vec2 a, glm::vec2 b, glm::vec4 color, glm::vec4 depth) {
-    const OverlayVertex v00{a, {0, 0}, color, depth}, v10{{b.x, a.y}, {1, 0}, color, depth};
-    const OverlayVertex v01{{a.x, b.y}, {0, 1}, color, depth}, v11{b, {1, 1}, color, depth};
+  auto quad = [&](glm::vec2 a, glm::vec2 b, glm::vec4 color, glm::vec4 thumb,
+                  glm::vec3 relief = glm::vec3(0.0f)) {
+    const OverlayVertex v00{a, {0, 0}, color, thumb, relief};
+    const OverlayVertex v10{{b.x, a.y}, {1, 0}, color, thumb, relief};
+    const OverlayVertex v01{{a.x, b.y}, {0, 1}, color, thumb, relief};
+    const OverlayVertex v11{b, {1, 1}, color, thumb, relief};
     tris.insert(tris.end(), {v00, v10, v11, v00, v11, v01});
   };
   auto line = [&](glm::vec2 a, glm::vec2 b, glm::vec4 color) {
-    lines.push_back({a, {0, 0}, color, solid});
-    lines.push_back({b, {0, 0}, color, solid});
+    lines.push_back({a, {0, 0}, color, solid, glm::vec3(0.0f)});
+    lines.push_back({b, {0, 0}, color, solid, glm::vec3(0.0f)});
   };
   const auto W = static_cast<float>(extent.width), H = static_cast<float>(extent.height);
   const std::uint32_t n = cascades.cascadeCount;
@@ -1037,13 +1044,20 @@ void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& 
         quad(a, a + glm::vec2(size), {0.1f, 0.1f, 0.1f, 1.0f}, solid);
         continue;
       }
-      // The sphere spans the last 2r of the light-space depth range: stretch that to [0, 1].
-      const double range = cs.depthFarLs - cs.depthNearLs;
-      const float lo =
-          range > 0.0
-              ? static_cast<float>(std::clamp(1.0 - 2.0 * cs.sphereRadiusM / range, 0.0, 1.0))
-              : 0.0f;
-      quad(a, a + glm::vec2(size), glm::vec4(1.0f), {static_cast<float>(c), lo, 1.0f, 0.0f});
+      // World height above the sphere's centre of what box texel t holds at stored depth d:
+      // linear in (t, d), from the inverse of the cascade's matrix (shadow clip ->
+      // camera-relative).
+      const glm::dmat4 toCr = glm::inverse(glm::dmat4(cs.viewProjCr));
+      const double perTexel = 2.0 / static_cast<double>(cascades.resolution);
+      const glm::vec3 relief(static_cast<float>(toCr[0].y * perTexel),
+                             static_cast<float>(toCr[1].y * perTexel),
+                             static_cast<float>(toCr[2].y));
+      const double base =
+          toCr[3].y - toCr[0].y - toCr[1].y + cascades.cameraPositionWs.y - cs.sphereCenterWs.y;
+      quad(a, a + glm::vec2(size), glm::vec4(1.0f),
+           {static_cast<float>(c), static_cast<float>(base), static_cast<float>(cs.sphereRadiusM),
+            size},
+           relief);
     }
   }
 

@@ -44,8 +44,14 @@ struct FrameStats {
   std::array<std::uint32_t, csm::kMaxCascades> lagFrames{};
   /// Device memory of the static-depth cache (0 without it).
   std::uint64_t cacheBytes = 0;
-  /// The coarsest LOD a cluster was drawn with in each cascade.
-  std::array<std::uint32_t, csm::kMaxCascades> lod{};
+  /// The LODs a cascade drew its caster clusters with: the finest and the coarsest, and how many
+  /// clusters (0: an empty cascade, or one that drew only dynamic casters; finest = coarsest = 0).
+  struct LodRange {
+    std::uint32_t finest = 0;
+    std::uint32_t coarsest = 0;
+    std::uint32_t clusters = 0;
+  };
+  std::array<LodRange, csm::kMaxCascades> lod{};
   std::uint32_t litInstances = 0;
   std::uint64_t litTriangles = 0;
   csm::CascadeFrame cascades{};
@@ -97,7 +103,11 @@ class WorldRenderer {
     glm::vec2 pixel;
     glm::vec2 uv;
     glm::vec4 color;
-    glm::vec4 depth;
+    // Thumbnails (overlay_2d.frag): x cascade (< 0: solid colour), y world height (m, above the
+    // bounding sphere's centre) of box texel (0, 0) at depth 0, z the sphere's radius, w side px;
+    // relief: world height per box texel along x, y and per unit of stored depth.
+    glm::vec4 thumb;
+    glm::vec3 relief;
   };
   struct Slot {
     engine::Buffer frameUniforms;
