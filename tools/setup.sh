@@ -7,7 +7,7 @@ packages=(
   libvulkan-dev mesa-vulkan-drivers vulkan-validationlayers vulkan-tools
   glslang-tools glslang-dev
   libglm-dev libglfw3-dev libopenmesh-dev libimgui-dev libstb-dev libembree-dev
-  nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox
+  nlohmann-json3-dev libgtest-dev libgmock-dev libbenchmark-dev gnuplot-nox jq
   xvfb xauth cmake ninja-build g++ pkg-config
   clang libclang-rt-14-dev
 )

@@ -21,8 +21,31 @@ inline glm::dvec3 sunDirection(double elevationDeg, double azimuthDeg) {
   return -toLight;
 }
 
+/// A gable roof: a triangular prism over the unit square, its ridge along z at x = 0, y = 1;
+/// flat-shaded (each face its own vertices and normal), closed, wound outward.
+inline csm_measure::MeshData makeRoofMesh() {
+  csm_measure::MeshData m;
+  m.name = "roof";
+  auto face = [&](std::initializer_list<glm::vec3> ps) {
+    const std::vector<glm::vec3> p(ps);
+    const glm::vec3 n = glm::normalize(glm::cross(p[1] - p[0], p[2] - p[0]));
+    const auto base = static_cast<uint32_t>(m.vertices.size());
+    for (const glm::vec3& q : p) m.vertices.push_back({q, n});
+    for (uint32_t k = 1; k + 1 < p.size(); ++k)
+      m.indices.insert(m.indices.end(), {base, base + k, base + k + 1});
+  };
+  const glm::vec3 a(-0.5f, 0, -0.5f), b(0.5f, 0, -0.5f), c(0.5f, 0, 0.5f), d(-0.5f, 0, 0.5f);
+  const glm::vec3 r0(0, 1, -0.5f), r1(0, 1, 0.5f);
+  face({d, c, r1});      // gable +z
+  face({b, a, r0});      // gable -z
+  face({c, b, r0, r1});  // slope facing +x
+  face({a, d, r1, r0});  // slope facing -x
+  face({a, b, c, d});    // underside
+  return m;
+}
+
 /// A host's first test scene: a ground plane 400 m wide, flat or tilted `slopeDeg` about the x
-/// axis (rising away from the camera), with a few boxes and poles standing on it.
+/// axis (rising away from the camera), with a few boxes (most with gable roofs) and poles.
 inline csm_measure::Scene makePlaneScene(double slopeDeg) {
   csm_measure::Scene scene;
   const double s = glm::radians(slopeDeg);
@@ -32,6 +55,7 @@ inline csm_measure::Scene makePlaneScene(double slopeDeg) {
   auto groundY = [&](double z) { return -z * std::tan(s); };
   const uint32_t ground = scene.addMesh(csm_measure::makeGroundMesh(false, 400.0, 16, 0.0, 0.0));
   const uint32_t cube = scene.addMesh(csm_measure::makeCubeMesh());
+  const uint32_t roof = scene.addMesh(makeRoofMesh());
   scene.addInstance({ground,
                      glm::dvec3(0.0),
                      tilt,
@@ -60,6 +84,19 @@ inline csm_measure::Scene makePlaneScene(double slopeDeg) {
          m,
          {0.4f, 0.4f, 0.45f, 1.0f},
          pole ? csm_measure::InstanceKind::kPole : csm_measure::InstanceKind::kBuilding});
+    // Houses get a gable roof 40% of their width high (30-40 degree slopes): one slope faces
+    // away from a sun across the ridge, the other grazes a low one.
+    if (!pole && t.w < 7.0) {
+      glm::mat3 rm(1.0f);
+      rm[0][0] = float(t.w);
+      rm[1][1] = float(0.4 * t.w);
+      rm[2][2] = float(t.d);
+      scene.addInstance({roof,
+                         glm::dvec3(t.x, bottom + t.h, t.z),
+                         rm,
+                         {0.5f, 0.3f, 0.25f, 1.0f},
+                         csm_measure::InstanceKind::kBuilding});
+    }
   }
   return scene;
 }
