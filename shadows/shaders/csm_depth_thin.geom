@@ -7,10 +7,10 @@
 // bevelled dilation, no miter spikes on slivers. The triangle itself is emitted unchanged, so
 // where it covers a texel the depth is what the plain pipeline writes; the rim only adds texels,
 // at depths of the triangle's own boundary. A triangle seen edge-on (a line in the map) becomes
-// a band 2 x kWidenTexels wide along it. Used where the device has geometry shaders and no
-// VK_EXT_conservative_rasterization (lavapipe). Both depth vertex shaders hand over the layer
-// (csmLayer: 0 for the per-layer passes, the cascade for the layered pass, which picks it per
-// instance); it is forwarded to gl_Layer on every vertex.
+// a band 2 x kWidenTexels wide along it. Used where the device has geometry shaders, unless it
+// has VK_EXT_conservative_rasterization and the widening is half a texel or more. Both depth
+// vertex shaders hand over the layer (csmLayer: 0 for the per-layer passes, the cascade for the
+// layered pass, which picks it per instance); it is forwarded to gl_Layer on every vertex.
 #version 450
 
 layout(triangles) in;

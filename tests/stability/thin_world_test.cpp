@@ -1,11 +1,11 @@
 // The sample world's thin casters against the ray-traced truth: the power line's 3 cm cables and
 // the fences' 6 cm rails, as the fly-through draws them (its shadow settings and sun, its
-// "thin" clusters flagged CasterInstance::thin), with the widening off, at the module's default
-// half texel and at the fly-through's one texel. Receivers are where the centre lines of the cables
-// and rails cast their shadow on the terrain (Embree: the ray from the caster's centre along the
-// light); a receiver is lost when it reads shaded > 0.5 where the truth is 0. Per caster class and
-// cascade, tent 3x3 (the fly-through's kernel) and 1 tap. Writes
-// test_artefacts/stability/thin_world.json.
+// "thin" clusters flagged CasterInstance::thin), with the widening off, at half a
+// texel (the default before issue 24) and at one texel (the fly-through's before it).
+// Receivers are where the centre lines of the cables and rails cast their shadow on the terrain
+// (Embree: the ray from the caster's centre along the light); a receiver is lost when it reads
+// shaded > 0.5 where the truth is 0. Per caster class and cascade, tent 3x3 (the fly-through's
+// kernel) and 1 tap. Writes test_artefacts/stability/thin_world.json.
 #include <sample_world/settings.hpp>
 #include <sample_world/world.hpp>
 
@@ -202,7 +202,7 @@ TEST(StabilityThinCasters, SampleWorldCablesAndFencesKeepTheirShadowWhenFlagged)
         EXPECT_LE(frac(one), frac(half) + 0.01) << kClassNames[cl] << " cascade " << c;
         EXPECT_LE(half.sumS, off.sumS + 1e-3 * off.n) << kClassNames[cl] << " cascade " << c;
         EXPECT_LE(one.sumS, half.sumS + 1e-3 * off.n) << kClassNames[cl] << " cascade " << c;
-        // At the fly-through's one texel it brings back a good part of what was lost, under
+        // At one texel it brings back a good part of what was lost, under
         // either kernel, except where the normal offset (1.5 texels along the normal) lifts the
         // receiver above the caster: the fences' rails, 0.5-1.2 m above the ground, in cascade
         // 3's 1.8 m texels (peter-panning of a low caster, not a thin-caster loss).
@@ -218,7 +218,8 @@ TEST(StabilityThinCasters, SampleWorldCablesAndFencesKeepTheirShadowWhenFlagged)
       "The sample world's 3 cm cables and 6 cm fence rails (its thin clusters flagged) at the "
       "fly-through's shadow settings and sun: per kernel, class and cascade, the fraction of "
       "receivers in their true shadow read shaded > 0.5 (lost) and the mean shadow factor, with "
-      "the widening off, at 0.5 texel (the default) and at 1 texel.";
+      "the widening off, at 0.5 and at 1 texel (points on the centre line of the true shadow: the "
+      "image-space measure is thin_image.json).";
   csm_measure::writeJson(artefactDir() + "/thin_world.json", report);
 }
 

@@ -42,13 +42,15 @@ struct AppSettings {
   bool worldSpaceKernel = false;
   /// Thin casters (the clusters of cables, fence segments and poles, World's CasterCluster::thin)
   /// widened by thinWidenTexels on each side in the depth pass
-  /// (csm::vk::RendererOptions::thinCasterWidenTexels), so that 3 cm cables keep a continuous
-  /// shadow where they are thinner than a texel. Needs geometry shaders (or conservative
-  /// rasterisation) on the device; else drawn as is. One texel rather than the module's half:
-  /// the normal offset moves the lookup up to about a texel across the light, off a shadow only
-  /// one texel wide (StabilityThinCasters.SampleWorldCablesAndFencesKeepTheirShadowWhenFlagged).
+  /// (csm::vk::RendererOptions::thinCasterWidenTexels). Needs geometry shaders (or conservative
+  /// rasterisation) on the device; else drawn as is. A sixteenth of a texel, the module's
+  /// default: the most that keeps every cable's shadow in the image within one pixel of the
+  /// ray-traced truth on the cables (StabilityThinCasters.CableShadowsInTheImage..., where half a
+  /// texel is up to 4.3 px darker and one texel, the old default, 7.4 px); it halves how much the
+  /// unwidened shadow varies along a cable, but does not make it continuous where a texel is
+  /// wider than a pixel (shadows/docs/thin_casters.md).
   bool thinCasters = true;
-  float thinWidenTexels = 1.0f;
+  float thinWidenTexels = 0.0625f;
   /// Closed caster clusters (World's CasterCluster::closed) drawn in the depth pass without
   /// their faces turned away from the light (csm::vk::RendererOptions::cullClosedCasters): the
   /// same shadows, fewer triangles rasterised.
