@@ -88,7 +88,7 @@ struct AppSettings {
   /// pass (depthPrepass then does not apply). The same image as the forward lit pass within the
   /// G-buffer's rounding; on a CPU rasteriser the lookup no longer runs for the unseen pixels of
   /// the 4x4 blocks that pixel-sized distant triangles are shaded in. The default: the whole
-  /// fly-through frame measured 0.85-0.90x the forward one (README, "Deferred shading").
+  /// fly-through frame measured 0.83-1.01x the forward one (README, "Deferred shading").
   bool deferred = true;
   /// Back faces of closed meshes (every LOD watertight and outward, every placement keeping the
   /// winding) culled in the pre-pass and the lit pass; open meshes (terrain, fences) draw both.
