@@ -16,6 +16,7 @@
 #include <engine/camera.hpp>
 #include <engine/image_io.hpp>
 
+#include "small_world.hpp"
 #include "stability_common.hpp"
 
 namespace csm_stability {
@@ -39,12 +40,8 @@ TEST(StabilityBias, SampleWorldForestPathNoAcneAtEveryElevation) {
   report["cases"] = nlohmann::json::array();
   {
     CSM_MAKE_HARNESS(harness);
-    world::WorldDesc wd;  // fewer trees and buildings than the fly-through (start-up time)
-    wd.treeCount = 3000;
-    wd.rockCount = 400;
-    wd.buildingCount = 40;
     world::WorldError err;
-    const std::optional<world::World> w = world::generateWorld(wd, &err);
+    const std::optional<world::World> w = smallSampleWorld(&err);
     ASSERT_TRUE(w.has_value()) << err.message;
     const csm_measure::WorldScene ws = csm_measure::sceneFromWorld(*w, true);
     harness->setScene(ws.scene);

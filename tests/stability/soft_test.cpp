@@ -20,6 +20,7 @@
 #include <sample_world/paths.hpp>
 #include <sample_world/world.hpp>
 
+#include "small_world.hpp"
 #include "stability_common.hpp"
 
 namespace csm_stability {
@@ -414,12 +415,8 @@ TEST(SoftShadows, PcssBeatsEveryFixedKernelOnTheSampleWorld) {
     const csm::Camera camera = softCamera(glm::dvec3(0.0), glm::dvec3(0.0));
     // The sample world (smaller: 3000 trees, 40 buildings), 4 cascades of 1024^2 over 120 m, the
     // tradeoff sweep's sun.
-    world::WorldDesc wd;
-    wd.treeCount = 3000;
-    wd.rockCount = 400;
-    wd.buildingCount = 40;
     world::WorldError err;
-    const std::optional<world::World> w = world::generateWorld(wd, &err);
+    const std::optional<world::World> w = smallSampleWorld(&err);
     ASSERT_TRUE(w.has_value()) << err.message;
     const csm_measure::WorldScene ws = csm_measure::sceneFromWorld(*w);
     harness->setScene(ws.scene);

@@ -21,6 +21,7 @@
 #include <csm_measure/world_scene.hpp>
 #include <engine/camera.hpp>
 
+#include "small_world.hpp"
 #include "stability_common.hpp"
 
 namespace csm_stability {
@@ -47,12 +48,8 @@ TEST(StabilityThinCasters, CableShadowsInTheImageNoWiderOrDarkerThanTruthByMoreT
   report["runs"] = nlohmann::json::array();
   {
     CSM_MAKE_HARNESS(harness);
-    world::WorldDesc wd;
-    wd.treeCount = 3000;
-    wd.rockCount = 400;
-    wd.buildingCount = 40;
     world::WorldError err;
-    const std::optional<world::World> w = world::generateWorld(wd, &err);
+    const std::optional<world::World> w = smallSampleWorld(&err);
     ASSERT_TRUE(w.has_value()) << err.message;
     const csm_measure::WorldScene ws = csm_measure::sceneFromWorld(*w, true);
     harness->setScene(ws.scene);

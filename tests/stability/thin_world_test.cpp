@@ -17,6 +17,7 @@
 #include <csm_measure/world_scene.hpp>
 #include <engine/camera.hpp>
 
+#include "small_world.hpp"
 #include "stability_common.hpp"
 
 namespace csm_stability {
@@ -49,13 +50,8 @@ TEST(StabilityThinCasters, SampleWorldCablesAndFencesKeepTheirShadowWhenFlagged)
     if (!harness->context().features().geometryShader) {
       GTEST_SKIP() << "no geometryShader: thin casters are drawn as is";
     }
-    // The sample world, fewer trees and buildings (the thin casters are placed the same).
-    world::WorldDesc wd;
-    wd.treeCount = 3000;
-    wd.rockCount = 400;
-    wd.buildingCount = 40;
     world::WorldError err;
-    const std::optional<world::World> w = world::generateWorld(wd, &err);
+    const std::optional<world::World> w = smallSampleWorld(&err);
     ASSERT_TRUE(w.has_value()) << err.message;
     const csm_measure::WorldScene ws = csm_measure::sceneFromWorld(*w, true);
     size_t thinInstances = 0;

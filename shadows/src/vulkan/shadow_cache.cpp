@@ -1035,13 +1035,7 @@ Status ShadowRenderer::recordWindowedCallbackPass(VkCommandBuffer cmd, const Cas
     split(win, resolution_, pass.boxes[c], pass.layerRects);
     for (const LayerRect& lr : pass.layerRects) {
       pass.setRect(lr);
-      CascadeDrawContext ctx;
-      ctx.cmd = cmd;
-      ctx.cascade = c;
-      ctx.visible = visible ? &visible->visible[c] : nullptr;
-      ctx.pipelineLayout = pipelineLayout_;
-      ctx.cameraPositionWs = frame.cameraPositionWs;
-      ctx.frame = &frame;
+      CascadeDrawContext ctx = drawContext(cmd, frame, c, visible);
       ctx.anchored = true;
       blockProjection(win, resolution_, lr.mx, lr.my, ctx.originLs, ctx.clipPerMetre);
       draw(ctx);

@@ -1268,6 +1268,19 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
   return {};
 }
 
+CascadeDrawContext ShadowRenderer::drawContext(VkCommandBuffer cmd, const CascadeFrame& frame,
+                                               std::uint32_t cascade,
+                                               const CullResult* visible) const {
+  CascadeDrawContext ctx;
+  ctx.cmd = cmd;
+  ctx.cascade = cascade;
+  ctx.visible = visible ? &visible->visible[cascade] : nullptr;
+  ctx.pipelineLayout = pipelineLayout_;
+  ctx.cameraPositionWs = frame.cameraPositionWs;
+  ctx.frame = &frame;
+  return ctx;
+}
+
 Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame& frame,
                                         const CascadeDrawCallback& draw,
                                         const CullResult* visible) {
@@ -1288,14 +1301,7 @@ Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame&
     if (cascadeHook_) cascadeHook_(cmd, c);
     any = true;
     beginLayer(cmd, c, false);
-    CascadeDrawContext ctx;
-    ctx.cmd = cmd;
-    ctx.cascade = c;
-    ctx.visible = visible ? &visible->visible[c] : nullptr;
-    ctx.pipelineLayout = pipelineLayout_;
-    ctx.cameraPositionWs = frame.cameraPositionWs;
-    ctx.frame = &frame;
-    draw(ctx);
+    draw(drawContext(cmd, frame, c, visible));
     endLayer(cmd);
   }
   if (cascadeHook_ && any) cascadeHook_(cmd, kCascadeHookEnd);

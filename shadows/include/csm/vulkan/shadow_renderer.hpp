@@ -536,6 +536,9 @@ class ShadowRenderer {
                           const CullResult* visible);
   Status recordWindowedCallbackPass(VkCommandBuffer cmd, const CascadeFrame& frame,
                                     const CascadeDrawCallback& draw, const CullResult* visible);
+  /// What the callback form hands the host for cascade `cascade` of `frame` (not anchored).
+  CascadeDrawContext drawContext(VkCommandBuffer cmd, const CascadeFrame& frame,
+                                 std::uint32_t cascade, const CullResult* visible) const;
   const CascadeFrame* windowedFrame(const CascadeFrame& frame, CascadeFrame& own);
   // applyCacheWindows()'s steps (shadow_cache.cpp).
   bool shownCovers(std::uint32_t cascade, const Cascade& c, const glm::dmat3& basis) const;
