@@ -80,6 +80,38 @@ TEST(Extremes, AllCombinationsFiniteAndContained) {
   }
 }
 
+// The domain's limits (types.hpp): positions at +-kMaxWorldCoordinateM, the nearest near
+// plane and the largest far / near ratio, at every light of the test above.
+TEST(Extremes, AtTheDomainLimitsFiniteAndContained) {
+  const Extreme ranges[] = {{kMinNearM, kMinNearM * kMaxFarOverNear, 60, 16.0 / 9.0, 4, 2048},
+                            {1e-3, 1e-3 * kMaxFarOverNear, 1, 1, 8, 16384},
+                            {kMinNearM, 1.0, 179, 100, 8, 256}};
+  const glm::dvec3 lights[] = {{0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}, {0.01, -1, 0}};
+  const double m = kMaxWorldCoordinateM;
+  const glm::dvec3 positions[] = {{m, m, m}, {-m, 100, m}, {m, -m, -m}};
+  for (const Extreme& e : ranges) {
+    for (const glm::dvec3& lightDir : lights) {
+      for (const glm::dvec3& pos : positions) {
+        ShadowSettings s;
+        s.cascadeCount = e.count;
+        s.resolution = e.resolution;
+        s.shadowDistanceM = std::min(e.farM, kMaxWorldCoordinateM);
+        Camera cam;
+        cam.nearM = e.nearM;
+        cam.farM = e.farM;
+        cam.fovYRad = glm::radians(e.fovDeg);
+        cam.aspect = e.aspect;
+        cam.positionWs = pos;
+        cam.orientationWs = test::lookAlong({0.3, -0.2, -1});
+        auto r = computeCascades(s, cam, DirectionalLight{lightDir});
+        ASSERT_TRUE(r.ok()) << r.error().message();
+        checkContainment(r.value(), cam,
+                         "near " + std::to_string(e.nearM) + " far " + std::to_string(e.farM));
+      }
+    }
+  }
+}
+
 TEST(Extremes, CameraLookingStraightDownAndUp) {
   for (const glm::dvec3& view : {glm::dvec3(0, -1, 0), glm::dvec3(0, 1, 0)}) {
     ShadowSettings s;

@@ -103,7 +103,10 @@ INSTANTIATE_TEST_SUITE_P(Origins, TranslationTest,
                          ::testing::Values(Origin{"origin", {0.0, 10.0, 0.0}},
                                            Origin{"at1e6", {1e6, 10.0, -1e6}},
                                            Origin{"at1e7", {1e7, 10.0, 1e7}},
-                                           Origin{"at1e7y", {-1e7, 1e7, 3e6}}),
+                                           Origin{"at1e7y", {-1e7, 1e7, 3e6}},
+                                           // The domain's edge (kMaxWorldCoordinateM), with
+                                           // room for the flight's few hundred metres.
+                                           Origin{"at1e9", {-9.99999e8, 3e3, 9.99999e8}}),
                          [](const auto& info) { return std::string(info.param.name); });
 
 TEST(Stability, UnstabilisedModeMovesBySubTexelAmounts) {

@@ -97,6 +97,18 @@ const Case kCases[] = {
     {"nearNeg", "camera.nearM", [](auto&, auto& c, auto&) { c.nearM = -1.0; }},
     {"farBelowNear", "camera.farM", [](auto&, auto& c, auto&) { c.farM = c.nearM; }},
     {"farInf", "camera.farM", [](auto&, auto& c, auto&) { c.farM = kInf; }},
+    // The domain where results are exact (types.hpp): refused just beyond each limit.
+    {"posBeyondDomain", "camera.positionWs.z",
+     [](auto&, auto& c, auto&) { c.positionWs.z = -1.000001e9; }},
+    {"nearBelowMin", "camera.nearM", [](auto&, auto& c, auto&) { c.nearM = 0.99e-6; }},
+    {"nearTiny", "camera.nearM", [](auto&, auto& c, auto&) { c.nearM = 1e-20; }},
+    {"farOverNear", "camera.farM",
+     [](auto&, auto& c, auto&) { c.farM = c.nearM * kMaxFarOverNear * 1.001; }},
+    {"distBeyondDomain", "settings.shadowDistanceM",
+     [](auto& s, auto& c, auto&) {
+       c.farM = 1e8;
+       s.shadowDistanceM = 1.01e9;
+     }},
     {"lightZero", "light.directionWs (length)",
      [](auto&, auto&, auto& l) { l.directionWs = glm::dvec3(0.0); }},
     {"lightNaN", "light.directionWs.z", [](auto&, auto&, auto& l) { l.directionWs.z = kNaN; }},
@@ -142,6 +154,50 @@ TEST(Validation, CasterBoundsRefused) {
   EXPECT_EQ(set.size(), 0u);
 }
 
+TEST(Validation, BoundsBeyondTheDomainRefused) {
+  ShadowSettings s;
+  Camera c;
+  DirectionalLight l;
+  AabbWs far{{0, 0, 0}, {1, 1, 2e9}};
+  auto r = computeCascades(s, c, l, &far);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().field, "sceneBounds.maxWs.z");
+  CasterSet set;
+  auto a = set.addSphere({-1e300, 0, 0}, 1.0);
+  ASSERT_FALSE(a.ok());
+  EXPECT_EQ(a.error().field, "caster.centerWs[0]");
+  a = set.addBox({0, 0, 0}, {1, 1.5e9, 1});
+  ASSERT_FALSE(a.ok());
+  EXPECT_EQ(a.error().field, "caster.maxWs[1]");
+  EXPECT_TRUE(set.addBox(glm::dvec3(-kMaxWorldCoordinateM), glm::dvec3(kMaxWorldCoordinateM)).ok());
+  EXPECT_EQ(set.size(), 1u);
+}
+
+// Texels too small for the camera's distance from the origin: the snap to the world grid would
+// lose its bits below a texel. Refused naming the camera's position and the texel; the same
+// settings at the origin, or unstabilised (no snap), are accepted; the history is unchanged.
+TEST(Validation, TexelsTooSmallForTheDistanceFromTheOriginRefused) {
+  ShadowSettings s;
+  s.resolution = 16384;
+  s.shadowDistanceM = 2e-6;
+  Camera c;
+  c.nearM = 1e-6;
+  c.farM = 1.0;
+  c.fovYRad = glm::radians(1.0);
+  DirectionalLight l{{0.3, -1.0, 0.2}};
+  CascadeHistory history;
+  ASSERT_TRUE(computeCascades(s, c, l, nullptr, &history).ok());
+  const std::uint64_t frames = history.frames;
+  c.positionWs = {9e8, 0.0, -9e8};
+  auto r = computeCascades(s, c, l, nullptr, &history);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().field, "camera.positionWs (distance from the origin)");
+  EXPECT_NE(r.error().message().find("texels of"), std::string::npos) << r.error().message();
+  EXPECT_EQ(history.frames, frames);
+  s.stabilize = false;
+  EXPECT_TRUE(computeCascades(s, c, l).ok());
+}
+
 TEST(Validation, ValidBoundariesAccepted) {
   ShadowSettings s;
   Camera c;
@@ -159,6 +215,12 @@ TEST(Validation, ValidBoundariesAccepted) {
       }
     }
   }
+  // The domain's own limits are inside it.
+  s = ShadowSettings{};
+  c.positionWs = glm::dvec3(-kMaxWorldCoordinateM, kMaxWorldCoordinateM, kMaxWorldCoordinateM);
+  c.nearM = kMinNearM;
+  c.farM = kMinNearM * kMaxFarOverNear;
+  EXPECT_FALSE(validate(s, c, l).has_value());
 }
 
 }  // namespace

@@ -20,6 +20,26 @@ inline constexpr std::uint32_t kMaxResolution = 16384;
 /// Bins of a receiver view-depth histogram (ReceiverDepthHistogram, the GPU reduction's).
 inline constexpr std::uint32_t kDepthHistogramBins = CSM_DEPTH_HISTOGRAM_BINS;
 
+// ---- The domain where results are exact (tested up to these limits, refused beyond them) ----
+/// Every world coordinate the module is given (camera position, scene bounds, caster bounds and
+/// translations) lies in [-kMaxWorldCoordinateM, kMaxWorldCoordinateM]: a million kilometres,
+/// a hundred times the 10^7 m the stability tests fly at. World positions are double (a
+/// coordinate of 1e9 m resolves to 1.2e-7 m) and the matrices the GPU reads are camera-relative,
+/// so containment and whole-texel snapping stay exact to here (measured exact to 1e12 m; from
+/// 1e13 m the double-precision boxes no longer hold the view's corners).
+inline constexpr double kMaxWorldCoordinateM = 1e9;
+/// The camera's near plane is at least this far (metres): a micrometre.
+inline constexpr double kMinNearM = 1e-6;
+/// The camera's far plane is at most this many times its near plane (1e-3 m to 1e7 m).
+inline constexpr double kMaxFarOverNear = 1e10;
+/// A stabilised cascade's box centre, in texels from the world origin, is at most this many
+/// (2^44): its snap to the world-anchored texel grid then keeps 8 bits below a texel in double.
+/// computeCascades refuses a frame whose texels are too small for the camera's distance from the
+/// origin (camera.positionWs), naming the cascade and the texel size; within the limits above
+/// only unusual settings reach it (texels under 57 micrometres at 1e9 m, 0.6 micrometres at
+/// 1e7 m).
+inline constexpr double kMaxGridTexels = 17592186044416.0;
+
 /// How a stabilised cascade's box is sized.
 enum class BoxFit : std::uint8_t {
   /// Around the slice's minimal bounding sphere: independent of the camera's orientation.
@@ -51,7 +71,8 @@ struct ShadowSettings {
   std::uint32_t resolution = 2048;
   /// Practical split blend: 0 = uniform, 1 = logarithmic, [0, 1].
   double splitLambda = 0.75;
-  /// Distance along the view direction that shadows reach, metres; > camera near, finite.
+  /// Distance along the view direction that shadows reach, metres; > camera near, at most
+  /// kMaxWorldCoordinateM.
   /// Clamped further (in quantised steps) to the camera's far plane and the scene's extent.
   double shadowDistanceM = 400.0;
   /// Width of the blend band at the far end of each cascade, as a fraction of that cascade's
@@ -206,7 +227,8 @@ struct Camera {
   double fovYRad = glm::radians(60.0);
   /// Width over height, (0, 1e4].
   double aspect = 16.0 / 9.0;
-  /// Near and far plane distances, 0 < near < far, finite.
+  /// Near and far plane distances: near >= kMinNearM (1e-6 m), near < far <= near x
+  /// kMaxFarOverNear (1e10). The position's coordinates are within +-kMaxWorldCoordinateM.
   double nearM = 0.1;
   double farM = 5000.0;
 
@@ -224,6 +246,7 @@ struct DirectionalLight {
 };
 
 /// Axis-aligned box in world space. Used for the scene's extent (receivers and casters).
+/// Coordinates within +-kMaxWorldCoordinateM, max >= min.
 struct AabbWs {
   glm::dvec3 minWs{0.0};
   glm::dvec3 maxWs{0.0};

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
+#include <optional>
 
 #include "csm/frustum.hpp"
 #include "csm/ladder.hpp"
@@ -494,6 +496,32 @@ void fitCascade(const FrameInputs& in, const SceneDepth& scene, const CascadeFra
   c.viewProjCr = cameraRelativeViewProj(in.basis, camera.positionWs, c);
 }
 
+// A stabilised box snaps to the world-anchored texel grid in double: its centre, in texels
+// from the origin, must leave bits below a texel (kMaxGridTexels), or snapping stops being exact
+// and the map shimmers. Within the domain (types.hpp) only texels far smaller than usual reach
+// this; the refusal names the camera's distance and the smallest texel it allows.
+std::optional<ValidationError> gridPrecision(const CascadeFrame& frame, const Camera& camera) {
+  const glm::dmat3 basisT = glm::transpose(frame.lightBasisWs);
+  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+    const Cascade& c = frame.cascades[i];
+    if (c.empty) continue;
+    const glm::dvec3 centerLs = basisT * c.boxCenterWs;
+    const double reach = std::max(std::abs(centerLs.x), std::abs(centerLs.y));
+    const double texel = c.texelSizeM();
+    if (!(reach <= texel * kMaxGridTexels)) {
+      const double distance = glm::length(camera.positionWs);
+      char allowed[256];
+      std::snprintf(allowed, sizeof allowed,
+                    "a position within %.3g m of the origin for cascade %u's texels of %.3g m "
+                    "(2^44 texels: snapping stays exact); or larger texels (a longer shadow "
+                    "distance, a lower resolution, a wider field of view)",
+                    texel * kMaxGridTexels, i, texel);
+      return ValidationError{"camera.positionWs (distance from the origin)", distance, allowed};
+    }
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camera& camera,
@@ -507,6 +535,8 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
     if (auto e = validate(*sceneBounds, "sceneBounds")) return *e;
   }
 
+  // Restored when the frame is refused after the history was advanced (gridPrecision).
+  const CascadeHistory before = history != nullptr ? *history : CascadeHistory{};
   CascadeFrame frame;
   const std::uint32_t count = settings.cascadeCount;
   frame.cascadeCount = count;
@@ -558,6 +588,12 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   }
   for (std::uint32_t i = 0; i < count; ++i) {
     fitCascade(in, scene, frame, i, i + 1 < count ? splitRungs[i + 1] : kNoRung, frame.cascades[i]);
+  }
+  if (settings.stabilize) {
+    if (auto e = gridPrecision(frame, camera)) {
+      if (history != nullptr) *history = before;
+      return *e;
+    }
   }
   return frame;
 }

@@ -137,9 +137,9 @@ double lightSpaceSize(const Volume& v, const glm::dvec3& e, bool sphere) noexcep
 
 Result<std::uint32_t> CasterSet::addSphere(const glm::dvec3& centerWs, double radiusM) {
   for (int i = 0; i < 3; ++i) {
-    if (!std::isfinite(centerWs[i])) {
+    if (!(std::abs(centerWs[i]) <= kMaxWorldCoordinateM)) {
       return ValidationError{"caster.centerWs[" + std::to_string(i) + "]", centerWs[i],
-                             "a finite coordinate"};
+                             "a coordinate in metres in [-1e9, 1e9] (kMaxWorldCoordinateM)"};
     }
   }
   if (!(radiusM >= 0.0 && radiusM <= 1e9)) {
@@ -162,13 +162,13 @@ Result<std::uint32_t> CasterSet::addSphere(const glm::dvec3& centerWs, double ra
 
 Result<std::uint32_t> CasterSet::addBox(const glm::dvec3& minWs, const glm::dvec3& maxWs) {
   for (int i = 0; i < 3; ++i) {
-    if (!std::isfinite(minWs[i])) {
+    if (!(std::abs(minWs[i]) <= kMaxWorldCoordinateM)) {
       return ValidationError{"caster.minWs[" + std::to_string(i) + "]", minWs[i],
-                             "a finite coordinate"};
+                             "a coordinate in metres in [-1e9, 1e9] (kMaxWorldCoordinateM)"};
     }
-    if (!std::isfinite(maxWs[i]) || !(maxWs[i] >= minWs[i])) {
+    if (!(std::abs(maxWs[i]) <= kMaxWorldCoordinateM) || !(maxWs[i] >= minWs[i])) {
       return ValidationError{"caster.maxWs[" + std::to_string(i) + "]", maxWs[i],
-                             "a finite coordinate >= caster.minWs[" + std::to_string(i) + "]"};
+                             "a coordinate in [caster.minWs[" + std::to_string(i) + "], 1e9]"};
     }
   }
   const auto index = static_cast<std::uint32_t>(size());

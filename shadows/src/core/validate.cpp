@@ -24,6 +24,19 @@ Check finiteVec(const glm::dvec3& v, const std::string& field) {
   return std::nullopt;
 }
 
+/// Finite, and within the domain where positions are exact (types.hpp, kMaxWorldCoordinateM).
+Check worldPosition(const glm::dvec3& v, const std::string& field) {
+  static constexpr const char* kAxes[3] = {".x", ".y", ".z"};
+  for (int i = 0; i < 3; ++i) {
+    if (!(std::abs(v[i]) <= kMaxWorldCoordinateM)) {
+      return refuse(field + kAxes[i], v[i],
+                    "a coordinate in metres in [-1e9, 1e9] (kMaxWorldCoordinateM: the domain "
+                    "where shadows are exact)");
+    }
+  }
+  return std::nullopt;
+}
+
 /// A number as %g (1e-03 stays readable; std::to_string would print 0.001000).
 std::string shortNumber(double v) {
   char buf[32];
@@ -61,9 +74,9 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
       previous = p;
     }
   }
-  if (!(s.shadowDistanceM > 0.0) || !std::isfinite(s.shadowDistanceM)) {
+  if (!(s.shadowDistanceM > 0.0 && s.shadowDistanceM <= kMaxWorldCoordinateM)) {
     return refuse("settings.shadowDistanceM", s.shadowDistanceM,
-                  "a finite distance in metres > camera.nearM");
+                  "a distance in metres > camera.nearM and <= 1e9 (kMaxWorldCoordinateM)");
   }
   if (!(s.blendBand >= 0.0 && s.blendBand <= 0.5)) {
     return refuse("settings.blendBand", s.blendBand, "a fraction of a cascade's depth in [0, 0.5]");
@@ -123,7 +136,7 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
 }
 
 std::optional<ValidationError> validate(const Camera& c) {
-  if (auto e = finiteVec(c.positionWs, "camera.positionWs")) return e;
+  if (auto e = worldPosition(c.positionWs, "camera.positionWs")) return e;
   const glm::dquat& q = c.orientationWs;
   const double len = std::sqrt(q.w * q.w + q.x * q.x + q.y * q.y + q.z * q.z);
   if (!(std::abs(len - 1.0) <= 1e-3)) {
@@ -136,11 +149,14 @@ std::optional<ValidationError> validate(const Camera& c) {
   if (!(c.aspect > 0.0 && c.aspect <= 1e4)) {
     return refuse("camera.aspect", c.aspect, "width / height in (0, 1e4]");
   }
-  if (!(c.nearM > 0.0) || !std::isfinite(c.nearM)) {
-    return refuse("camera.nearM", c.nearM, "a finite distance in metres > 0");
+  if (!(c.nearM >= kMinNearM && c.nearM <= kMaxWorldCoordinateM)) {
+    return refuse("camera.nearM", c.nearM, "a distance in metres in [1e-6, 1e9] (kMinNearM)");
   }
-  if (!(c.farM > c.nearM * (1.0 + 1e-6)) || !std::isfinite(c.farM)) {
-    return refuse("camera.farM", c.farM, "a finite distance in metres > camera.nearM * (1 + 1e-6)");
+  if (!(c.farM > c.nearM * (1.0 + 1e-6)) || !(c.farM <= c.nearM * kMaxFarOverNear)) {
+    return refuse("camera.farM", c.farM,
+                  "a distance in metres in (camera.nearM * (1 + 1e-6), camera.nearM * 1e10] = (" +
+                      shortNumber(c.nearM * (1.0 + 1e-6)) + ", " +
+                      shortNumber(c.nearM * kMaxFarOverNear) + "] (kMaxFarOverNear)");
   }
   return std::nullopt;
 }
@@ -178,7 +194,9 @@ std::optional<ValidationError> validate(const ReceiverDepthRange& r) {
       return refuse("receivers.lightBounds.cascadeCount", b.cascadeCount,
                     "a cascade count in [1, CSM_MAX_CASCADES] (0: no bounds)");
     }
-    if (auto e = finiteVec(b.cameraPositionWs, "receivers.lightBounds.cameraPositionWs")) return e;
+    if (auto e = worldPosition(b.cameraPositionWs, "receivers.lightBounds.cameraPositionWs")) {
+      return e;
+    }
     for (std::uint32_t i = 0; i <= b.cascadeCount; ++i) {
       if (!std::isfinite(b.splitsM[i])) {
         return refuse("receivers.lightBounds.splitsM", b.splitsM[i], "finite view depths");
@@ -199,8 +217,8 @@ std::optional<ValidationError> validate(const ReceiverDepthRange& r) {
 
 std::optional<ValidationError> validate(const AabbWs& box, const char* field) {
   const std::string name = field;
-  if (auto e = finiteVec(box.minWs, name + ".minWs")) return e;
-  if (auto e = finiteVec(box.maxWs, name + ".maxWs")) return e;
+  if (auto e = worldPosition(box.minWs, name + ".minWs")) return e;
+  if (auto e = worldPosition(box.maxWs, name + ".maxWs")) return e;
   static constexpr const char* kAxes[3] = {".x", ".y", ".z"};
   for (int i = 0; i < 3; ++i) {
     if (!(box.maxWs[i] >= box.minWs[i])) {
