@@ -1,7 +1,8 @@
 // The module's lifetime promises, with validation on (any message fails): the lighting set can
 // be sampled before the first shadow pass (it reads "lit"); settings can change between
 // recording and submitting and with frames in flight; a view can be destroyed with a frame in
-// flight; two views (split screen) record into one command buffer, each lighting its own camera.
+// flight; two views (split screen) record into one command buffer, each lighting its own camera;
+// the domain's edges and casters outside it are refused by name.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -428,6 +429,110 @@ TEST(ShadowView, OutOfRangeValuesAndMismatchedFramesAreRefusedByName) {
     expectRefused(status, "framesInFlight = 0");
 
     // Still usable, and correct.
+    const Rendered r = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+    EXPECT_GE(compareWithAnalytic(scene, r).ratio(), 0.995);
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+}  // namespace
+}  // namespace csm_test
+
+namespace csm_test {
+namespace {
+
+// The domain's edges (types.hpp) are refused by name, casters with transforms that are not
+// finite or lie outside it are refused naming the instance and field and leave the previous
+// casters, and setCasters() between compute() and recordPass() re-culls instead of failing.
+TEST(ShadowView, DomainEdgesAndNonFiniteCastersAreRefusedByName) {
+  {
+    ShadowScene scene;
+    CSM_ASSERT_OK(scene.update(testSettings(2, 512)));
+    (void)scene.render(csm::PcfKernel::k1Tap, csm::DebugMode::kShadowFactor);
+    csm::vk::ShadowView& view = scene.view();
+    auto expectRefused = [](const csm::vk::Status& s, const char* name) {
+      EXPECT_FALSE(s.ok());
+      EXPECT_NE(s.message().find(name), std::string::npos) << s.message();
+      std::printf("refused: %s\n", s.message().c_str());
+    };
+    const std::vector<csm::vk::MeshDraw> meshes(view.meshes().begin(), view.meshes().end());
+    const std::vector<csm::vk::CasterInstance> good(view.instances().begin(),
+                                                    view.instances().end());
+    const std::vector<csm::AabbWs>& bounds = scene.casterBounds();
+    ASSERT_GE(good.size(), 3u);
+
+    auto withBad = [&](auto edit) {
+      std::vector<csm::vk::CasterInstance> bad = good;
+      edit(bad[2]);
+      return view.setCasters(meshes, bad, bounds);
+    };
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    expectRefused(withBad([&](auto& c) { c.translationWs.y = nan; }),
+                  "casters.instances[2].translationWs.y = nan");
+    expectRefused(withBad([](auto& c) { c.translationWs.x = 2e9; }),
+                  "casters.instances[2].translationWs.x = 2e+09");
+    expectRefused(
+        withBad([](auto& c) { c.linearWs[1][0] = std::numeric_limits<float>::infinity(); }),
+        "casters.instances[2].linearWs[1][0] = inf");
+    std::vector<csm::AabbWs> farBounds = bounds;
+    farBounds[1].maxWs.z = 1.5e9;
+    expectRefused(view.setCasters(meshes, good, farBounds), "caster.maxWs[2] = 1500000000");
+    EXPECT_EQ(view.casterCount(), good.size());  // the previous casters stayed
+
+    csm::Camera cam = scene.csmCamera();
+    cam.positionWs.x = 1.0000001e9;
+    expectRefused(view.compute(cam, scene.light), "camera.positionWs.x = 1000000100");
+    cam = scene.csmCamera();
+    cam.nearM = 1e-7;
+    expectRefused(view.compute(cam, scene.light), "camera.nearM = ");
+    cam = scene.csmCamera();
+    cam.farM = cam.nearM * 2e10;
+    expectRefused(view.compute(cam, scene.light), "camera.farM");
+
+    // compute(); setCasters() with the last instance left out; recordPass() culls the new list.
+    CSM_ASSERT_OK(view.compute(scene.csmCamera(), scene.light));
+    const std::vector<csm::vk::CasterInstance> fewer(good.begin(), good.end() - 1);
+    const std::vector<csm::AabbWs> fewerBounds(bounds.begin(), bounds.end() - 1);
+    CSM_ASSERT_OK(view.setCasters(meshes, fewer, fewerBounds));
+    csm::vk::Status status;
+    scene.context().submitAndWait([&](VkCommandBuffer cmd) { status = view.recordPass(cmd); });
+    CSM_ASSERT_OK(status);
+    std::size_t listed = 0;
+    for (std::uint32_t c = 0; c < view.frame().cascadeCount; ++c) {
+      for (std::uint32_t i : view.cull().visible[c]) {
+        EXPECT_LT(i, fewer.size());
+        ++listed;
+      }
+    }
+    EXPECT_GT(listed, 0u);
+    CSM_ASSERT_OK(view.setCasters(meshes, good, bounds));
+
+    // Still usable, and correct.
+    const Rendered r = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+    EXPECT_GE(compareWithAnalytic(scene, r).ratio(), 0.995);
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+}  // namespace
+}  // namespace csm_test
+
+namespace csm_test {
+namespace {
+
+// A shadow distance that does not reach past the near plane is refused by setSettings() once
+// the view has seen a camera, instead of failing every later frame; the view stays usable.
+TEST(ShadowView, ShadowDistanceInsideTheNearPlaneIsRefusedBySetSettings) {
+  {
+    ShadowScene scene;
+    CSM_ASSERT_OK(scene.update(testSettings(2, 512)));
+    (void)scene.render(csm::PcfKernel::k1Tap, csm::DebugMode::kShadowFactor);
+    csm::ShadowSettings bad = testSettings(2, 512);
+    bad.shadowDistanceM = scene.csmCamera().nearM * 0.5;
+    const csm::vk::Status s = scene.view().setSettings(bad);
+    EXPECT_EQ(s.code(), csm::vk::ErrorCode::kInvalidArgument);
+    EXPECT_NE(s.message().find("settings.shadowDistanceM"), std::string::npos) << s.message();
+    EXPECT_EQ(scene.view().settings().shadowDistanceM, testSettings(2, 512).shadowDistanceM);
     const Rendered r = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
     EXPECT_GE(compareWithAnalytic(scene, r).ratio(), 0.995);
   }

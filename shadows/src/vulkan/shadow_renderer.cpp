@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdio>
 #include <string>
 
@@ -63,33 +64,11 @@ Status checkCreateArgs(const DeviceInfo& device, const VertexLayout& layout) {
   return {};
 }
 
-// Every mesh index, LOD mesh, LOD error and visible index of a caster list in range.
+// Every instance of a caster list valid (validateCasters) and every visible index in range.
 Status checkCasterList(const CascadeFrame& frame, const CasterList& casters,
                        const CullResult* visible) {
   const std::size_t instanceCount = casters.instances.size();
-  for (std::size_t i = 0; i < instanceCount; ++i) {
-    if (casters.instances[i].mesh >= casters.meshes.size()) {
-      return Status(ErrorCode::kIndexOutOfRange,
-                    fmt("casters.instances[%zu].mesh = %u is out of range: allowed [0, %zu)", i,
-                        casters.instances[i].mesh, casters.meshes.size()));
-    }
-    for (std::uint32_t k = 0; k + 1 < kMaxCasterLods; ++k) {
-      const std::uint32_t m = casters.instances[i].lodMeshes[k];
-      if (m != kNoMesh && m >= casters.meshes.size()) {
-        return Status(ErrorCode::kIndexOutOfRange,
-                      fmt("casters.instances[%zu].lodMeshes[%u] = %u is out of range: allowed "
-                          "[0, %zu) or kNoMesh",
-                          i, k, m, casters.meshes.size()));
-      }
-      const float e = casters.instances[i].lodErrorM[k];
-      if (!(e >= 0.0f)) {
-        return Status(ErrorCode::kInvalidArgument,
-                      fmt("casters.instances[%zu].lodErrorM[%u] = %g is invalid: allowed "
-                          "[0, +inf] metres (kUnknownLodError = not known)",
-                          i, k, double(e)));
-      }
-    }
-  }
+  if (Status s = validateCasters(casters.meshes, casters.instances); !s.ok()) return s;
   if (visible) {
     for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
       if (frame.cascades[c].empty) continue;
@@ -106,6 +85,54 @@ Status checkCasterList(const CascadeFrame& frame, const CasterList& casters,
 }
 
 }  // namespace
+
+Status validateCasters(std::span<const MeshDraw> meshes,
+                       std::span<const CasterInstance> instances) {
+  for (std::size_t i = 0; i < instances.size(); ++i) {
+    const CasterInstance& inst = instances[i];
+    if (inst.mesh >= meshes.size()) {
+      return Status(ErrorCode::kIndexOutOfRange,
+                    fmt("casters.instances[%zu].mesh = %u is out of range: allowed [0, %zu)", i,
+                        inst.mesh, meshes.size()));
+    }
+    for (std::uint32_t k = 0; k + 1 < kMaxCasterLods; ++k) {
+      const std::uint32_t m = inst.lodMeshes[k];
+      if (m != kNoMesh && m >= meshes.size()) {
+        return Status(ErrorCode::kIndexOutOfRange,
+                      fmt("casters.instances[%zu].lodMeshes[%u] = %u is out of range: allowed "
+                          "[0, %zu) or kNoMesh",
+                          i, k, m, meshes.size()));
+      }
+      const float e = inst.lodErrorM[k];
+      if (!(e >= 0.0f)) {
+        return Status(ErrorCode::kInvalidArgument,
+                      fmt("casters.instances[%zu].lodErrorM[%u] = %g is invalid: allowed "
+                          "[0, +inf] metres (kUnknownLodError = not known)",
+                          i, k, double(e)));
+      }
+    }
+    static constexpr const char* kAxes = "xyz";
+    for (int a = 0; a < 3; ++a) {
+      if (!(std::abs(inst.translationWs[a]) <= kMaxWorldCoordinateM)) {
+        return Status(ErrorCode::kInvalidArgument,
+                      fmt("casters.instances[%zu].translationWs.%c = %g is invalid: allowed a "
+                          "coordinate in metres in [-1e9, 1e9] (kMaxWorldCoordinateM)",
+                          i, kAxes[a], inst.translationWs[a]));
+      }
+    }
+    for (int col = 0; col < 3; ++col) {
+      for (int row = 0; row < 3; ++row) {
+        if (!std::isfinite(inst.linearWs[col][row])) {
+          return Status(ErrorCode::kInvalidArgument,
+                        fmt("casters.instances[%zu].linearWs[%d][%d] = %g is invalid: allowed a "
+                            "finite number",
+                            i, col, row, double(inst.linearWs[col][row])));
+        }
+      }
+    }
+  }
+  return {};
+}
 
 std::string vkResultName(VkResult result) {
   switch (result) {

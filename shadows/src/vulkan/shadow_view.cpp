@@ -15,6 +15,13 @@ std::unique_ptr<ShadowView> ShadowView::create(const DeviceInfo& device, const V
 }
 
 Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOptions& options) {
+  // Refused here rather than by every later frame: shadows must reach past the near plane of
+  // the camera the view last computed for.
+  if (lastCamera_) {
+    if (auto e = csm::validate(settings, *lastCamera_, DirectionalLight{})) {
+      return Status(ErrorCode::kInvalidArgument, e->message());
+    }
+  }
   Status s = renderer_->update(settings, options);
   if (!s.ok()) return s;
   if (!hasSettings_ || settings.cascadeCount != settings_.cascadeCount) history_ = {};
@@ -27,33 +34,6 @@ Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOpt
   return {};
 }
 
-namespace {
-
-Status checkInstances(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances) {
-  for (std::size_t i = 0; i < instances.size(); ++i) {
-    const CasterInstance& inst = instances[i];
-    bool ok = inst.mesh < meshes.size();
-    for (std::uint32_t m : inst.lodMeshes) ok = ok && (m == kNoMesh || m < meshes.size());
-    if (!ok) {
-      return Status(ErrorCode::kIndexOutOfRange, "setCasters: instances[" + std::to_string(i) +
-                                                     "] names a mesh out of range: allowed [0, " +
-                                                     std::to_string(meshes.size()) +
-                                                     ") (lodMeshes: or kNoMesh)");
-    }
-    for (std::size_t k = 0; k < inst.lodErrorM.size(); ++k) {
-      if (!(inst.lodErrorM[k] >= 0.0f)) {
-        return Status(ErrorCode::kInvalidArgument,
-                      "setCasters: instances[" + std::to_string(i) + "].lodErrorM[" +
-                          std::to_string(k) + "] = " + std::to_string(inst.lodErrorM[k]) +
-                          " is invalid: allowed [0, +inf] metres (kUnknownLodError = not known)");
-      }
-    }
-  }
-  return {};
-}
-
-}  // namespace
-
 Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
                               std::span<const CasterInstance> instances,
                               std::span<const AabbWs> boundsWs) {
@@ -62,7 +42,7 @@ Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
                   "setCasters: " + std::to_string(boundsWs.size()) + " bounds for " +
                       std::to_string(instances.size()) + " instances: give one per instance");
   }
-  Status s = checkInstances(meshes, instances);
+  Status s = validateCasters(meshes, instances);
   if (!s.ok()) return s;
   CasterSet set;
   set.reserve(instances.size());
@@ -87,7 +67,7 @@ Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
                   "setCasters: a caster set of " + std::to_string(casterSet.size()) + " for " +
                       std::to_string(instances.size()) + " instances: give one per instance");
   }
-  Status s = checkInstances(meshes, instances);
+  Status s = validateCasters(meshes, instances);
   if (!s.ok()) return s;
   casterSet_ = casterSet;
   if (!casterSet_.built()) casterSet_.build();
@@ -140,8 +120,9 @@ void ShadowView::adoptCasters(std::span<const MeshDraw> meshes,
   meshes_.assign(meshes.begin(), meshes.end());
   instances_.assign(instances.begin(), instances.end());
   boundsWs_ = std::move(bounds);
-  computed_ = false;
   applyThinMargins();
+  // A frame compute() made stays recordable: recordPass() culls the new casters into it.
+  castersChanged_ = true;
 }
 
 // Thin casters reach beyond their bounds by the depth pass's widening: they are culled with it,
@@ -202,8 +183,7 @@ Status ShadowView::record(VkCommandBuffer cmd, const CascadeFrame& frame) {
   computed_ = false;
   CascadeFrame windowed = frame;
   renderer_->applyCacheWindows(windowed);  // cached cascades: the depth windows (else no-op)
-  cullCasters(casterSet_, windowed, settings_.minCasterTexels, cull_);
-  cullDeferred(windowed);
+  cullInto(windowed);
   Status s = renderer_->recordShadowPass(cmd, windowed, CasterList{meshes_, instances_, boundsWs_},
                                          &cull_);
   if (!s.ok()) return s;
@@ -220,18 +200,25 @@ Status ShadowView::compute(const Camera& camera, const DirectionalLight& light) 
   auto frame = computeFrame(camera, light, &history);
   if (!frame.ok()) return Status(ErrorCode::kInvalidArgument, frame.error().message());
   history_ = history;
+  lastCamera_ = camera;
   frame_ = frame.value();
   renderer_->applyCacheWindows(frame_);  // cached cascades: the depth windows (else no-op)
-  cullCasters(casterSet_, frame_, settings_.minCasterTexels, cull_);
-  cullDeferred(frame_);
+  cullInto(frame_);
   computed_ = true;
   return {};
+}
+
+void ShadowView::cullInto(const CascadeFrame& frame) {
+  cullCasters(casterSet_, frame, settings_.minCasterTexels, cull_);
+  cullDeferred(frame);
+  castersChanged_ = false;
 }
 
 Status ShadowView::recordPass(VkCommandBuffer cmd) {
   if (!computed_) {
     return Status(ErrorCode::kWrongOrder, "ShadowView::recordPass without a compute() before it");
   }
+  if (castersChanged_) cullInto(frame_);  // setCasters() since compute()
   return renderer_->recordShadowPass(cmd, frame_, CasterList{meshes_, instances_, boundsWs_},
                                      &cull_);
 }

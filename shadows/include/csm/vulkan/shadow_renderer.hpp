@@ -287,6 +287,13 @@ struct CasterList {
   std::span<const AabbWs> boundsWs{};
 };
 
+/// Checks a caster list's instances: mesh and LOD indices in range, LOD errors >= 0 (or
+/// unknown), translations within +-kMaxWorldCoordinateM and every entry of linearWs finite.
+/// The first failure names the instance and field ("casters.instances[7].translationWs.y = nan
+/// is invalid: ..."). recordShadowPass and ShadowView::setCasters call it.
+[[nodiscard]] Status validateCasters(std::span<const MeshDraw> meshes,
+                                     std::span<const CasterInstance> instances);
+
 /// What the cached pass did in one cascade in its last record (RendererOptions::cache).
 struct CascadeCacheStats {
   /// Static texels re-rendered (newly exposed, invalidated, or the whole layer on a new window).

@@ -38,7 +38,8 @@ class ShadowView {
 
   /// Validates and applies settings and renderer options (ShadowRenderer::update: the image is
   /// cleared to lit and sampleable when this returns, or after prepare()). A change of cascade
-  /// count restarts the history. On error nothing changes.
+  /// count restarts the history. On error nothing changes. After a compute(), a shadow distance
+  /// that does not reach past that camera's near plane is refused here (before, by compute()).
   Status setSettings(const ShadowSettings& settings, const RendererOptions& options = {});
   /// Debug output and world-space kernel of the lighting shader (checked at the next record).
   void setUniformOptions(const UniformOptions& options) noexcept {
@@ -68,6 +69,7 @@ class ShadowView {
   /// record() in two steps, for hosts that prepare frames on the CPU before recording (or on
   /// another thread): compute() computes the cascades (advancing the history) and culls;
   /// recordPass() records that frame. frame() and cull() are valid after compute().
+  /// setCasters() between the two is allowed: recordPass() culls the new casters into the frame.
   Status compute(const Camera& camera, const DirectionalLight& light);
   Status recordPass(VkCommandBuffer cmd);
 
@@ -132,6 +134,7 @@ class ShadowView {
   void adoptCasters(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances);
   void applyThinMargins();
   void cullDeferred(const CascadeFrame& frame);
+  void cullInto(const CascadeFrame& frame);
 
   std::unique_ptr<ShadowRenderer> renderer_;
   ShadowSettings settings_{};
@@ -146,7 +149,9 @@ class ShadowView {
   std::optional<ReceiverDepthRange> receiverRange_;
   CascadeHistory history_{};
   CascadeFrame frame_{};
-  bool computed_ = false;  // frame_ and cull_ hold compute()'s result for recordPass()
+  bool computed_ = false;             // frame_ and cull_ hold compute()'s result for recordPass()
+  bool castersChanged_ = false;       // setCasters() since cull_ was made
+  std::optional<Camera> lastCamera_;  // of the last compute(), for setSettings()' cross-checks
   CullResult cull_;
 };
 
