@@ -42,18 +42,19 @@ void printUsage(std::FILE* out) {
   std::fprintf(
       out,
       "usage: csm_cascades [options]\n"
-      "  --pos X,Y,Z            camera position in metres (any finite values; default 0,30,0)\n"
+      "  --pos X,Y,Z            camera position in metres, each in [-1e9, 1e9] (default 0,30,0)\n"
       "  --yaw DEG              camera yaw about +Y (default 30)\n"
       "  --pitch DEG            camera pitch, [-90, 90] (default -10)\n"
       "  --fov DEG              vertical field of view, (0, 180) (default 60)\n"
       "  --aspect A             width / height, (0, 1e4] (default 1.7778)\n"
-      "  --near M --far M       camera planes, 0 < near < far (default 0.1, 5000)\n"
+      "  --near M --far M       camera planes, 1e-6 <= near < far <= 1e10 near (default 0.1, "
+      "5000)\n"
       "  --light-az DEG         light azimuth (default 35)\n"
       "  --light-el DEG         light elevation above the horizon, [-90, 90] (default 50)\n"
       "  --cascades N           cascade count, 1..8 (default 4)\n"
       "  --resolution R         power of two in [256, 16384] (default 2048)\n"
       "  --lambda L             split lambda, [0, 1] (default 0.75)\n"
-      "  --shadow-distance M    > near (default 400)\n"
+      "  --shadow-distance M    > near, <= 1e9 (default 400)\n"
       "  --blend B              blend band, [0, 0.5] (default 0.1)\n"
       "  --min-texels T         drop casters under T texels, [0, 1e6] (default 0 = off)\n"
       "  --unstable             tight fit without snapping (comparison mode)\n"
@@ -147,8 +148,9 @@ Options parse(int argc, char** argv) {
       for (int k = 0; k < 3; ++k) {
         const std::size_t comma = s.find(',', start);
         if ((k < 2) != (comma != std::string::npos)) usageError("--pos needs X,Y,Z");
-        xyz[k] = parseNumber("--pos", std::string_view(s).substr(start, comma - start), -kHuge,
-                             kHuge, "finite coordinates X,Y,Z");
+        xyz[k] = parseNumber("--pos", std::string_view(s).substr(start, comma - start),
+                             -csm::kMaxWorldCoordinateM, csm::kMaxWorldCoordinateM,
+                             "coordinates X,Y,Z in [-1e9, 1e9] metres (csm::kMaxWorldCoordinateM)");
         start = comma + 1;
       }
       o.camera.positionWs = {xyz[0], xyz[1], xyz[2]};
@@ -162,7 +164,8 @@ Options parse(int argc, char** argv) {
     } else if (flag == "--aspect") {
       o.camera.aspect = parseNumber(flag, v, 1e-12, 1e4, "a ratio in (0, 1e4]");
     } else if (flag == "--near") {
-      o.camera.nearM = parseNumber(flag, v, 1e-300, kHuge, "metres > 0");
+      o.camera.nearM = parseNumber(flag, v, csm::kMinNearM, csm::kMaxWorldCoordinateM,
+                                   "metres in [1e-6, 1e9] (csm::kMinNearM)");
     } else if (flag == "--far") {
       o.camera.farM = parseNumber(flag, v, 1e-300, kHuge, "metres > near");
     } else if (flag == "--light-az") {
@@ -178,7 +181,8 @@ Options parse(int argc, char** argv) {
     } else if (flag == "--lambda") {
       o.settings.splitLambda = parseNumber(flag, v, 0, 1, "a number in [0, 1]");
     } else if (flag == "--shadow-distance") {
-      o.settings.shadowDistanceM = parseNumber(flag, v, 1e-300, kHuge, "metres > near");
+      o.settings.shadowDistanceM =
+          parseNumber(flag, v, 1e-300, csm::kMaxWorldCoordinateM, "metres > near, <= 1e9");
     } else if (flag == "--blend") {
       o.settings.blendBand = parseNumber(flag, v, 0, 0.5, "a fraction in [0, 0.5]");
     } else if (flag == "--min-texels") {
@@ -337,10 +341,13 @@ int main(int argc, char** argv) {
   const csm::DirectionalLight light{
       {-std::cos(el) * std::cos(az), -std::sin(el), -std::cos(el) * std::sin(az)}};
 
-  // A random scene around the camera: spheres and boxes on the ground 30 m below it.
+  // A random scene around the camera: spheres and boxes on the ground 30 m below it, cut to the
+  // domain (csm::kMaxWorldCoordinateM) where the camera is near its edge.
   const glm::dvec3 c = o.camera.positionWs;
-  const csm::AabbWs scene{c + glm::dvec3(-o.sceneHalfM, -100.0, -o.sceneHalfM),
-                          c + glm::dvec3(o.sceneHalfM, 100.0, o.sceneHalfM)};
+  const glm::dvec3 edge(csm::kMaxWorldCoordinateM);
+  const csm::AabbWs scene{
+      glm::clamp(c + glm::dvec3(-o.sceneHalfM, -100.0, -o.sceneHalfM), -edge, edge),
+      glm::clamp(c + glm::dvec3(o.sceneHalfM, 100.0, o.sceneHalfM), -edge, edge)};
   if (o.zoomFrames > 0) return runZoom(o, light, scene);
   csm::CascadeHistory history;
   const auto t0 = std::chrono::steady_clock::now();
@@ -355,7 +362,9 @@ int main(int argc, char** argv) {
   csm::CasterSet casters;
   casters.reserve(o.casters);
   for (std::uint64_t i = 0; i < o.casters; ++i) {
-    const glm::dvec3 p = c + glm::dvec3(pos(rng), size(rng) - 30.0, pos(rng));  // y: ground + size
+    const glm::dvec3 p =  // y: ground + size; inside the scene
+        glm::clamp(c + glm::dvec3(pos(rng), size(rng) - 30.0, pos(rng)), scene.minWs + 8.0,
+                   scene.maxWs - 8.0);
     if (i % 3 == 0) {
       const glm::dvec3 h(size(rng), size(rng), size(rng));
       (void)casters.addBox(p - h, p + h);
