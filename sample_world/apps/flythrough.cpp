@@ -18,7 +18,12 @@ world::World makeWorld(const Options& o, const std::string& pathName) {
   desc.userMeshPath = o.meshPath;
   world::WorldError err;
   const auto t0 = Clock::now();
-  std::optional<world::World> w = world::generateWorld(desc, &err);
+  // Progress on stderr: generation takes seconds (a large --mesh, minutes).
+  const world::Progress progress = [&](const std::string& step) {
+    std::fprintf(stderr, "world: %6.1f s  %s\n",
+                 std::chrono::duration<double>(Clock::now() - t0).count(), step.c_str());
+  };
+  std::optional<world::World> w = world::generateWorld(desc, &err, progress);
   if (!w) throw UsageError(err.message);
   std::printf(
       "world: seed %llu, %zu objects (%u trees, %u rocks, %u buildings), %zu caster "

@@ -115,6 +115,7 @@ Options parse(int argc, char** argv) {
   // The mesh file is read and checked now, so that a bad file exits 2 before the device and
   // the world are touched (generateWorld reads it again: a second read of a checked file).
   if (!o.meshPath.empty()) {
+    std::fprintf(stderr, "mesh: reading and checking %s\n", o.meshPath.c_str());
     world::WorldError err;
     if (!world::loadMeshFile(o.meshPath, o.settings.world.userMeshSizeM, &err)) {
       throw UsageError(err.message);

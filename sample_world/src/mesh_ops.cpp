@@ -126,7 +126,8 @@ MeshData decimateWithin(const MeshData& in, double toleranceM) {
 
 }  // namespace
 
-MeshData decimateToError(const MeshData& in, double maxErrorM, double* errorM) {
+MeshData decimateToError(const MeshData& in, double maxErrorM, double* errorM,
+                         const Progress& progress) {
   if (errorM != nullptr) *errorM = 0.0;
   if (!(maxErrorM > 0.0) || !std::isfinite(maxErrorM) || in.indices.empty()) return in;
   // ModHausdorffT bounds only how far the removed vertices lie from the new surface; the
@@ -135,6 +136,12 @@ MeshData decimateToError(const MeshData& in, double maxErrorM, double* errorM) {
   // the pole but casts no shadow edge-on), and a smaller tolerance is tried while they fail.
   double tolerance = maxErrorM;
   for (int attempt = 0; attempt < 8; ++attempt, tolerance *= 0.6) {
+    if (progress) {
+      char step[160];
+      std::snprintf(step, sizeof step, "%u triangles to within %.3g m, try %d of at most 8",
+                    in.triangleCount(), maxErrorM, attempt + 1);
+      progress(step);
+    }
     MeshData out = decimateWithin(in, tolerance);
     if (out.indices.size() >= in.indices.size()) break;
     const double e = simplificationErrorM(in, out, lodSampleSpacingM(maxErrorM));

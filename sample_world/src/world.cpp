@@ -271,11 +271,20 @@ std::optional<MeshData> cutWithin(const ShapeBuilder& build, const MeshData& lod
 // within LOD 1's 0.154 m (a collapse moves a ring vertex a whole side's width); rebuilt with 10
 // sides and a radius straddling the 12-sided one it measures 0.152 m, and the conifer's LOD 1
 // has 48 triangles instead of the Decimater's 74.
-void buildLods(MeshAsset& asset, double maxScale, const ShapeBuilder& build = {}) {
+void buildLods(MeshAsset& asset, double maxScale, const ShapeBuilder& build = {},
+               const Progress& progress = {}) {
   for (std::uint32_t l = 1; l < kLodCount; ++l) {
     asset.lodBoundM[l] = maxScale > 0.0 ? static_cast<float>(kLodErrorLadderM[l] / maxScale) : 0.0f;
-    asset.lods[l] =
-        maxScale > 0.0 ? decimateToError(asset.lods[0], asset.lodBoundM[l]) : asset.lods[0];
+    Progress lodProgress;
+    if (progress) {
+      lodProgress = [&, l](const std::string& step) {
+        progress(asset.name + ": LOD " + std::to_string(l) + " of " +
+                 std::to_string(kLodCount - 1) + ", " + step);
+      };
+    }
+    asset.lods[l] = maxScale > 0.0
+                        ? decimateToError(asset.lods[0], asset.lodBoundM[l], nullptr, lodProgress)
+                        : asset.lods[0];
     if (maxScale > 0.0 && build) {
       std::optional<MeshData> cut = cutWithin(build, asset.lods[0], asset.lodBoundM[l]);
       if (cut && cut->triangleCount() < asset.lods[l].triangleCount()) {
@@ -413,7 +422,7 @@ class WorldBuilder {
   void town();
   void thinCasters();
   void forests();
-  void placeUserMesh(std::optional<MeshData>& userMesh);
+  void placeUserMesh(std::optional<MeshData>& userMesh, const Progress& progress);
   void statisticsAndClusters();
 
  private:
@@ -761,12 +770,12 @@ void WorldBuilder::forests() {
 }
 
 // ---- The user's mesh --------------------------------------------------------------------------
-void WorldBuilder::placeUserMesh(std::optional<MeshData>& userMesh) {
+void WorldBuilder::placeUserMesh(std::optional<MeshData>& userMesh, const Progress& progress) {
   if (!userMesh) return;
   MeshAsset a;
   a.name = "user mesh";
   a.lods[0] = std::move(*userMesh);
-  buildLods(a, 1.0);
+  buildLods(a, 1.0, {}, progress);
   const std::uint32_t m = addAsset(std::move(a));
   const double x = centre.x - 60.0, z = centre.z - 80.0;
   place(m, Kind::kUser, {x, heightWs(x, z), z}, yawScale(0.0, 1.0), {0.85f, 0.55f, 0.3f});
@@ -871,7 +880,11 @@ void WorldBuilder::statisticsAndClusters() {
 
 }  // namespace
 
-std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
+std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error,
+                                   const Progress& progress) {
+  auto step = [&](const char* name) {
+    if (progress) progress(name);
+  };
   auto fail = [&](const std::string& m) -> std::optional<World> {
     if (error) error->message = m;
     return std::nullopt;
@@ -881,6 +894,7 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
   // The user's mesh first: a bad file is refused before seconds of generation.
   std::optional<MeshData> userMesh;
   if (!desc.userMeshPath.empty()) {
+    step("reading the user mesh");
     userMesh = loadMeshFile(desc.userMeshPath, desc.userMeshSizeM, error);
     if (!userMesh) return std::nullopt;
   }
@@ -889,12 +903,18 @@ std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error) {
   w.desc = desc;
   w.chunksPerSide = static_cast<std::uint32_t>(std::lround(desc.sizeM / desc.chunkM));
   WorldBuilder b(desc, w);
+  step("terrain");
   b.terrain();
+  step("prototypes and their LODs");
   b.prototypes();
+  step("town");
   b.town();
+  step("thin casters");
   b.thinCasters();
+  step("forests");
   b.forests();
-  b.placeUserMesh(userMesh);
+  b.placeUserMesh(userMesh, progress);
+  step("statistics and caster clusters");
   b.statisticsAndClusters();
   return w;
 }

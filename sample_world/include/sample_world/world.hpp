@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -157,8 +158,14 @@ struct WorldError {
   std::string message;
 };
 
-/// Generates the world (or refuses an invalid description / unreadable user mesh).
-[[nodiscard]] std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error);
+/// Told each step of long work as it starts ("forests", "user mesh: LOD 2 of 3, 2000000
+/// triangles to within 0.31 m, try 1"), for progress on a console.
+using Progress = std::function<void(const std::string& step)>;
+
+/// Generates the world (or refuses an invalid description / unreadable user mesh). `progress`
+/// (optional) is told each section and, for a user mesh, each LOD and decimation try.
+[[nodiscard]] std::optional<World> generateWorld(const WorldDesc& desc, WorldError* error,
+                                                 const Progress& progress = {});
 
 /// Loads a mesh file through OpenMesh IO (OBJ, PLY, OFF), triangulated, normals from OpenMesh,
 /// centred on its base and scaled so that its largest side is `sizeM`. Returns nothing and fills
@@ -172,9 +179,9 @@ struct WorldError {
 /// degrees, no triangle thinner than 1:10, boundary locked. The result's simplificationErrorM
 /// (sampled at lodSampleSpacingM) is at most `maxErrorM` and its shadowOutlinesWithin the bound
 /// (the tolerance shrinks until both hold; the mesh itself when nothing fits); the error is
-/// written to `errorM`.
+/// written to `errorM`. `progress` (optional) is told each try.
 [[nodiscard]] MeshData decimateToError(const MeshData& mesh, double maxErrorM,
-                                       double* errorM = nullptr);
+                                       double* errorM = nullptr, const Progress& progress = {});
 
 /// Geometric error of a simplified mesh, metres in the mesh's space: the larger of the largest
 /// distance from `original`'s sample points to `simplified`'s surface and the reverse (a sampled

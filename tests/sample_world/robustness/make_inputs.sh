@@ -134,3 +134,9 @@ mkdir -p json_dir.json
 # ---- output folders
 mkdir -p out_locked
 echo 1 >out_locked/.csm_flythrough.lock  # pid 1 is alive
+# A valid mesh whose LODs take decimation tries: a bumpy 40 x 40 grid (3,200 triangles).
+awk 'BEGIN { n = 40; for (j = 0; j <= n; j++) for (i = 0; i <= n; i++)
+               printf "v %g %g %g\n", i, 0.3 * sin(i * 0.7) * cos(j * 0.5), j;
+             for (j = 0; j < n; j++) for (i = 0; i < n; i++) { a = j * (n + 1) + i + 1;
+               printf "f %d %d %d\nf %d %d %d\n", a, a + n + 1, a + 1, a + 1, a + n + 1, a + n + 2 } }' \
+  >grid_mesh.obj
