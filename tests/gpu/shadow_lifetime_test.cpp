@@ -539,5 +539,93 @@ TEST(ShadowView, ShadowDistanceInsideTheNearPlaneIsRefusedBySetSettings) {
   EXPECT_EQ(validationMessages(), 0u);
 }
 
+// setSettings(settings) keeps the options given before (it used to reset them to the defaults:
+// the cache off, D32, no LODs); setSettings(settings, options) replaces them.
+TEST(ShadowView, SetSettingsWithoutOptionsKeepsTheOptions) {
+  {
+    ShadowScene scene;
+    csm::vk::RendererOptions options;
+    options.cache = true;
+    options.depthFormat = VK_FORMAT_D16_UNORM;
+    options.cascadeLod[1] = 2;
+    CSM_ASSERT_OK(scene.update(testSettings(2, 512), options));
+    csm::ShadowSettings next = testSettings(2, 512);
+    next.blendBand = 0.2;
+    CSM_ASSERT_OK(scene.view().setSettings(next));
+    EXPECT_TRUE(scene.view().options().cache);
+    EXPECT_EQ(scene.view().options().depthFormat, VK_FORMAT_D16_UNORM);
+    EXPECT_EQ(scene.view().options().cascadeLod[1], 2u);
+    EXPECT_EQ(scene.renderer().depthFormat(), VK_FORMAT_D16_UNORM);
+    EXPECT_EQ(scene.view().settings().blendBand, 0.2);
+    CSM_ASSERT_OK(scene.view().setSettings(next, csm::vk::RendererOptions{}));
+    EXPECT_FALSE(scene.view().options().cache);
+    EXPECT_EQ(scene.renderer().depthFormat(), VK_FORMAT_D32_SFLOAT);
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+// setSettings() is all or nothing: a Vulkan failure injected at each step of update() that
+// creates objects (after the steps before it succeeded) leaves the settings, options, image,
+// lighting set, static image and thin pipelines as they were, and the next frame renders the
+// same image bit for bit; without the fault the same change then succeeds.
+TEST(ShadowView, SetSettingsIsAllOrNothingUnderFaultsAtEachStep) {
+  using Step = csm::vk::ShadowRenderer::UpdateStep;
+  struct Change {
+    const char* name;
+    Step step;
+    std::uint32_t resolution;
+    VkFormat format;
+    float widen;
+  };
+  const Change changes[] = {
+      {"depth format (pipelines)", Step::kPipelines, 512, VK_FORMAT_D16_UNORM, 0.0625f},
+      {"resolution (image)", Step::kImage, 1024, VK_FORMAT_D32_SFLOAT, 0.0625f},
+      {"resolution (static image)", Step::kStaticImage, 1024, VK_FORMAT_D32_SFLOAT, 0.0625f},
+      {"thin widening (thin pipelines)", Step::kThinPipelines, 512, VK_FORMAT_D32_SFLOAT, 0.25f},
+      {"resolution (thin pipelines, last)", Step::kThinPipelines, 1024, VK_FORMAT_D32_SFLOAT,
+       0.0625f},
+  };
+  for (const Change& change : changes) {
+    SCOPED_TRACE(change.name);
+    ShadowScene scene;
+    csm::vk::RendererOptions options;
+    options.cache = true;
+    options.thinCasterWidenTexels = 0.0625f;
+    CSM_ASSERT_OK(scene.update(testSettings(2, 512), options));
+    const Rendered before = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+    csm::vk::ShadowRenderer& renderer = scene.renderer();
+    ASSERT_GT(renderer.thinMarginTexels(), 0.0f) << "lavapipe has a geometry stage";
+    const VkImage image = renderer.image();
+    const VkImage staticImage = renderer.staticImage();
+    const VkDescriptorSet set = renderer.lightingSet();
+    const float margin = renderer.thinMarginTexels();
+
+    csm::vk::RendererOptions next = options;
+    next.depthFormat = change.format;
+    next.thinCasterWidenTexels = change.widen;
+    renderer.failNextUpdateAt(change.step);
+    const csm::vk::Status s = scene.view().setSettings(testSettings(2, change.resolution), next);
+    EXPECT_EQ(s.code(), csm::vk::ErrorCode::kVulkan) << s.message();
+    EXPECT_NE(s.message().find("injected"), std::string::npos) << s.message();
+    EXPECT_EQ(scene.view().settings().resolution, 512u);
+    EXPECT_EQ(scene.view().options().depthFormat, VK_FORMAT_D32_SFLOAT);
+    EXPECT_EQ(scene.view().options().thinCasterWidenTexels, 0.0625f);
+    EXPECT_EQ(renderer.depthFormat(), VK_FORMAT_D32_SFLOAT);
+    EXPECT_EQ(renderer.image(), image);
+    EXPECT_EQ(renderer.staticImage(), staticImage);
+    EXPECT_EQ(renderer.lightingSet(), set);
+    EXPECT_EQ(renderer.thinMarginTexels(), margin);
+    const Rendered after = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+    EXPECT_TRUE(after.image.rgba == before.image.rgba) << "the image changed after a refusal";
+
+    CSM_ASSERT_OK(scene.view().setSettings(testSettings(2, change.resolution), next));
+    EXPECT_EQ(renderer.depthFormat(), change.format);
+    EXPECT_EQ(scene.view().settings().resolution, change.resolution);
+    const Rendered changed = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
+    EXPECT_GE(compareWithAnalytic(scene, changed).ratio(), 0.995);
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
 }  // namespace
 }  // namespace csm_test

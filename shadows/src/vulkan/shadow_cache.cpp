@@ -399,7 +399,8 @@ void ShadowRenderer::invalidateAll() noexcept {
 // ---------------------------------------------------------------------------------------------
 // The static-depth image
 
-Status ShadowRenderer::createStaticImage(const ShadowSettings& settings, VkFormat format) {
+Status ShadowRenderer::buildStaticImage(const ShadowSettings& settings, VkFormat format,
+                                        Retired& out, VkDeviceSize& bytes) {
   VkDevice dev = device_.device;
   auto ci = vkInit<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
   ci.imageType = VK_IMAGE_TYPE_2D;
@@ -412,38 +413,43 @@ Status ShadowRenderer::createStaticImage(const ShadowSettings& settings, VkForma
   ci.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
   ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   ci.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  VkResult r = vkCreateImage(dev, &ci, nullptr, &staticImage_);
-  auto fail = [&](VkResult result, const char* what) {
-    retireStaticImage();
-    collectRetired(true);
-    return vkError(result, what);
+  // Built into `out`; on failure what was made is destroyed (it was never recorded).
+  auto fail = [&](Status st) {
+    destroyNow(out);
+    return st;
   };
-  if (r != VK_SUCCESS) return fail(r, "vkCreateImage(csm static cache)");
-  setName(handleBits(staticImage_), VK_OBJECT_TYPE_IMAGE, "csm static depth cache");
+  VkResult r = vkCreateImage(dev, &ci, nullptr, &out.image);
+  if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImage(csm static cache)"));
+  setName(handleBits(out.image), VK_OBJECT_TYPE_IMAGE, "csm static depth cache");
   VkMemoryRequirements req{};
-  vkGetImageMemoryRequirements(dev, staticImage_, &req);
-  Status s = allocate(req, &staticMemory_, "csm static depth cache memory");
-  if (!s.ok()) {
-    retireStaticImage();
-    collectRetired(true);
-    return s;
-  }
-  cacheBytes_ = req.size;
-  r = vkBindImageMemory(dev, staticImage_, staticMemory_, 0);
-  if (r != VK_SUCCESS) return fail(r, "vkBindImageMemory(csm static cache)");
+  vkGetImageMemoryRequirements(dev, out.image, &req);
+  Status s = allocate(req, &out.memory, "csm static depth cache memory");
+  if (!s.ok()) return fail(s);
+  r = vkBindImageMemory(dev, out.image, out.memory, 0);
+  if (r != VK_SUCCESS) return fail(vkError(r, "vkBindImageMemory(csm static cache)"));
   auto vi = vkInit<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
-  vi.image = staticImage_;
+  vi.image = out.image;
   vi.viewType = VK_IMAGE_VIEW_TYPE_2D;
   vi.format = format;
   for (std::uint32_t i = 0; i < settings.cascadeCount; ++i) {
     vi.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, i, 1};
-    r = vkCreateImageView(dev, &vi, nullptr, &staticViews_[i]);
-    if (r != VK_SUCCESS) return fail(r, "vkCreateImageView(csm static cache layer)");
+    r = vkCreateImageView(dev, &vi, nullptr, &out.views[i]);
+    if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImageView(csm static cache layer)"));
     const std::string name = "csm static depth cache layer " + std::to_string(i);
-    setName(handleBits(staticViews_[i]), VK_OBJECT_TYPE_IMAGE_VIEW, name.c_str());
+    setName(handleBits(out.views[i]), VK_OBJECT_TYPE_IMAGE_VIEW, name.c_str());
   }
-  staticInitialised_ = false;
+  bytes = req.size;
   return {};
+}
+
+void ShadowRenderer::installStaticImage(Retired& built, VkDeviceSize bytes) noexcept {
+  retireStaticImage();
+  staticImage_ = built.image;
+  staticMemory_ = built.memory;
+  std::copy(built.views, built.views + kMaxCascades, std::begin(staticViews_));
+  cacheBytes_ = bytes;
+  staticInitialised_ = false;
+  built = Retired{};
 }
 
 void ShadowRenderer::retireStaticImage() noexcept {

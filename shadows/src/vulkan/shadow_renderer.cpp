@@ -310,7 +310,7 @@ Status ShadowRenderer::createPipelineLayout() {
 
 Status ShadowRenderer::createDepthSet() {
   VkDevice dev = device_.device;
-  // The depth pass's set never changes; the lighting set lives with each image (createImage).
+  // The depth pass's set never changes; the lighting set lives with each image (buildImage).
   VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1};
   auto ci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
   ci.maxSets = 1;
@@ -380,7 +380,7 @@ Status ShadowRenderer::createSamplers() {
   return {};
 }
 
-// The uniform block's buffer, written into the depth set (the lighting set gets it in createImage).
+// The uniform block's buffer, written into the depth set (the lighting set gets it in buildImage).
 Status ShadowRenderer::createUniformBuffer() {
   VkDevice dev = device_.device;
   auto ci = vkInit<VkBufferCreateInfo>(VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO);
@@ -495,18 +495,13 @@ void ShadowRenderer::destroyImage() noexcept {
 }
 
 void ShadowRenderer::collectRetired(bool all) noexcept {
-  VkDevice dev = device_.device;
   std::size_t kept = 0;
   for (Retired& r : retired_) {
     if (!all && records_ < r.afterRecord + device_.framesInFlight) {
       retired_[kept++] = r;
       continue;
     }
-    for (VkImageView v : r.views) vkDestroyImageView(dev, v, nullptr);
-    vkDestroyImage(dev, r.image, nullptr);
-    vkFreeMemory(dev, r.memory, nullptr);
-    vkDestroyDescriptorPool(dev, r.pool, nullptr);
-    for (VkPipeline p : r.pipelines) vkDestroyPipeline(dev, p, nullptr);
+    destroyNow(r);
   }
   retired_.resize(kept);
 }
@@ -638,6 +633,8 @@ Status ShadowRenderer::resolveOptions(const ShadowSettings& settings,
   return {};
 }
 
+// update() builds every object the new settings need before installing any (all-or-nothing):
+// the builds may fail (out of memory, a pipeline the driver refuses), the installs cannot.
 Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOptions& options) {
   RenderMode mode = RenderMode::kPerLayer;
   Status s = resolveOptions(settings, options, &mode);
@@ -649,29 +646,48 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
                         options.depthFormat != options_.depthFormat ||
                         options.cache != options_.cache || wrap != wrapSampling_;
   const bool newPipelines = !pipelinesBuilt_ || options.depthFormat != options_.depthFormat;
-  // Nothing waits for the GPU: what is replaced is retired (collectRetired).
+  const ThinPlan thin = planThinPipeline(settings.resolution, options);
+
+  // Build.
+  Retired pipelines, image, staticImage, thinPipelines;
+  VkDescriptorSet lightingSet = VK_NULL_HANDLE;
+  VkDeviceSize staticBytes = 0;
+  const UpdateStep failAt = failAt_;
+  failAt_ = UpdateStep::kNone;
+  auto build = [&](UpdateStep step, auto&& make) -> Status {
+    if (failAt == step) {
+      return Status(ErrorCode::kVulkan,
+                    fmt("update: failure injected at step %d (failNextUpdateAt)", int(step)),
+                    VK_ERROR_OUT_OF_DEVICE_MEMORY);
+    }
+    return make();
+  };
   if (newPipelines) {
-    s = createPipelines(options.depthFormat);
-    if (!s.ok()) return s;
+    s = build(UpdateStep::kPipelines,
+              [&] { return buildPipelines(options.depthFormat, pipelines); });
   }
-  if (newImage) {
-    const bool oldWrap = wrapSampling_;
-    wrapSampling_ = wrap;
-    s = createImage(settings, options.depthFormat);
-    if (!s.ok()) {
-      wrapSampling_ = oldWrap;
-      return s;
-    }
-    pendingClear_ = true;
-    // A new image (resolution, count, format, cache) invalidates every cached cascade.
-    retireStaticImage();
-    windows_ = {};
-    shown_ = {};
-    if (options.cache) {
-      s = createStaticImage(settings, options.depthFormat);
-      if (!s.ok()) return s;
-    }
+  if (s.ok() && newImage) {
+    s = build(UpdateStep::kImage,
+              [&] { return buildImage(settings, options.depthFormat, image, lightingSet); });
   }
+  if (s.ok() && newImage && options.cache) {
+    s = build(UpdateStep::kStaticImage, [&] {
+      return buildStaticImage(settings, options.depthFormat, staticImage, staticBytes);
+    });
+  }
+  if (s.ok() && thin.build) {
+    s = build(UpdateStep::kThinPipelines, [&] {
+      return buildThinPipelines(settings.resolution, options, thin.conservative, thinPipelines);
+    });
+  }
+  if (!s.ok()) {
+    // Nothing was installed and nothing built was ever recorded: destroyed now.
+    for (Retired* r : {&pipelines, &image, &staticImage, &thinPipelines}) destroyNow(*r);
+    return s;
+  }
+
+  // Install (nothing below fails). What is replaced is retired: nothing waits for the GPU.
+  if (newPipelines) installPipelines(pipelines);
   // Cached cascades: what changes the static depth without a new image re-renders it.
   if (!newImage && options.cache &&
       (settings.depthBiasConstant != settings_.depthBiasConstant ||
@@ -684,12 +700,42 @@ Status ShadowRenderer::update(const ShadowSettings& settings, const RendererOpti
        options.thinCasterWidenTexels != options_.thinCasterWidenTexels)) {
     invalidateAll();
   }
-  if (s = updateThinPipeline(settings.resolution, options); !s.ok()) return s;
+  if (newImage) {
+    wrapSampling_ = wrap;
+    installImage(image, lightingSet, settings);
+    pendingClear_ = true;
+    // A new image (resolution, count, format, cache) invalidates every cached cascade.
+    retireStaticImage();
+    windows_ = {};
+    shown_ = {};
+    if (options.cache) installStaticImage(staticImage, staticBytes);
+  }
+  installThinPipelines(thin, thinPipelines, settings.resolution, options);
   settings_ = settings;
   options_ = options;
   resolvedMode_ = mode;
+  // The clear of a new image: on failure it stays pending (prepare() or the next shadow pass
+  // records it) and the error is returned with the new settings installed.
   if (pendingClear_ && device_.queue != VK_NULL_HANDLE) return submitClear();
   return {};
+}
+
+void ShadowRenderer::destroyNow(Retired& objects) noexcept {
+  VkDevice dev = device_.device;
+  for (VkImageView& v : objects.views) {
+    vkDestroyImageView(dev, v, nullptr);
+    v = VK_NULL_HANDLE;
+  }
+  vkDestroyImage(dev, objects.image, nullptr);
+  vkFreeMemory(dev, objects.memory, nullptr);
+  vkDestroyDescriptorPool(dev, objects.pool, nullptr);
+  for (VkPipeline& p : objects.pipelines) {
+    vkDestroyPipeline(dev, p, nullptr);
+    p = VK_NULL_HANDLE;
+  }
+  objects.image = VK_NULL_HANDLE;
+  objects.memory = VK_NULL_HANDLE;
+  objects.pool = VK_NULL_HANDLE;
 }
 
 // The one-time clear of a new image: depth 1 (lit) in every layer, then the sampled layout, so
@@ -782,7 +828,8 @@ Status ShadowRenderer::prepare(VkCommandBuffer cmd) {
   return {};
 }
 
-Status ShadowRenderer::createImage(const ShadowSettings& settings, VkFormat format) {
+Status ShadowRenderer::buildImage(const ShadowSettings& settings, VkFormat format, Retired& out,
+                                  VkDescriptorSet& lightingSet) {
   VkDevice dev = device_.device;
   VkImage image = VK_NULL_HANDLE;
   VkDeviceMemory memory = VK_NULL_HANDLE;
@@ -862,6 +909,17 @@ Status ShadowRenderer::createImage(const ShadowSettings& settings, VkFormat form
     setName(handleBits(set), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm lighting set");
   }
 
+  out.image = image;
+  out.memory = memory;
+  out.views[0] = arrayView;
+  std::copy(std::begin(layerViews), std::end(layerViews), out.views + 1);
+  out.pool = pool;
+  lightingSet = set;
+  return {};
+}
+
+void ShadowRenderer::installImage(Retired& built, VkDescriptorSet lightingSet,
+                                  const ShadowSettings& settings) noexcept {
   if (image_ != VK_NULL_HANDLE) {
     Retired old;
     old.afterRecord = records_;
@@ -871,24 +929,20 @@ Status ShadowRenderer::createImage(const ShadowSettings& settings, VkFormat form
     std::copy(std::begin(layerViews_), std::end(layerViews_), old.views + 1);
     old.pool = lightingPool_;
     retired_.push_back(old);
-    image_ = VK_NULL_HANDLE;
-    imageMemory_ = VK_NULL_HANDLE;
-    arrayView_ = VK_NULL_HANDLE;
-    lightingPool_ = VK_NULL_HANDLE;
-    std::fill(std::begin(layerViews_), std::end(layerViews_), VK_NULL_HANDLE);
   }
-  lightingPool_ = pool;
-  lightingSet_ = set;
-  image_ = image;
-  imageMemory_ = memory;
-  arrayView_ = arrayView;
-  std::copy(std::begin(layerViews), std::end(layerViews), std::begin(layerViews_));
+  lightingPool_ = built.pool;
+  lightingSet_ = lightingSet;
+  image_ = built.image;
+  imageMemory_ = built.memory;
+  arrayView_ = built.views[0];
+  std::copy(built.views + 1, built.views + 1 + kMaxCascades, std::begin(layerViews_));
   layerCount_ = settings.cascadeCount;
   resolution_ = settings.resolution;
-  return writeLightingSet(lightingSet_);
+  built = Retired{};
+  (void)writeLightingSet(lightingSet_);  // fails only without an image or set: both are here
 }
 
-Status ShadowRenderer::createPipelines(VkFormat format) {
+Status ShadowRenderer::buildPipelines(VkFormat format, Retired& out) {
   VkPipeline pipes[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
   for (int layered = 0; layered < 2; ++layered) {
     if (layered == 1 && layeredModule_ == VK_NULL_HANDLE) break;
@@ -913,6 +967,12 @@ Status ShadowRenderer::createPipelines(VkFormat format) {
     setName(handleBits(pipes[layered]), VK_OBJECT_TYPE_PIPELINE,
             layered ? "csm depth pipeline (layered)" : "csm depth pipeline");
   }
+  out.pipelines[0] = pipes[0];
+  out.pipelines[1] = pipes[1];
+  return {};
+}
+
+void ShadowRenderer::installPipelines(Retired& built) noexcept {
   if (pipelinesBuilt_) {
     Retired old;
     old.afterRecord = records_;
@@ -920,10 +980,10 @@ Status ShadowRenderer::createPipelines(VkFormat format) {
     old.pipelines[1] = layeredPipeline_;
     retired_.push_back(old);
   }
-  pipeline_ = pipes[0];
-  layeredPipeline_ = pipes[1];
+  pipeline_ = built.pipelines[0];
+  layeredPipeline_ = built.pipelines[1];
   pipelinesBuilt_ = true;
-  return {};
+  built = Retired{};
 }
 
 Status ShadowRenderer::writeLightingSet(VkDescriptorSet set) const {

@@ -40,28 +40,26 @@ void ShadowRenderer::destroyThinPipeline() noexcept {
   thinResolution_ = 0;
 }
 
-Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
-                                          const RendererOptions& options) {
+ShadowRenderer::ThinPlan ShadowRenderer::planThinPipeline(std::uint32_t resolution,
+                                                          const RendererOptions& options) const {
   const float widen = options.thinCasterWidenTexels;
+  ThinPlan plan;
   // Overestimation widens by about half a texel on its own: under that, the geometry stage (where
   // there is one) widens by what was asked (shadows/docs/thin_casters.md).
-  const bool conservative =
+  plan.conservative =
       device_.conservativeRasterizationEnabled && !(device_.geometryShaderEnabled && widen < 0.5f);
-  const bool wanted = (conservative || device_.geometryShaderEnabled) && widen > 0.0f;
+  plan.wanted = (plan.conservative || device_.geometryShaderEnabled) && widen > 0.0f;
   const bool same = thinPipeline_ != VK_NULL_HANDLE && thinResolution_ == resolution &&
                     thinWidenTexels_ == widen && thinFormat_ == options.depthFormat &&
-                    thinConservative_ == conservative;
-  if (wanted && same) return {};
-  if (thinPipeline_ != VK_NULL_HANDLE) {  // in use by recorded frames: retire them
-    Retired old;
-    old.afterRecord = records_;
-    old.pipelines[0] = thinPipeline_;
-    old.pipelines[1] = thinLayeredPipeline_;
-    retired_.push_back(old);
-    thinPipeline_ = VK_NULL_HANDLE;
-    thinLayeredPipeline_ = VK_NULL_HANDLE;
-  }
-  if (!wanted) return {};
+                    thinConservative_ == plan.conservative;
+  plan.keep = plan.wanted && same;
+  plan.build = plan.wanted && !same;
+  return plan;
+}
+
+Status ShadowRenderer::buildThinPipelines(std::uint32_t resolution, const RendererOptions& options,
+                                          bool conservative, Retired& out) {
+  const float widen = options.thinCasterWidenTexels;
   if (!conservative && thinGeometryModule_ == VK_NULL_HANDLE) {
     auto ci = vkInit<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
     ci.codeSize = sizeof(csm_depth_thin_geom_spv);
@@ -87,7 +85,7 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
   stages[1].stage = VK_SHADER_STAGE_GEOMETRY_BIT;
   stages[1].module = thinGeometryModule_;
   stages[1].pSpecializationInfo = &specInfo;
-  // The rest as the per-layer depth pipeline (createPipelines).
+  // The rest as the per-layer depth pipeline (buildPipelines).
   DepthPipelineDesc desc;
   desc.stages = stages;
   desc.stageCount = conservative ? 1 : 2;
@@ -119,26 +117,42 @@ Status ShadowRenderer::updateThinPipeline(std::uint32_t resolution,
   for (int layered = 0; layered < 2; ++layered) {
     if (layered == 1 && layeredModule_ == VK_NULL_HANDLE) break;
     stages[0].module = layered ? layeredModule_ : vertexModule_;
-    VkPipeline& out = layered ? thinLayeredPipeline_ : thinPipeline_;
-    const VkResult r = createDepthPipeline(device_.device, device_.pipelineCache, desc, &out);
+    VkPipeline& pipeline = out.pipelines[layered];
+    const VkResult r = createDepthPipeline(device_.device, device_.pipelineCache, desc, &pipeline);
     if (r != VK_SUCCESS) {
-      if (layered) {
-        vkDestroyPipeline(device_.device, thinPipeline_, nullptr);
-        thinPipeline_ = VK_NULL_HANDLE;
-      }
+      destroyNow(out);
       return Status(ErrorCode::kVulkan,
                     fmt("vkCreateGraphicsPipelines(csm depth, thin casters%s) failed: %d",
                         layered ? ", layered" : "", int(r)),
                     r);
     }
-    setName(std::uint64_t(out), VK_OBJECT_TYPE_PIPELINE,
+    setName(std::uint64_t(pipeline), VK_OBJECT_TYPE_PIPELINE,
             layered ? "csm depth pipeline (thin, layered)" : "csm depth pipeline (thin)");
   }
-  thinResolution_ = resolution;
-  thinWidenTexels_ = widen;
-  thinFormat_ = options.depthFormat;
-  thinConservative_ = conservative;
   return {};
+}
+
+void ShadowRenderer::installThinPipelines(const ThinPlan& plan, Retired& built,
+                                          std::uint32_t resolution,
+                                          const RendererOptions& options) noexcept {
+  if (plan.keep) return;
+  if (thinPipeline_ != VK_NULL_HANDLE) {  // in use by recorded frames: retire them
+    Retired old;
+    old.afterRecord = records_;
+    old.pipelines[0] = thinPipeline_;
+    old.pipelines[1] = thinLayeredPipeline_;
+    retired_.push_back(old);
+    thinPipeline_ = VK_NULL_HANDLE;
+    thinLayeredPipeline_ = VK_NULL_HANDLE;
+  }
+  if (!plan.build) return;
+  thinPipeline_ = built.pipelines[0];
+  thinLayeredPipeline_ = built.pipelines[1];
+  thinResolution_ = resolution;
+  thinWidenTexels_ = options.thinCasterWidenTexels;
+  thinFormat_ = options.depthFormat;
+  thinConservative_ = plan.conservative;
+  built = Retired{};
 }
 
 float ShadowRenderer::thinMarginTexels() const noexcept {

@@ -382,8 +382,29 @@ class ShadowRenderer {
   /// objects are retired (see "Lifetime" above). A new image is cleared to lit and left in
   /// sampledLayout() before update() returns (DeviceInfo::queue) or by prepare(). Errors name
   /// the field: invalid settings, out-of-range options (renderMode, cullMode, depthFormat), the
-  /// device's limits. On error nothing changes.
-  Status update(const ShadowSettings& settings, const RendererOptions& options = {});
+  /// device's limits, a Vulkan failure while creating objects. All or nothing: every object the
+  /// change needs (pipelines, image, lighting set, static cache image, thin-caster pipelines) is
+  /// created before any is installed, so on error the renderer keeps its settings, options,
+  /// image and pipelines, and nothing changes. The one exception is the clear of a new image
+  /// submitted on DeviceInfo::queue: if that submission fails, the error is returned with the
+  /// new settings installed and the clear pending (prepare() or the next shadow pass records
+  /// it).
+  Status update(const ShadowSettings& settings, const RendererOptions& options);
+  /// The same with the current options() kept (the defaults before the first update).
+  Status update(const ShadowSettings& settings) { return update(settings, options_); }
+
+  /// The steps of update() that create Vulkan objects, for fault injection.
+  enum class UpdateStep : std::uint8_t {
+    kNone = 0,
+    kPipelines = 1,      // the depth pipelines (first update, new depth format)
+    kImage = 2,          // the shadow map, its views and lighting set (new size, format, cache)
+    kStaticImage = 3,    // the cache's static image (with a new image, cache on)
+    kThinPipelines = 4,  // the thin casters' pipelines (new resolution, widening or format)
+  };
+  /// For tests: the next update() fails at `step` as if Vulkan had run out of device memory
+  /// there, after the steps before it succeeded (when the change needs that step; otherwise it
+  /// succeeds). Used once.
+  void failNextUpdateAt(UpdateStep step) noexcept { failAt_ = step; }
 
   /// Records the pending one-time clear of a new image (depth 1, then sampledLayout()) into
   /// `cmd`, for hosts without DeviceInfo::queue; a no-op when nothing is pending. Record it
@@ -503,11 +524,31 @@ class ShadowRenderer {
   Status checkFormat(VkFormat format) const;
   Status resolveOptions(const ShadowSettings& settings, const RendererOptions& options,
                         RenderMode* resolved) const;
-  Status createImage(const ShadowSettings& settings, VkFormat format);
-  Status createPipelines(VkFormat format);
+  // update() builds what new settings need (build*: may fail, installs nothing), then installs
+  // it all (install*: cannot fail, retires what it replaces). Objects travel in a Retired.
+  struct Retired;
+  Status buildImage(const ShadowSettings& settings, VkFormat format, Retired& out,
+                    VkDescriptorSet& lightingSet);
+  void installImage(Retired& built, VkDescriptorSet lightingSet,
+                    const ShadowSettings& settings) noexcept;
+  Status buildPipelines(VkFormat format, Retired& out);
+  void installPipelines(Retired& built) noexcept;
+  /// Destroys objects at once (never recorded, or retired long enough ago).
+  void destroyNow(Retired& objects) noexcept;
   // Thin casters (thin_casters.cpp).
   static Status checkThinOptions(const RendererOptions& options);
-  Status updateThinPipeline(std::uint32_t resolution, const RendererOptions& options);
+  struct ThinPlan {
+    bool wanted = false;        // the options and device call for a thin pipeline
+    bool conservative = false;  // overestimating rasterisation, no geometry stage
+    bool keep = false;          // the current one fits
+    bool build = false;         // a new one is needed
+  };
+  [[nodiscard]] ThinPlan planThinPipeline(std::uint32_t resolution,
+                                          const RendererOptions& options) const;
+  Status buildThinPipelines(std::uint32_t resolution, const RendererOptions& options,
+                            bool conservative, Retired& out);
+  void installThinPipelines(const ThinPlan& plan, Retired& built, std::uint32_t resolution,
+                            const RendererOptions& options) noexcept;
   void destroyThinPipeline() noexcept;
   void drawIndexedCaster(VkCommandBuffer cmd, const CasterInstance& instance, const MeshDraw& mesh,
                          std::uint32_t copies);
@@ -530,7 +571,9 @@ class ShadowRenderer {
   void beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered);
   void endLayer(VkCommandBuffer cmd);
   void setName(std::uint64_t handle, VkObjectType type, const char* name) const;
-  Status createStaticImage(const ShadowSettings& settings, VkFormat format);
+  Status buildStaticImage(const ShadowSettings& settings, VkFormat format, Retired& out,
+                          VkDeviceSize& bytes);
+  void installStaticImage(Retired& built, VkDeviceSize bytes) noexcept;
   void retireStaticImage() noexcept;
   // Windowed addressing (shadow_cache.cpp): stabilised per-layer cascades are drawn about
   // world-anchored windows, cached or not, so that the cache changes the cost, never the depth.
@@ -589,6 +632,7 @@ class ShadowRenderer {
   CascadeHook cascadeHook_;
   CsmUniforms uniforms_{};
   bool pipelinesBuilt_ = false;
+  UpdateStep failAt_ = UpdateStep::kNone;  // failNextUpdateAt
 
   // Settings-independent objects.
   VkDescriptorSetLayout depthSetLayout_ = VK_NULL_HANDLE;

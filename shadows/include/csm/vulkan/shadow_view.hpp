@@ -38,9 +38,13 @@ class ShadowView {
 
   /// Validates and applies settings and renderer options (ShadowRenderer::update: the image is
   /// cleared to lit and sampleable when this returns, or after prepare()). A change of cascade
-  /// count restarts the history. On error nothing changes. After a compute(), a shadow distance
+  /// count restarts the history. On error nothing changes (but see ShadowRenderer::update on a
+  /// Vulkan failure while creating objects). After a compute(), a shadow distance
   /// that does not reach past that camera's near plane is refused here (before, by compute()).
-  Status setSettings(const ShadowSettings& settings, const RendererOptions& options = {});
+  Status setSettings(const ShadowSettings& settings, const RendererOptions& options);
+  /// The same with the current options() kept (the defaults before the first call), so that a
+  /// settings change does not reset the cache, the depth format or the LOD choices.
+  Status setSettings(const ShadowSettings& settings) { return setSettings(settings, options_); }
   /// Debug output and world-space kernel of the lighting shader (checked at the next record).
   void setUniformOptions(const UniformOptions& options) noexcept {
     renderer_->setUniformOptions(options);
