@@ -435,12 +435,6 @@ TEST(ShadowView, OutOfRangeValuesAndMismatchedFramesAreRefusedByName) {
   EXPECT_EQ(validationMessages(), 0u);
 }
 
-}  // namespace
-}  // namespace csm_test
-
-namespace csm_test {
-namespace {
-
 // The domain's edges (types.hpp) are refused by name, casters with transforms that are not
 // finite or lie outside it are refused naming the instance and field and leave the previous
 // casters, and setCasters() between compute() and recordPass() re-culls instead of failing.
@@ -513,12 +507,6 @@ TEST(ShadowView, DomainEdgesAndNonFiniteCastersAreRefusedByName) {
   }
   EXPECT_EQ(validationMessages(), 0u);
 }
-
-}  // namespace
-}  // namespace csm_test
-
-namespace csm_test {
-namespace {
 
 // A shadow distance that does not reach past the near plane is refused by setSettings() once
 // the view has seen a camera, instead of failing every later frame; the view stays usable.

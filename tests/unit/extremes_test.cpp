@@ -1,6 +1,8 @@
 // Extreme but valid inputs: every matrix finite, every slice inside its sphere and its light box.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "test_util.hpp"
 
 namespace csm {
@@ -40,6 +42,25 @@ void checkContainment(const CascadeFrame& f, const Camera& cam, const std::strin
   }
 }
 
+ShadowSettings settingsFor(const Extreme& e) {
+  ShadowSettings s;
+  s.cascadeCount = e.count;
+  s.resolution = e.resolution;
+  s.shadowDistanceM = std::min(e.farM, kMaxWorldCoordinateM);
+  return s;
+}
+
+Camera cameraFor(const Extreme& e, const glm::dvec3& positionWs, const glm::dvec3& forward) {
+  Camera cam;
+  cam.nearM = e.nearM;
+  cam.farM = e.farM;
+  cam.fovYRad = glm::radians(e.fovDeg);
+  cam.aspect = e.aspect;
+  cam.positionWs = positionWs;
+  cam.orientationWs = test::lookAlong(forward);
+  return cam;
+}
+
 TEST(Extremes, AllCombinationsFiniteAndContained) {
   const Extreme ranges[] = {{1e-3, 1e5, 60, 16.0 / 9.0, 4, 2048}, {1e-3, 1e5, 1, 1, 8, 16384},
                             {1e-3, 1e5, 179, 100, 8, 256},        {0.1, 500, 1, 0.01, 1, 256},
@@ -51,20 +72,11 @@ TEST(Extremes, AllCombinationsFiniteAndContained) {
     for (const glm::dvec3& lightDir : lights) {
       for (const glm::dvec3& pos : positions) {
         for (bool stabilize : {true, false}) {
-          ShadowSettings s;
-          s.cascadeCount = e.count;
-          s.resolution = e.resolution;
-          s.shadowDistanceM = e.farM;
+          ShadowSettings s = settingsFor(e);
           s.stabilize = stabilize;
-          Camera cam;
-          cam.nearM = e.nearM;
-          cam.farM = e.farM;
-          cam.fovYRad = glm::radians(e.fovDeg);
-          cam.aspect = e.aspect;
-          cam.positionWs = pos;
           // The camera looks along -Z: lights (0,0,-1) and (0,0,1) are along and against
           // the view; (0,-1,0) and (0,1,0) straight down and up.
-          cam.orientationWs = test::lookAlong({0, 0, -1});
+          const Camera cam = cameraFor(e, pos, {0, 0, -1});
           DirectionalLight light{lightDir};
           auto r = computeCascades(s, cam, light);
           ASSERT_TRUE(r.ok()) << r.error().message();
@@ -92,18 +104,8 @@ TEST(Extremes, AtTheDomainLimitsFiniteAndContained) {
   for (const Extreme& e : ranges) {
     for (const glm::dvec3& lightDir : lights) {
       for (const glm::dvec3& pos : positions) {
-        ShadowSettings s;
-        s.cascadeCount = e.count;
-        s.resolution = e.resolution;
-        s.shadowDistanceM = std::min(e.farM, kMaxWorldCoordinateM);
-        Camera cam;
-        cam.nearM = e.nearM;
-        cam.farM = e.farM;
-        cam.fovYRad = glm::radians(e.fovDeg);
-        cam.aspect = e.aspect;
-        cam.positionWs = pos;
-        cam.orientationWs = test::lookAlong({0.3, -0.2, -1});
-        auto r = computeCascades(s, cam, DirectionalLight{lightDir});
+        const Camera cam = cameraFor(e, pos, {0.3, -0.2, -1});
+        auto r = computeCascades(settingsFor(e), cam, DirectionalLight{lightDir});
         ASSERT_TRUE(r.ok()) << r.error().message();
         checkContainment(r.value(), cam,
                          "near " + std::to_string(e.nearM) + " far " + std::to_string(e.farM));
