@@ -382,12 +382,18 @@ TEST(ShadowView, OutOfRangeValuesAndMismatchedFramesAreRefusedByName) {
     CSM_ASSERT_OK(scene.update(testSettings(2, 512)));
     (void)scene.render(csm::PcfKernel::k1Tap, csm::DebugMode::kShadowFactor);
     csm::vk::ShadowView& view = scene.view();
-    // kAuto (the default) chooses by device: per-layer on a CPU implementation such as lavapipe,
-    // layered on a GPU that enabled shaderOutputLayer.
+    // kAuto (the default) chooses per-layer for stabilised cascades on every device, and for
+    // unstabilised ones on a CPU implementation such as lavapipe; layered for unstabilised
+    // cascades on a GPU that enabled shaderOutputLayer.
     const bool cpu = scene.context().properties().deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    EXPECT_EQ(scene.renderer().renderMode(), csm::vk::RenderMode::kPerLayer);
+    csm::ShadowSettings unstable = testSettings(2, 512);
+    unstable.stabilize = false;
+    CSM_ASSERT_OK(view.setSettings(unstable));
     EXPECT_EQ(scene.renderer().renderMode(), !cpu && scene.context().features().shaderOutputLayer
                                                  ? csm::vk::RenderMode::kLayered
                                                  : csm::vk::RenderMode::kPerLayer);
+    CSM_ASSERT_OK(view.setSettings(testSettings(2, 512)));
     auto expectRefused = [](const csm::vk::Status& s, const char* name) {
       EXPECT_EQ(s.code(), csm::vk::ErrorCode::kInvalidArgument) << s.message();
       EXPECT_NE(s.message().find(name), std::string::npos) << s.message();
