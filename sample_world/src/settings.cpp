@@ -183,6 +183,8 @@ const std::vector<Entry>& table() {
                      [](AppSettings& s) -> double& { return s.shadow.shadowDistanceM; }),
       number<double>("shadow.blend", "a fraction in [0, 0.5]", 0, 0.5, false,
                      [](AppSettings& s) -> double& { return s.shadow.blendBand; }),
+      number<double>("shadow.fade", "a fraction of the shadow distance in [0, 1] (0: hard cut)", 0,
+                     1, false, [](AppSettings& s) -> double& { return s.shadow.fadeFraction; }),
       named("shadow.kernel", kKernelAllowed.c_str(), csm::parseKernel, csm::kernelName,
             [](AppSettings& s) -> csm::PcfKernel& { return s.kernel; }),
       number<double>("shadow.lightAngleDeg", "degrees in [0, 20] (the sun: 0.53)", 0, 20, false,

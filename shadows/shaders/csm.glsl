@@ -63,7 +63,8 @@ layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniform
   vec2 biasReserved;         // unused
   float tanHalfLightAngle;   // PCSS: tan(light angular diameter / 2)
   float maxPenumbraRadiusM;  // PCSS: largest penumbra radius (m)
-  vec2 softReserved;         // unused
+  float fadeEndM;            // the fade to lit ends here (view depth, m)
+  float invFadeLengthM;      // 1 / the fade's length (m); 0: no fade
 } csmU;
 
 #ifndef CSM_UNIFORMS_ONLY
@@ -84,6 +85,14 @@ struct CsmSelection {
 
 /// View depth of a camera-relative position (distance along the camera's forward axis).
 float csmViewDepth(vec3 posCr) { return dot(posCr, csmU.cameraForwardWs); }
+
+/// How far a receiver at `viewDepth` has faded to lit at the end of the shadows, in [0, 1]
+/// (mirror of csm::shadowFade): smoothstep over the fade's length up to fadeEndM; 0 with no fade.
+float csmFade(float viewDepth) {
+  if (!(csmU.invFadeLengthM > 0.0)) return 0.0;
+  const float t = clamp(1.0 - (csmU.fadeEndM - viewDepth) * csmU.invFadeLengthM, 0.0, 1.0);
+  return t * t * (3.0 - 2.0 * t);
+}
 
 /// The run-time debug mode (CSM_DEBUG_*).
 uint csmDebugMode() { return csmU.debugMode; }
@@ -497,14 +506,19 @@ float csmShadow(vec3 posCr, vec3 normalWs, vec2 pixel) {
   // surface's own depth there, or that of the lit side in front of it: a near tie).
   // Outside every cascade (and before the first shadow pass, when the block holds no cascade and
   // no light): lit, whatever the normal.
-  const CsmSelection sel = csmSelectCascade(csmViewDepth(posCr));
+  // Toward the shadow distance the factor fades to lit (ShadowSettings::fadeFraction), so the
+  // shadows end without a line.
+  const float viewDepth = csmViewDepth(posCr);
+  const CsmSelection sel = csmSelectCascade(viewDepth);
   if (sel.index < 0) return 1.0;
   if (!(dot(normalWs, -csmU.lightDirection.xyz) > 0.0)) return 0.0;
+  const float fade = csmFade(viewDepth);
+  if (fade >= 1.0) return 1.0;
   float s = csmSampleCascade(sel.index, posCr, normalWs, pixel);
   if (csmBlend != 0 && sel.blendIndex >= 0 && sel.blendWeight > 0.0) {
     s = mix(s, csmSampleCascade(sel.blendIndex, posCr, normalWs, pixel), sel.blendWeight);
   }
-  return s;
+  return mix(s, 1.0, fade);
 }
 
 /// The tint of cascade i (CSM_TINT_i), black for -1.

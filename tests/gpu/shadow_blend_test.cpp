@@ -216,5 +216,68 @@ TEST(ShadowSelection, GpuIndexAndBlendWeightMatchTheCpuMirror) {
   EXPECT_EQ(validationMessages(), 0u);
 }
 
+// Toward the shadow distance shadows fade to lit (ShadowSettings::fadeFraction) instead of ending
+// at a line: csm.glsl at points on the ground in a slab's shadow, along the view through the
+// fade, against the CPU mirror (csm::shadowFade). With fadeFraction 0 the shadow holds to the
+// end and stops there, which is what the fade replaces.
+TEST(ShadowFade, RampsToLitOverTheFadeAndCutsHardWithoutIt) {
+  for (double fraction : {0.1, 0.0}) {
+    SCOPED_TRACE(fraction);
+    ShadowScene scene;
+    // A slab 3 m above the ground whose shadow covers the ground along the view past 60 m.
+    scene.shapes.boxes.push_back({{-20.0, 3.0, -90.0}, {20.0, 3.5, -10.0}});
+    csm::ShadowSettings settings;
+    settings.cascadeCount = 2;
+    settings.resolution = 1024;
+    settings.shadowDistanceM = 50.0;
+    settings.fadeFraction = fraction;
+    CSM_ASSERT_OK(scene.update(settings));
+    const csm::CascadeFrame frame = scene.computeFrame();
+    ASSERT_EQ(frame.shadowFarM, 50.0);
+    ASSERT_EQ(frame.fadeLengthM, 50.0 * fraction);
+    const glm::dvec3 cam = scene.camera.positionWs;
+    const glm::dvec3 fwd = scene.camera.forwardWs();
+    std::vector<glm::dvec3> points;
+    std::vector<double> depths;
+    for (double depth = 30.0; depth <= 55.0; depth += 0.05) {
+      const double z = cam.z + (depth - (0.0 - cam.y) * fwd.y) / fwd.z;  // on the ground, x = 0
+      points.push_back({0.0, 0.0, z});
+      depths.push_back(csm::viewDepthM(frame, points.back()));
+      ASSERT_TRUE(scene.shapes.occluded(points.back(), -glm::normalize(scene.light.directionWs)));
+    }
+    std::vector<glue::ProbeResult> gpu;
+    {
+      Probe probe(scene.context(), scene.renderer().lightingSetLayout(), csm::PcfKernel::kTent3,
+                  true);
+      gpu = probe.run(scene, frame, points);
+    }
+    uint64_t faded = 0;
+    double worst = 0.0;
+    for (size_t i = 0; i < points.size(); ++i) {
+      const double d = depths[i];
+      const double s = gpu[i].shadow;
+      if (d >= frame.shadowFarM * (1.0 + 1e-6)) {
+        EXPECT_EQ(s, 1.0) << "beyond the shadows at " << d;
+        continue;
+      }
+      if (d >= frame.shadowFarM * (1.0 - 1e-6)) continue;  // on the end, within float rounding
+      // In shadow (0) faded by the CPU mirror's weight; float rounding of the view depth moves
+      // the weight by at most its slope x 1e-5 m.
+      const double expected = csm::shadowFade(frame, d);
+      faded += expected > 0.0 ? 1 : 0;
+      worst = std::max(worst, std::abs(s - expected));
+    }
+    std::printf("fade %.2f: %llu points fading, largest difference from the mirror %.2e\n",
+                fraction, static_cast<unsigned long long>(faded), worst);
+    EXPECT_LE(worst, 2e-3);
+    if (fraction > 0.0) {
+      EXPECT_GT(faded, 50u);  // the probe line runs through the fade
+    } else {
+      EXPECT_EQ(faded, 0u);  // the hard cut: fully shadowed up to the end
+    }
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
 }  // namespace
 }  // namespace csm_test

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "csm/gpu_layout.hpp"
 #include "test_util.hpp"
 
 namespace csm {
@@ -64,6 +65,50 @@ TEST(Selection, ViewDepthAndEmptyCascades) {
   EXPECT_NEAR(viewDepthM(f, {1e7 + 150, 3, 2}), 150.0, 1e-9);
   EXPECT_TRUE(f.cascades[0].empty);
   EXPECT_EQ(selectCascade(f, f.splitsM[0] + 1e-3, 0.1).index, -1);
+}
+
+TEST(Fade, SmoothstepToLitOverTheLastFractionOfTheShadowDistance) {
+  ShadowSettings s;
+  s.shadowDistanceM = 400.0;
+  Camera cam;
+  const CascadeFrame f = test::computeOrDie(s, cam, DirectionalLight{});
+  ASSERT_EQ(s.fadeFraction, 0.1);  // the default fades
+  EXPECT_EQ(f.fadeEndM, 400.0);
+  EXPECT_EQ(f.fadeLengthM, 40.0);
+  EXPECT_EQ(shadowFade(f, 0.0), 0.0);
+  EXPECT_EQ(shadowFade(f, 360.0), 0.0);
+  EXPECT_DOUBLE_EQ(shadowFade(f, 380.0), 0.5);
+  EXPECT_DOUBLE_EQ(shadowFade(f, 370.0), 0.25 * 0.25 * (3.0 - 0.5));
+  EXPECT_EQ(shadowFade(f, 400.0), 1.0);
+  EXPECT_EQ(shadowFade(f, 1e9), 1.0);
+  EXPECT_EQ(shadowFade(f, std::nan("")), 0.0);
+  double last = 0.0;
+  for (double d = 355.0; d <= 405.0; d += 0.5) {
+    const double w = shadowFade(f, d);
+    EXPECT_GE(w, last) << d;  // monotone
+    last = w;
+  }
+  // Packed for csm.glsl: the end and the inverse length.
+  const CsmUniforms u = packUniforms(f, s);
+  EXPECT_EQ(u.fadeEndM, 400.0f);
+  EXPECT_FLOAT_EQ(u.invFadeLengthM, 1.0f / 40.0f);
+
+  // 0: the hard cut, nothing fades, and the block says so.
+  s.fadeFraction = 0.0;
+  const CascadeFrame hard = test::computeOrDie(s, cam, DirectionalLight{});
+  EXPECT_EQ(hard.fadeLengthM, 0.0);
+  EXPECT_EQ(shadowFade(hard, 399.9), 0.0);
+  EXPECT_EQ(packUniforms(hard, s).invFadeLengthM, 0.0f);
+  // A frame built by hand (no computeCascades) does not fade.
+  EXPECT_EQ(shadowFade(CascadeFrame{}, 10.0), 0.0);
+
+  // Anchored at the host's shadow distance, not at where the splits end: a scene that ends at
+  // 150 m pulls the splits in, and its receivers there must not fade.
+  s.fadeFraction = 0.1;
+  const AabbWs scene{{-100.0, -1.0, -150.0}, {100.0, 10.0, 0.0}};
+  const CascadeFrame shortScene = test::computeOrDie(s, cam, DirectionalLight{}, &scene);
+  ASSERT_LT(shortScene.shadowFarM, 300.0);
+  EXPECT_EQ(shadowFade(shortScene, shortScene.shadowFarM * 0.99), 0.0);
 }
 
 }  // namespace

@@ -85,6 +85,13 @@ struct CascadeFrame {
   SplitArray splitsM{};
   /// Where the splits end: shadow distance clamped to camera far and scene extent, quantised.
   double shadowFarM = 0.0;
+  /// The fade to lit at the end of the shadows (view depth, m): it ends at fadeEndM, the host's
+  /// shadow distance (ShadowSettings::shadowDistanceM; where shadowFarM ends earlier, at the
+  /// scene's or the visible receivers' far end, nothing lies beyond it to show a cut), and is
+  /// fadeLengthM = fadeEndM x ShadowSettings::fadeFraction long; fadeLengthM = 0: no fade (a
+  /// hard cut). shadowFade() gives the fade's weight at a depth.
+  double fadeEndM = 0.0;
+  double fadeLengthM = 0.0;
   /// Light basis (columns right, up, forward) and normalised light direction.
   glm::dmat3 lightBasisWs{1.0};
   glm::dvec3 lightDirectionWs{0.0, -1.0, 0.0};

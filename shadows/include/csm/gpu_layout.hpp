@@ -108,8 +108,10 @@ struct CsmUniforms {
   /// blocker and receiver), and the largest penumbra radius (m; maxPenumbraM / 2).
   float tanHalfLightAngle = 0.0f;
   float maxPenumbraRadiusM = 0.0f;
-  /// Unused (0).
-  glm::vec2 softReserved{0.0f};
+  /// The fade to lit at the end of the shadows (CascadeFrame::fadeEndM, view depth in m) and the
+  /// inverse of its length (1 / fadeLengthM; 0: no fade).
+  float fadeEndM = 0.0f;
+  float invFadeLengthM = 0.0f;
 };
 
 /// Per-frame choices that go into the block besides the cascades and the settings.

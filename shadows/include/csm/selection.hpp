@@ -22,6 +22,12 @@ struct CascadeSelection {
 [[nodiscard]] CascadeSelection selectCascade(const CascadeFrame& frame, double viewDepthM,
                                              double blendBand) noexcept;
 
+/// How far a receiver at `viewDepthM` has faded to lit, in [0, 1]: 0 before
+/// fadeEndM - fadeLengthM, rising as smoothstep to 1 at frame.fadeEndM (and beyond). The
+/// shadow factor becomes mix(s, 1, shadowFade()). Always 0 when fadeLengthM is 0 (no fade).
+/// csm.glsl's csmFade() mirrors it.
+[[nodiscard]] double shadowFade(const CascadeFrame& frame, double viewDepthM) noexcept;
+
 /// View depth of a world point for this frame: dot(posWs - cameraPositionWs, cameraForwardWs).
 [[nodiscard]] double viewDepthM(const CascadeFrame& frame, const glm::dvec3& posWs) noexcept;
 

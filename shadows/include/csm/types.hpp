@@ -78,6 +78,10 @@ struct ShadowSettings {
   /// Width of the blend band at the far end of each cascade, as a fraction of that cascade's
   /// depth range, [0, 0.5]. 0 switches cascades with no blend.
   double blendBand = 0.1;
+  /// Shadows fade out toward the shadow distance instead of stopping at a hard line: over its
+  /// last fadeFraction (view depth shadowDistanceM x (1 - fadeFraction) to shadowDistanceM) the
+  /// shadow factor rises smoothly (smoothstep) to lit. [0, 1]; 0 is the hard cut.
+  double fadeFraction = 0.1;
   /// Constant depth bias, in units of the depth format's minimum resolvable difference, >= 0.
   float depthBiasConstant = 1.0f;
   /// Slope-scaled depth bias of the depth pass (depthBiasSlopeFactor), >= 0. 0 by default: the

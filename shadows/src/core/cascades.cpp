@@ -577,6 +577,8 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   frame.shadowFarM = quantizedShadowFar(neededFarM, maxFarM, minFarM,
                                         history != nullptr ? history->shadowFarM : 0.0);
   if (history != nullptr) history->shadowFarM = frame.shadowFarM;
+  frame.fadeEndM = settings.shadowDistanceM;
+  frame.fadeLengthM = settings.shadowDistanceM * settings.fadeFraction;
   const std::array<int, kMaxCascades + 1> splitRungs =
       splitDistances(in, receivers, splitNearM, frame);
 

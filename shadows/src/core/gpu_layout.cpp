@@ -35,7 +35,8 @@ static_assert(offsetof(CsmUniforms, depthFloorQuantum) == 112 * CSM_MAX_CASCADES
 static_assert(offsetof(CsmUniforms, biasReserved) == 112 * CSM_MAX_CASCADES + 72);
 static_assert(offsetof(CsmUniforms, tanHalfLightAngle) == 112 * CSM_MAX_CASCADES + 80);
 static_assert(offsetof(CsmUniforms, maxPenumbraRadiusM) == 112 * CSM_MAX_CASCADES + 84);
-static_assert(offsetof(CsmUniforms, softReserved) == 112 * CSM_MAX_CASCADES + 88);
+static_assert(offsetof(CsmUniforms, fadeEndM) == 112 * CSM_MAX_CASCADES + 88);
+static_assert(offsetof(CsmUniforms, invFadeLengthM) == 112 * CSM_MAX_CASCADES + 92);
 static_assert(sizeof(CsmUniforms) == 112 * CSM_MAX_CASCADES + 96);
 static_assert(sizeof(CsmUniforms) <= 16384, "must fit the minimum maxUniformBufferRange");
 static_assert(sizeof(CsmUniforms) % 4 == 0, "vkCmdUpdateBuffer needs a multiple of 4 bytes");
@@ -137,6 +138,10 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
   const double halfAngleRad = glm::radians(0.5 * settings.lightAngularDiameterDeg);
   u.tanHalfLightAngle = finiteOr0(std::tan(halfAngleRad));
   u.maxPenumbraRadiusM = finiteOr0(0.5 * settings.maxPenumbraM);
+  if (frame.fadeLengthM > 0.0) {
+    u.fadeEndM = finiteOr0(frame.fadeEndM);
+    u.invFadeLengthM = finiteOr0(1.0 / frame.fadeLengthM);
+  }
   return u;
 }
 

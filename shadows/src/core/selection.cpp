@@ -1,5 +1,7 @@
 #include "csm/selection.hpp"
 
+#include <algorithm>
+
 namespace csm {
 
 double viewDepthM(const CascadeFrame& frame, const glm::dvec3& posWs) noexcept {
@@ -25,6 +27,14 @@ CascadeSelection selectCascade(const CascadeFrame& frame, double viewDepth,
     }
   }
   return sel;
+}
+
+double shadowFade(const CascadeFrame& frame, double viewDepthM) noexcept {
+  const double length = frame.fadeLengthM;
+  const double start = frame.fadeEndM - length;
+  if (!(length > 0.0) || !(viewDepthM > start)) return 0.0;
+  const double t = std::min((viewDepthM - start) / length, 1.0);
+  return t * t * (3.0 - 2.0 * t);
 }
 
 }  // namespace csm

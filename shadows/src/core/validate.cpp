@@ -121,6 +121,10 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
     return refuse("settings.receiverSplitScheme", static_cast<double>(s.receiverSplitScheme),
                   "0 (range) or 1 (histogram)");
   }
+  if (!(s.fadeFraction >= 0.0 && s.fadeFraction <= 1.0)) {
+    return refuse("settings.fadeFraction", s.fadeFraction,
+                  "a fraction of the shadow distance in [0, 1] (0: no fade)");
+  }
   if (!(s.minCasterTexels >= 0.0f && s.minCasterTexels <= 1e6f)) {
     return refuse("settings.minCasterTexels", s.minCasterTexels,
                   "a number of texels in [0, 1e6] (0 turns the test off)");

@@ -1,6 +1,8 @@
 // Acne and leak metrics against Embree shadow rays (see bias_metrics.hpp).
 #include "csm_measure/bias_metrics.hpp"
 
+#include <csm/selection.hpp>
+
 #include <algorithm>
 #include <cmath>
 
@@ -153,6 +155,8 @@ BiasTruth computeBiasTruth(std::span<const PixelSample> pixels, uint32_t width, 
   for (size_t i = 0; i < pixels.size(); ++i) {
     const PixelSample& p = pixels[i];
     if (!finitePixel(p) || p.cascade < 0 || p.cascade >= int(frame.cascadeCount)) continue;
+    // In the fade to lit before the shadow distance a shadow is lightened by design.
+    if (csm::shadowFade(frame, csm::viewDepthM(frame, p.posWs)) > 0.0) continue;
     if (p.x >= width || p.y >= height) continue;
     if (!(glm::dot(glm::dvec3(p.normalWs), toLight) > 0.0)) continue;
     idx.push_back(i);

@@ -1,6 +1,7 @@
 // The numbers (see metrics.hpp).
 #include "csm_measure/metrics.hpp"
 
+#include <csm/selection.hpp>
 #include <glue/camera.hpp>
 
 #include <algorithm>
@@ -105,6 +106,7 @@ ShimmerRun measureShimmer(Harness& harness, std::span<const Receiver> receivers,
   csm::CascadeHistory history;
   std::vector<ProbeResult> previous;
   std::vector<uint8_t> previousInside;
+  csm::CascadeFrame previousFrame;
   for (int f = 0; f < frames; ++f) {
     const csm::Camera camera = path(f);
     const csm::CascadeFrame frame = harness.computeFrame(camera, light, history);
@@ -128,7 +130,11 @@ ShimmerRun measureShimmer(Harness& harness, std::span<const Receiver> receivers,
         const double d = std::abs(double(b.shadow) - double(a.shadow));
         if (a.cascade != b.cascade) {
           cls.crossed.add(d);
-        } else if (a.blendCascade >= 0 || b.blendCascade >= 0) {
+        } else if (a.blendCascade >= 0 || b.blendCascade >= 0 ||
+                   csm::shadowFade(previousFrame, a.viewDepthM) > 0.0 ||
+                   csm::shadowFade(frame, b.viewDepthM) > 0.0) {
+          // Across a blend band, or in the fade to lit before the shadow distance (both follow
+          // the camera's view depth, not the texel grid).
           cls.band.add(d);
         } else {
           cls.stayed.add(d);
@@ -142,6 +148,7 @@ ShimmerRun measureShimmer(Harness& harness, std::span<const Receiver> receivers,
     }
     previous = std::move(now);
     previousInside = std::move(inside);
+    previousFrame = frame;
   }
   return run;
 }
@@ -250,6 +257,14 @@ bool inShadowRange(const PixelSample& p, const csm::CascadeFrame& frame) noexcep
   return p.cascade >= 0 && p.cascade < int(frame.cascadeCount);
 }
 
+// The ray-traced visibility as the module means to show it: toward the shadow distance it fades
+// to lit by design (ShadowSettings::fadeFraction), so there the truth is faded alike.
+double fadedTruth(double visibility, const PixelSample& p,
+                  const csm::CascadeFrame& frame) noexcept {
+  const double fade = csm::shadowFade(frame, csm::viewDepthM(frame, p.posWs));
+  return visibility + fade * (1.0 - visibility);
+}
+
 }  // namespace
 
 AccuracyStats measureAccuracy(std::span<const PixelSample> pixels, const csm::CascadeFrame& frame,
@@ -266,8 +281,9 @@ AccuracyStats measureAccuracy(std::span<const PixelSample> pixels, const csm::Ca
       st.outside.add(s, vis[k]);
       continue;
     }
-    st.overall.add(s, vis[k]);
-    st.perCascade[size_t(p.cascade)].add(s, vis[k]);
+    const double v = fadedTruth(vis[k], p, frame);
+    st.overall.add(s, v);
+    st.perCascade[size_t(p.cascade)].add(s, v);
     if (p.footprintM > 0.0f) {
       st.texelToPixel.add(frame.cascades[size_t(p.cascade)].texelSizeM() / double(p.footprintM));
     }
@@ -302,7 +318,7 @@ MissCauses classifyMisses(std::span<const PixelSample> pixels, const csm::Cascad
   for (size_t k = 0; k < j.index.size(); ++k) {
     const PixelSample& p = pixels[j.index[k]];
     const double s = std::clamp(double(p.shadow), 0.0, 1.0);
-    if (!inShadowRange(p, frame) || std::abs(s - j.vis[k]) <= 0.5) continue;
+    if (!inShadowRange(p, frame) || std::abs(s - fadedTruth(j.vis[k], p, frame)) <= 0.5) continue;
     m.pixels.emplace_back(p.x, p.y);
     // The face the pixel centre's camera ray meets, oriented toward the camera.
     const glm::dvec3 view = glm::normalize(p.posWs - cameraWs);
@@ -315,7 +331,7 @@ MissCauses classifyMisses(std::span<const PixelSample> pixels, const csm::Cascad
         continue;
       }
     }
-    if (j.vis[k] > 0.5f) {
+    if (fadedTruth(j.vis[k], p, frame) > 0.5) {
       ++m.falseShadow;
       continue;
     }

@@ -2,6 +2,7 @@
 #include "csm_measure/soft_truth.hpp"
 
 #include <csm/light_space.hpp>
+#include <csm/selection.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -122,8 +123,17 @@ std::vector<float> softTruthOfPixels(std::span<const PixelSample> pixels,
                                      const csm::DirectionalLight& light,
                                      double angularDiameterDeg) {
   const glm::dvec3 toLight = -glm::normalize(light.directionWs);
-  return softTruthWhere(pixels, tracer, light, angularDiameterDeg,
-                        [&](const PixelSample& p) { return comparable(p, frame, toLight); });
+  std::vector<float> truth =
+      softTruthWhere(pixels, tracer, light, angularDiameterDeg,
+                     [&](const PixelSample& p) { return comparable(p, frame, toLight); });
+  // Toward the shadow distance the module fades to lit by design (ShadowSettings::fadeFraction):
+  // the truth there is the faded one.
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    if (truth[i] < 0.0f) continue;
+    const double fade = csm::shadowFade(frame, csm::viewDepthM(frame, pixels[i].posWs));
+    truth[i] = float(truth[i] + fade * (1.0 - truth[i]));
+  }
+  return truth;
 }
 
 std::vector<float> softTruthOfReceivers(std::span<const PixelSample> pixels,
