@@ -4,7 +4,8 @@ find_package(Vulkan REQUIRED)
 
 # The GPU layout of the uniform block is pure (GLM only) and belongs to the core.
 target_sources(csm_core PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src/core/gpu_layout.cpp
-                                ${CMAKE_CURRENT_SOURCE_DIR}/src/core/names.cpp)
+                                ${CMAKE_CURRENT_SOURCE_DIR}/src/core/names.cpp
+                                ${CMAKE_CURRENT_SOURCE_DIR}/src/core/presets.cpp)
 
 csm_compile_shaders(csm_depth_shaders SOURCE_DIR ${CMAKE_CURRENT_SOURCE_DIR}/shaders
                     csm_depth.vert csm_depth_layered.vert csm_depth_thin.geom)

@@ -100,10 +100,13 @@ Options parse(int argc, char** argv) {
                        "--config, --set, --mesh, --validation, --smoke-test, --help");
     }
   }
-  // The config file first, then --set in order: the command line wins.
+  // The config file first, then --set in order: the command line wins. A --set preset=NAME
+  // goes before the other --set values, wherever it is, so that they go on top of it.
   if (haveConfig) {
     if (auto e = world::loadConfig(o.settings, config)) throw UsageError(*e);
   }
+  std::stable_partition(sets.begin(), sets.end(),
+                        [](const std::string& s) { return s.rfind("preset=", 0) == 0; });
   for (const std::string& s : sets) {
     const auto eq = s.find('=');
     if (eq == std::string::npos) throw UsageError("--set '" + s + "': expected key=value");

@@ -149,6 +149,12 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   changed |= ImGui::SliderFloat("light elevation", &el, 1.0f, 90.0f);
   s.lightAzimuthDeg = az;
   s.lightElevationDeg = el;
+  // A quality tier sets cascades, resolution and kernel below (the other settings stay).
+  csm::Preset preset = s.preset.value_or(csm::Preset::kHigh);
+  if (world::enumCombo("preset", preset, csm::kAllPresets, csm::presetName)) {
+    changed = true;
+    (void)world::setSetting(s, "preset", csm::presetName(preset));
+  }
   int cascades = static_cast<int>(s.shadow.cascadeCount);
   changed |= ImGui::SliderInt("cascades", &cascades, 1, static_cast<int>(csm::kMaxCascades));
   s.shadow.cascadeCount = static_cast<std::uint32_t>(cascades);

@@ -15,6 +15,9 @@ namespace world {
 
 namespace {
 
+// The quality tier (csm::Preset), applied before the other settings.
+constexpr const char* kPresetKey = "preset";
+
 using Setter = std::function<std::optional<std::string>(AppSettings&, const std::string&)>;
 using Getter = std::function<nlohmann::json(const AppSettings&)>;
 
@@ -301,12 +304,21 @@ AppSettings::AppSettings() {
 
 std::optional<std::string> setSetting(AppSettings& s, const std::string& key,
                                       const std::string& value) {
+  if (key == kPresetKey) {
+    const csm::Result<csm::Preset> p = csm::parsePreset(value, kPresetKey);
+    if (!p.ok()) return p.error().message();
+    const csm::PresetConfig c = csm::presetConfig(p.value(), s.shadow);
+    s.preset = p.value();
+    s.shadow = c.settings;
+    s.kernel = c.kernel;
+    return std::nullopt;
+  }
   for (const Entry& e : table()) {
     if (key == e.key) return e.set(s, value);
   }
-  std::string keys;
+  std::string keys = kPresetKey;
   for (const Entry& e : table()) {
-    if (!keys.empty()) keys.append(", ");
+    keys.append(", ");
     keys.append(e.key);
   }
   return "unknown setting '" + key + "': allowed keys are " + keys;
@@ -374,7 +386,16 @@ std::optional<std::string> applyConfigText(AppSettings& s, std::string_view text
     return name + ": not valid JSON (" + e.what() + ")";
   }
   if (!j.is_object()) return name + ": must hold a JSON object of key: value";
+  // The preset first, so that the file's other settings go on top of it.
+  if (const auto p = j.find(kPresetKey); p != j.end()) {
+    if (!p->is_string()) {
+      return name + ": preset is " + std::string(p->type_name()) + ": allowed one of " +
+             csm::presetNames();
+    }
+    if (auto err = setSetting(s, kPresetKey, p->get<std::string>())) return name + ": " + *err;
+  }
   for (const auto& [key, value] : j.items()) {
+    if (key == kPresetKey) continue;
     std::string text;
     if (value.is_string()) {
       text = value.get<std::string>();
@@ -415,12 +436,14 @@ std::optional<std::string> validateSettings(const AppSettings& s) {
 
 nlohmann::json settingsJson(const AppSettings& s) {
   nlohmann::json j = nlohmann::json::object();
+  if (s.preset) j[kPresetKey] = csm::presetName(*s.preset);
   for (const Entry& e : table()) j[e.key] = e.get(s);
   return j;
 }
 
 std::string settingsHelp() {
-  std::string out;
+  std::string out = std::string("  ") + kPresetKey + ": one of " + csm::presetNames() +
+                    " (applied first; the other settings go on top)\n";
   for (const Entry& e : table()) out += std::string("  ") + e.key + ": " + e.allowed + "\n";
   return out;
 }

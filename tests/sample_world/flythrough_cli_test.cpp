@@ -105,4 +105,23 @@ TEST(Cli, CacheBudgetTexels) {
   EXPECT_TRUE(report["per_frame"][0]["cascades"][0].contains("lag_frames"));
 }
 
+// --set preset=NAME on the command line: applied before the other --set values wherever it
+// stands, recorded in report.json.
+TEST(Cli, PresetThenOtherSettingsOnTop) {
+  ProcessResult r = runApp("--headless --set preset=epic");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.output.find("low, medium, high, ultra"), std::string::npos) << r.output;
+  const fs::path out = fs::temp_directory_path() / "csm_flythrough_cli_preset";
+  r = runApp("--headless --frames 1 --out " + out.string() +
+             " --set shadow.cascades=3 --set preset=low --set view.width=320"
+             " --set view.height=180");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  std::ifstream in(out / "report.json");
+  const json report = json::parse(in);
+  EXPECT_EQ(report["settings"]["preset"], "low");
+  EXPECT_EQ(report["settings"]["shadow.cascades"], 3);       // on top of the preset's 2
+  EXPECT_EQ(report["settings"]["shadow.resolution"], 1024);  // the preset's
+  EXPECT_EQ(report["settings"]["shadow.kernel"], "tent3x3");
+}
+
 }  // namespace

@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "csm/names.hpp"
 #include "sample_world/paths.hpp"
 #include "sample_world/settings.hpp"
 #include "sample_world/world.hpp"
@@ -389,6 +390,50 @@ TEST(Settings, InvalidValuesListWhatIsAllowed) {
   err = world::setSetting(s, "lod.maxErrorTexels", "-1");
   ASSERT_TRUE(err);
   EXPECT_NE(err->find("lod.maxErrorTexels"), std::string::npos) << *err;
+}
+
+// --set preset=NAME: the module's tier on top of the fly-through's own settings (its shadow
+// distance, lambda and light steps kept); other settings go on top of it, in a config wherever
+// the preset stands; every name round-trips through report.json's settings; bad names are
+// refused with every allowed name.
+TEST(Settings, PresetsApplyFirstAndRoundTrip) {
+  const world::AppSettings defaults;
+  for (csm::Preset p : csm::kAllPresets) {
+    SCOPED_TRACE(csm::presetName(p));
+    world::AppSettings s;
+    ASSERT_FALSE(world::setSetting(s, "preset", csm::presetName(p)));
+    const csm::PresetConfig c = csm::presetConfig(p, defaults.shadow);
+    EXPECT_EQ(s.shadow.cascadeCount, c.settings.cascadeCount);
+    EXPECT_EQ(s.shadow.resolution, c.settings.resolution);
+    EXPECT_EQ(s.kernel, c.kernel);
+    EXPECT_EQ(s.shadow.shadowDistanceM, defaults.shadow.shadowDistanceM);
+    EXPECT_EQ(s.shadow.splitLambda, defaults.shadow.splitLambda);
+    EXPECT_EQ(s.shadow.lightStepDeg, defaults.shadow.lightStepDeg);
+    EXPECT_FALSE(world::validateSettings(s));
+    // report.json's settings, read back as a config, give the same settings.
+    const nlohmann::json j = world::settingsJson(s);
+    EXPECT_EQ(j["preset"], csm::presetName(p));
+    world::AppSettings back;
+    ASSERT_FALSE(world::applyConfigText(back, j.dump(), "report"));
+    EXPECT_EQ(world::settingsJson(back), j);
+  }
+  // A config's other keys go on top of its preset, before or after it in the file.
+  for (const char* text : {R"({"shadow.cascades": 3, "preset": "ultra"})",
+                           R"({"preset": "ultra", "shadow.cascades": 3})"}) {
+    world::AppSettings s;
+    ASSERT_FALSE(world::applyConfigText(s, text, "config"));
+    EXPECT_EQ(s.shadow.cascadeCount, 3u) << text;
+    EXPECT_EQ(s.shadow.resolution, 4096u) << text;
+    EXPECT_EQ(s.kernel, csm::PcfKernel::kPcss) << text;
+  }
+  world::AppSettings s;
+  auto err = world::setSetting(s, "preset", "epic");
+  ASSERT_TRUE(err);
+  EXPECT_EQ(*err, "preset = 'epic' is invalid: allowed one of low, medium, high, ultra");
+  err = world::applyConfigText(s, R"({"preset": 2})", "config");
+  ASSERT_TRUE(err);
+  EXPECT_NE(err->find("low, medium, high, ultra"), std::string::npos) << *err;
+  EXPECT_FALSE(s.preset.has_value());  // nothing applied
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "csm/names.hpp"
+#include "csm/presets.hpp"
 
 namespace {
 
@@ -86,6 +87,59 @@ TEST(Names, EveryDepthFormatRoundTripsAndTheCsvSpellingIsAccepted) {
     EXPECT_EQ(r.error().message(), std::string("shadow.depthFormat = '") + bad +
                                        "' is invalid: allowed one of d32, d16");
   }
+}
+
+TEST(Names, EveryPresetRoundTripsThroughItsName) {
+  std::set<std::string> seen;
+  for (csm::Preset p : csm::kAllPresets) {
+    const std::string name = csm::presetName(p);
+    EXPECT_TRUE(seen.insert(name).second) << name;
+    const csm::Result<csm::Preset> parsed = csm::parsePreset(name);
+    ASSERT_TRUE(parsed.ok()) << name;
+    EXPECT_EQ(parsed.value(), p) << name;
+  }
+  EXPECT_EQ(csm::presetNames(), "low, medium, high, ultra");
+  EXPECT_STREQ(csm::presetName(static_cast<csm::Preset>(9)), "unknown");
+  for (const char* bad : {"", "Low", "epic", "high "}) {
+    const csm::Result<csm::Preset> r = csm::parsePreset(bad);
+    ASSERT_FALSE(r.ok()) << bad;
+    EXPECT_EQ(r.error().message(), std::string("preset = '") + bad +
+                                       "' is invalid: allowed one of low, medium, high, ultra");
+  }
+}
+
+// A preset sets the cascade count, the resolution and the kernel, keeps every other field of the
+// host's settings, always validates, and rises in cost and quality from low to ultra; high is
+// the module's default.
+TEST(Presets, SetTheirFieldsKeepTheRestAndHighIsTheDefault) {
+  csm::ShadowSettings base;
+  base.shadowDistanceM = 1500.0;
+  base.splitLambda = 0.8;
+  base.lightStepDeg = 0.25;
+  base.normalOffsetTexels = 2.0f;
+  base.fadeFraction = 0.2;
+  std::uint64_t lastTexels = 0;
+  for (csm::Preset p : csm::kAllPresets) {
+    SCOPED_TRACE(csm::presetName(p));
+    const csm::PresetConfig c = csm::presetConfig(p, base);
+    EXPECT_FALSE(csm::validate(c.settings).has_value());
+    EXPECT_EQ(c.settings.shadowDistanceM, 1500.0);
+    EXPECT_EQ(c.settings.splitLambda, 0.8);
+    EXPECT_EQ(c.settings.lightStepDeg, 0.25);
+    EXPECT_EQ(c.settings.normalOffsetTexels, 2.0f);
+    EXPECT_EQ(c.settings.fadeFraction, 0.2);
+    const std::uint64_t texels =
+        std::uint64_t(c.settings.cascadeCount) * c.settings.resolution * c.settings.resolution;
+    EXPECT_GT(texels, lastTexels);
+    lastTexels = texels;
+  }
+  const csm::PresetConfig high = csm::presetConfig(csm::Preset::kHigh);
+  const csm::ShadowSettings def;
+  EXPECT_EQ(high.settings.cascadeCount, def.cascadeCount);
+  EXPECT_EQ(high.settings.resolution, def.resolution);
+  EXPECT_EQ(high.kernel, csm::PcfKernel::kTent3);
+  EXPECT_EQ(csm::presetConfig(csm::Preset::kUltra).kernel, csm::PcfKernel::kPcss);
+  EXPECT_EQ(csm::presetConfig(csm::Preset::kLow).settings.cascadeCount, 2u);
 }
 
 }  // namespace

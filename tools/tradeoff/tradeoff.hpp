@@ -29,6 +29,9 @@ struct Options {
   uint32_t width = 640, height = 360;
   /// --lod-study: only the default configuration, with several per-cascade LOD schedules.
   bool lodStudy = false;
+  /// --presets: only the module's quality tiers (csm::kAllPresets, cheapest first), each as
+  /// csm::presetConfig sets it over the default configuration.
+  bool presets = false;
   /// --timing-rounds N: after the sweep, N - 1 more rounds time every configuration again in
   /// the same order (interleaved), and each row's ms are the median over the N rounds, so no
   /// row is judged by where it fell in the run; [1, 20].

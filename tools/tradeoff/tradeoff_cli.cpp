@@ -14,8 +14,9 @@ void usage(std::FILE* out) {
   std::fprintf(
       out,
       "usage: csm_tradeoff [--quick] [--path NAME] [--out DIR] [--budget-ms X]... [--replot] "
-      "[--width W --height H] [--lod-study] [--timing-rounds N]\n"
+      "[--width W --height H] [--lod-study] [--presets] [--timing-rounds N]\n"
       "                    [--fit-study [--fit-resolution N]]\n"
+      "  --presets: only the module's presets (low, medium, high, ultra: csm::presetConfig).\n"
       "  --lod-study: only the default configuration, with per-cascade caster LOD schedules "
       "(0122 .. 0000) and without LODs.\n"
       "  --timing-rounds N: time every configuration N times in interleaved rounds and report "
@@ -77,6 +78,8 @@ std::optional<int> parseArgs(int argc, char** argv, Options& o) {
       o.height = uint32_t(std::stoul(next()));
     } else if (a == "--lod-study") {
       o.lodStudy = true;
+    } else if (a == "--presets") {
+      o.presets = true;
     } else if (a == "--timing-rounds") {
       const std::string v = next();
       const std::optional<long> n = wholeNumber(v);

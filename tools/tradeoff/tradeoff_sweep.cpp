@@ -1,6 +1,7 @@
 // csm_tradeoff: the sweep (configurations measured on poses along a path).
 #include "tradeoff.hpp"
 
+#include <csm/presets.hpp>
 #include <csm_measure/harness.hpp>
 #include <csm_measure/metrics.hpp>
 #include <csm_measure/raytracer.hpp>
@@ -50,6 +51,19 @@ std::vector<Config> sweepConfigs(const Options& o) {
   const std::vector<uint32_t> resolutions =
       o.quick ? std::vector<uint32_t>{512, 1024, 2048}
               : std::vector<uint32_t>{512, 1024, 2048, 4096, 8192};
+  if (o.presets) {
+    // The quality tiers, cheapest first: what csm::presetConfig sets (cascades, resolution,
+    // kernel) over the default configuration.
+    for (csm::Preset p : csm::kAllPresets) {
+      const csm::PresetConfig preset = csm::presetConfig(p);
+      Config cfg;
+      cfg.cascades = preset.settings.cascadeCount;
+      cfg.resolution = preset.settings.resolution;
+      cfg.kernel = preset.kernel;
+      configs.push_back(cfg);
+    }
+    return configs;
+  }
   if (o.lodStudy) {
     // The default configuration with error-bounded LODs at several budgets (the default: half
     // a texel), then explicit per-cascade schedules alone (the former default 0,1,2,2 first).

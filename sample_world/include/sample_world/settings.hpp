@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "csm/gpu_layout.hpp"
+#include "csm/presets.hpp"
 #include "csm/types.hpp"
 #include "sample_world/world.hpp"
 
@@ -25,6 +26,10 @@ inline constexpr std::array<SplitScheme, 3> kAllSplitSchemes{
     SplitScheme::kPractical, SplitScheme::kUniform, SplitScheme::kLogarithmic};
 
 struct AppSettings {
+  /// The quality tier applied (--set preset=NAME, csm::presetConfig: cascade count, resolution
+  /// and kernel), none by default. A preset is applied before every other setting of the same
+  /// command line or config, so those go on top of it.
+  std::optional<csm::Preset> preset;
   csm::ShadowSettings shadow{};
   SplitScheme scheme = SplitScheme::kPractical;
   csm::PcfKernel kernel = csm::PcfKernel::kTent3;
@@ -104,10 +109,11 @@ struct AppSettings {
 };
 
 /// Sets `key` from its text form; returns the error (naming key, value and what is allowed).
+/// Key "preset" applies a quality tier (csm::presetConfig) over the current settings.
 [[nodiscard]] std::optional<std::string> setSetting(AppSettings& s, const std::string& key,
                                                     const std::string& value);
 /// Applies a JSON config file: an object whose members are setting keys (values as JSON
-/// numbers, strings, booleans or, for lod.cascades, an array).
+/// numbers, strings, booleans or, for lod.cascades, an array); "preset" first, wherever it is.
 [[nodiscard]] std::optional<std::string> loadConfig(AppSettings& s, const std::string& path);
 /// Applies the text of a JSON config (what loadConfig does after reading the file); `name`
 /// starts every message ("--config FILE"). Bounded: size, nesting depth, duplicate keys.

@@ -8,6 +8,7 @@
 // Debug modes: "none", "normal", "shadow", "lightcoords", "depth", "depthdiff", "cascade".
 // Shadow-map depth formats: "d32" (D32_SFLOAT), "d16" (D16_UNORM). parseDepthFormat() also
 // accepts "D32" and "D16", the CSV reports' spelling before the names were unified.
+// Presets: "low", "medium", "high", "ultra".
 #pragma once
 
 #include <array>
@@ -18,6 +19,7 @@
 
 #include "csm/error.hpp"
 #include "csm/gpu_layout.hpp"
+#include "csm/presets.hpp"
 
 namespace csm {
 
@@ -69,5 +71,12 @@ inline constexpr std::array<DepthFormat, 2> kAllDepthFormats{DepthFormat::kD32, 
                                                    std::string_view field = "depthFormat");
 /// "d32, d16".
 [[nodiscard]] std::string depthFormatNames();
+
+/// The one spelling of a preset ("low", "medium", "high", "ultra"); "unknown" outside Preset.
+[[nodiscard]] const char* presetName(Preset preset) noexcept;
+/// The preset called `name` (presetName()), else a ValidationError naming `field`.
+[[nodiscard]] Result<Preset> parsePreset(std::string_view name, std::string_view field = "preset");
+/// "low, medium, high, ultra".
+[[nodiscard]] std::string presetNames();
 
 }  // namespace csm

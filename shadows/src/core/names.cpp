@@ -35,6 +35,14 @@ constexpr Named<DepthFormat> kDepthFormatNames[] = {
 constexpr Named<DepthFormat> kDepthFormatCompatNames[] = {{"D32", DepthFormat::kD32},
                                                           {"D16", DepthFormat::kD16}};
 
+constexpr Named<Preset> kPresetNames[] = {
+    {"low", Preset::kLow},
+    {"medium", Preset::kMedium},
+    {"high", Preset::kHigh},
+    {"ultra", Preset::kUltra},
+};
+
+static_assert(std::size(kPresetNames) == kAllPresets.size());
 static_assert(std::size(kKernelNames) == kAllKernels.size());
 static_assert(std::size(kDepthFormatNames) == kAllDepthFormats.size());
 static_assert(std::size(kDebugModeNames) == kAllDebugModes.size());
@@ -110,6 +118,19 @@ Result<DepthFormat> parseDepthFormat(std::string_view name, std::string_view fie
   if (const DepthFormat* f = find(kDepthFormatNames, name)) return *f;
   if (const DepthFormat* f = find(kDepthFormatCompatNames, name)) return *f;
   return badName(field, name, depthFormatNames());
+}
+
+const char* presetName(Preset preset) noexcept {
+  return nameOf(kPresetNames, preset);
+}
+
+std::string presetNames() {
+  return joinNames(kPresetNames);
+}
+
+Result<Preset> parsePreset(std::string_view name, std::string_view field) {
+  if (const Preset* p = find(kPresetNames, name)) return *p;
+  return badName(field, name, presetNames());
 }
 
 }  // namespace csm

@@ -1,0 +1,46 @@
+// Named quality tiers: a host picks one in one call and sets its own distances on top. Pure (no
+// Vulkan). The names ("low", "medium", "high", "ultra") are in names.hpp (presetName,
+// parsePreset). How each tier was chosen and what it measured: tools/tradeoff/README.md,
+// "Presets".
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "csm/gpu_layout.hpp"
+#include "csm/types.hpp"
+
+namespace csm {
+
+/// Quality tiers, cheapest first. kHigh is the module's default (ShadowSettings{} with
+/// PcfKernel::kTent3).
+enum class Preset : std::uint8_t {
+  /// 2 cascades of 1024^2 (8 MiB at D32), PCF tent 3x3: the mobile tier, a small map and a small
+  /// filter.
+  kLow = 0,
+  /// 3 cascades of 2048^2 (48 MiB), PCF tent 3x3.
+  kMedium = 1,
+  /// 4 cascades of 2048^2 (64 MiB), PCF tent 3x3: the default.
+  kHigh = 2,
+  /// 4 cascades of 4096^2 (256 MiB), percentage-closer soft shadows (PCSS) of the sun's disk.
+  kUltra = 3,
+};
+
+/// Every preset, cheapest first: iterate this for menus, sweeps and tests.
+inline constexpr std::array<Preset, 4> kAllPresets{Preset::kLow, Preset::kMedium, Preset::kHigh,
+                                                   Preset::kUltra};
+
+/// What a preset chooses: the settings and the lighting pipeline's PCF kernel (its
+/// specialization constant CSM_SPEC_KERNEL).
+struct PresetConfig {
+  ShadowSettings settings;
+  PcfKernel kernel = PcfKernel::kTent3;
+};
+
+/// The preset's choices on top of `base`: it sets the cascade count, the resolution and the
+/// kernel, and keeps every other field of `base` (shadow distance, splits, bias, ladder, light
+/// steps: the host's). A preset outside Preset gives `base` with the default kernel. The result
+/// passes validate() whenever `base` does.
+[[nodiscard]] PresetConfig presetConfig(Preset preset, const ShadowSettings& base = {}) noexcept;
+
+}  // namespace csm
