@@ -119,8 +119,8 @@ TEST(Cli, PresetThenOtherSettingsOnTop) {
   std::ifstream in(out / "report.json");
   const json report = json::parse(in);
   EXPECT_EQ(report["settings"]["preset"], "low");
-  EXPECT_EQ(report["settings"]["shadow.cascades"], 3);       // on top of the preset's 2
-  EXPECT_EQ(report["settings"]["shadow.resolution"], 1024);  // the preset's
+  EXPECT_EQ(report["settings"]["shadow.cascades"], 3);      // on top of the preset's 6
+  EXPECT_EQ(report["settings"]["shadow.resolution"], 512);  // the preset's
   EXPECT_EQ(report["settings"]["shadow.kernel"], "tent3x3");
 }
 

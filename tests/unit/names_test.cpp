@@ -139,7 +139,7 @@ TEST(Presets, SetTheirFieldsKeepTheRestAndHighIsTheDefault) {
   EXPECT_EQ(high.settings.resolution, def.resolution);
   EXPECT_EQ(high.kernel, csm::PcfKernel::kTent3);
   EXPECT_EQ(csm::presetConfig(csm::Preset::kUltra).kernel, csm::PcfKernel::kPcss);
-  EXPECT_EQ(csm::presetConfig(csm::Preset::kLow).settings.cascadeCount, 2u);
+  EXPECT_EQ(csm::presetConfig(csm::Preset::kLow).settings.resolution, 512u);
 }
 
 }  // namespace

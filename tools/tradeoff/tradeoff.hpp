@@ -47,6 +47,8 @@ struct Config {
   double lambda = 0.75;
   csm::PcfKernel kernel = csm::PcfKernel::kTent3;
   double blendBand = 0.1;
+  /// ShadowSettings::fadeFraction: the fade to lit at the shadow distance (0: the hard cut).
+  double fade = csm::ShadowSettings{}.fadeFraction;
   VkFormat format = VK_FORMAT_D32_SFLOAT;
   /// Caster LODs: cascade c draws each cluster's coarsest simplified mesh whose geometric error
   /// is at most maxErrorTexels of its texels (the module's default, RendererOptions::
@@ -85,7 +87,8 @@ struct Config {
            kernel == csm::PcfKernel::kTent3 && blendBand == d.blendBand &&
            format == VK_FORMAT_D32_SFLOAT && lods && schedule.empty() &&
            maxErrorTexels == csm::vk::RendererOptions{}.lodMaxErrorTexels && fit == d.boxFit &&
-           ladderSteps == d.ladderStepsPerOctave && !receivers && cullClosed;
+           ladderSteps == d.ladderStepsPerOctave && !receivers && cullClosed &&
+           fade == d.fadeFraction;
   }
   [[nodiscard]] std::string fitLabel() const {
     std::string s;
@@ -97,6 +100,11 @@ struct Config {
     }
     if (receivers) s += histogram ? " hist" : " rcv";
     if (!cullClosed) s += " noCull";
+    if (fade != csm::ShadowSettings{}.fadeFraction) {
+      char buf[32];
+      std::snprintf(buf, sizeof buf, " fade%.2g", fade);
+      s += buf;
+    }
     return s;
   }
   /// The label without the fields at their default (for the plot).

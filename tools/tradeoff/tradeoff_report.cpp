@@ -28,8 +28,9 @@ std::vector<Row> readCsv(const std::string& path) {
       f.push_back(line.substr(p, q - p));
     }
     f.push_back(line.substr(p));
-    // 20 columns before the fit axes were added, 23 since, 24 with the soft error.
-    if (f.size() != 20 && f.size() != 23 && f.size() != 24) {
+    // 20 columns before the fit axes were added, 23 since, 24 with the soft error, 25 with the
+    // fade (CSVs without it were measured with the hard cut).
+    if (f.size() != 20 && f.size() != 23 && f.size() != 24 && f.size() != 25) {
       throw std::runtime_error("--replot: bad line in " + path + ": " + line);
     }
     Row r;
@@ -62,6 +63,7 @@ std::vector<Row> readCsv(const std::string& path) {
       r.config.histogram = f[22] == "2";
     }
     if (f.size() >= 24) r.softError = std::stod(f[23]);
+    r.config.fade = f.size() >= 25 ? std::stod(f[24]) : 0.0;
     rows.push_back(r);
   }
   return rows;
@@ -83,19 +85,19 @@ void writeCsv(const std::vector<Row>& rows, const std::string& csv) {
   f << "cascades,resolution,lambda,kernel,blend_band,format,lods,shadow_gpu_ms,lit_gpu_ms,"
        "gpu_ms,cpu_ms,memory_mib,misclassification,mean_abs_error,shimmer_mean,shimmer_max,"
        "shadow_triangles,pixels,pareto,default,box_fit,ladder_steps,receiver_splits,"
-       "mean_abs_error_soft\n";
+       "mean_abs_error_soft,fade\n";
   for (const Row& r : rows) {
     const Config& c = r.config;
     char line[512];
     std::snprintf(line, sizeof line,
                   "%u,%u,%.2f,%s,%.2f,%s,%d,%.3f,%.3f,%.3f,%.3f,%.1f,%.5f,%.5f,%.3e,%.4f,%.0f,"
-                  "%llu,%d,%d,%s,%.0f,%d,%.5f\n",
+                  "%llu,%d,%d,%s,%.0f,%d,%.5f,%.3f\n",
                   c.cascades, c.resolution, c.lambda, csm::kernelName(c.kernel), c.blendBand,
                   csm::vk::depthFormatName(c.format), c.lods ? 1 : 0, r.shadowMs, r.litMs,
                   r.gpuMs(), r.cpuMs, r.memoryMiB, r.misclassification, r.meanError, r.shimmerMean,
                   r.shimmerMax, r.triangles, (unsigned long long)r.pixels, r.pareto ? 1 : 0,
                   c.isDefault() ? 1 : 0, c.fit == csm::BoxFit::kTight ? "tight" : "sphere",
-                  c.ladderSteps, c.receivers ? (c.histogram ? 2 : 1) : 0, r.softError);
+                  c.ladderSteps, c.receivers ? (c.histogram ? 2 : 1) : 0, r.softError, c.fade);
     f << line;
   }
 }

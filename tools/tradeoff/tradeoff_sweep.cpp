@@ -119,6 +119,12 @@ std::vector<Config> sweepConfigs(const Options& o) {
     configs.push_back(cfg);
   }
   if (!o.lodStudy) {
+    // The hard end of the shadows (no fade), as every sweep before the fade measured.
+    Config cfg;
+    cfg.fade = 0.0;
+    configs.push_back(cfg);
+  }
+  if (!o.lodStudy) {
     Config cfg;
     cfg.format = VK_FORMAT_D16_UNORM;
     configs.push_back(cfg);
@@ -176,6 +182,7 @@ std::optional<csm::ShadowSettings> configure(const SweepRig& rig, const Config& 
   s.resolution = cfg.resolution;
   s.splitLambda = cfg.lambda;
   s.blendBand = cfg.blendBand;
+  s.fadeFraction = cfg.fade;
   s.boxFit = cfg.fit;
   s.receiverSplitScheme =
       cfg.histogram ? csm::ReceiverSplitScheme::kHistogram : csm::ReceiverSplitScheme::kRange;

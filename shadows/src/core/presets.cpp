@@ -7,12 +7,12 @@ PresetConfig presetConfig(Preset preset, const ShadowSettings& base) noexcept {
   PresetConfig c{base, PcfKernel::kTent3};
   switch (preset) {
     case Preset::kLow:
-      c.settings.cascadeCount = 2;
-      c.settings.resolution = 1024;
+      c.settings.cascadeCount = 6;
+      c.settings.resolution = 512;
       break;
     case Preset::kMedium:
-      c.settings.cascadeCount = 3;
-      c.settings.resolution = 2048;
+      c.settings.cascadeCount = 6;
+      c.settings.resolution = 1024;
       break;
     case Preset::kHigh:
       c.settings.cascadeCount = 4;
