@@ -13,13 +13,13 @@
 namespace csm {
 
 /// Quality tiers, cheapest first, each the most accurate configuration of the measured
-/// speed/accuracy front (csm_tradeoff on the sample world's forest path) within a budget of
-/// shadow-map memory and shadow-pass time (tools/tradeoff/README.md, "Presets"). kHigh is the
+/// speed/accuracy sweep (csm_tradeoff on the sample world's forest path) within a budget of
+/// shadow-map memory (tools/tradeoff/README.md, "Presets"). kHigh is the
 /// module's default (ShadowSettings{} with PcfKernel::kTent3).
 enum class Preset : std::uint8_t {
   /// 6 cascades of 512^2 (6 MiB at D32), PCF tent 3x3: within 8 MiB.
   kLow = 0,
-  /// 6 cascades of 1024^2 (24 MiB), PCF tent 3x3: within 32 MiB.
+  /// 6 cascades of 1024^2 (24 MiB), PCF tent 3x3: within 32 MiB and 20 ms of shadow pass.
   kMedium = 1,
   /// 4 cascades of 2048^2 (64 MiB), PCF tent 3x3: the default.
   kHigh = 2,
