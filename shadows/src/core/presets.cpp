@@ -1,28 +1,36 @@
 // The quality tiers (presets.hpp).
 #include "csm/presets.hpp"
 
+#include <iterator>
+
 namespace csm {
+namespace {
+
+struct Tier {
+  Preset preset;
+  std::uint32_t cascadeCount;
+  std::uint32_t resolution;
+  PcfKernel kernel;
+};
+
+// What each tier chooses (tools/tradeoff/README.md, "Presets": how and what they measured).
+constexpr Tier kTiers[] = {
+    {Preset::kLow, 6, 512, PcfKernel::kTent3},
+    {Preset::kMedium, 6, 1024, PcfKernel::kTent3},
+    {Preset::kHigh, 4, 2048, PcfKernel::kTent3},
+    {Preset::kUltra, 4, 4096, PcfKernel::kPcss},
+};
+static_assert(std::size(kTiers) == kAllPresets.size());
+
+}  // namespace
 
 PresetConfig presetConfig(Preset preset, const ShadowSettings& base) noexcept {
   PresetConfig c{base, PcfKernel::kTent3};
-  switch (preset) {
-    case Preset::kLow:
-      c.settings.cascadeCount = 6;
-      c.settings.resolution = 512;
-      break;
-    case Preset::kMedium:
-      c.settings.cascadeCount = 6;
-      c.settings.resolution = 1024;
-      break;
-    case Preset::kHigh:
-      c.settings.cascadeCount = 4;
-      c.settings.resolution = 2048;
-      break;
-    case Preset::kUltra:
-      c.settings.cascadeCount = 4;
-      c.settings.resolution = 4096;
-      c.kernel = PcfKernel::kPcss;
-      break;
+  for (const Tier& t : kTiers) {
+    if (t.preset != preset) continue;
+    c.settings.cascadeCount = t.cascadeCount;
+    c.settings.resolution = t.resolution;
+    c.kernel = t.kernel;
   }
   return c;
 }
