@@ -6,6 +6,7 @@
 
 #include <csm_measure/harness.hpp>
 #include <csm_measure/metrics.hpp>
+#include <csm_measure/motions.hpp>
 #include <csm_measure/raytracer.hpp>
 #include <csm_measure/scene.hpp>
 #include <engine/debug.hpp>
@@ -28,82 +29,14 @@ inline std::string artefactDir() {
   return dir.string();
 }
 
-/// The scene's local origin `distanceM` from the world origin (a direction that is on no axis).
-inline glm::dvec3 originAt(double distanceM) {
-  return distanceM * glm::dvec3(0.6, 0.0, -0.8);
-}
-
-/// The light of every test unless a test says otherwise: it never moves.
-inline csm::DirectionalLight testLight() {
-  csm::DirectionalLight l;
-  l.directionWs = glm::normalize(glm::dvec3(0.75, -0.6, 0.3));
-  return l;
-}
-
-/// The base camera: local (0, 7, 28) looking at local (0, 0, -25).
-inline csm::Camera baseCamera(const glm::dvec3& originWs, double aspect = 16.0 / 9.0) {
-  engine::Camera e;
-  e.positionWs = originWs + glm::dvec3(0.0, 7.0, 28.0);
-  e.lookAt(originWs + glm::dvec3(0.0, 0.0, -25.0));
-  e.fovYRad = glm::radians(60.0);
-  e.aspect = aspect;
-  e.nearM = 0.1;
-  e.farM = 1000.0;
-  return glue::toCsmCamera(e);
-}
-
-/// A distance from the origin as the shimmer tests print and plot it: "0", "1e+06", "1e+07".
-inline std::string distanceKey(double d) {
-  if (d == 0.0) return "0";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.0e", d);
-  return buf;
-}
-
-/// The shimmer tests' scene (csm_measure::Scene::makeTestScene, terrain) `distanceM` from the
-/// origin, handed to the harness.
-inline csm_measure::Scene setShimmerScene(csm_measure::Harness& harness, double distanceM) {
-  csm_measure::TestSceneDesc sd;
-  sd.originWs = originAt(distanceM);
-  csm_measure::Scene scene = csm_measure::Scene::makeTestScene(sd);
-  harness.setScene(scene);
-  return scene;
-}
-
-/// The shimmer tests' receivers: `count` points (30% on building walls) over the whole view.
-inline std::vector<csm_measure::Receiver> viewReceivers(const csm_measure::Scene& scene,
-                                                        uint32_t count) {
-  return scene.sampleReceivers(count, 0.3, {-45.0, -5.0, -100.0}, {45.0, 30.0, 15.0}, 7);
-}
-
-/// The camera of frame f of a shimmer motion about the base camera (`origin`'s), in texels of the
-/// stabilised cascades of the base camera (cascade 0's `texel0`, the last one's `texelLast`) so
-/// that "sub-texel" means the same at every distance: static, subtexel (0.3 texel0 per frame),
-/// multitexel (3.3 texelLast), yaw (0.35 degrees), pitch (0.25 degrees), orbit (about a point
-/// 53 m ahead, 0.4 degrees per frame).
-inline csm::Camera motionCamera(const std::string& motion, const glm::dvec3& origin, double texel0,
-                                double texelLast, int f) {
-  csm::Camera c = baseCamera(origin);
-  const glm::dvec3 dir = glm::normalize(glm::dvec3(1.0, 0.15, -0.7));
-  if (motion == "subtexel") {
-    c.positionWs += dir * (0.3 * texel0 * f);
-  } else if (motion == "multitexel") {
-    c.positionWs += dir * (3.3 * texelLast * f);
-  } else if (motion == "yaw") {
-    c.orientationWs = glm::angleAxis(glm::radians(0.35 * f), glm::dvec3(0, 1, 0)) * c.orientationWs;
-  } else if (motion == "pitch") {
-    c.orientationWs = c.orientationWs * glm::angleAxis(glm::radians(0.25 * f), glm::dvec3(1, 0, 0));
-  } else if (motion == "orbit") {
-    const glm::dvec3 target = origin + glm::dvec3(0.0, 0.0, -25.0);
-    const glm::dquat r = glm::angleAxis(glm::radians(0.4 * f), glm::dvec3(0, 1, 0));
-    engine::Camera e;
-    e.positionWs = target + r * (c.positionWs - target);
-    e.lookAt(target);
-    c.positionWs = e.positionWs;
-    c.orientationWs = e.orientation;
-  }
-  return c;
-}
+// The shimmer scene, its light, cameras and motions (csm_measure/motions.hpp).
+using csm_measure::baseCamera;
+using csm_measure::distanceKey;
+using csm_measure::motionCamera;
+using csm_measure::originAt;
+using csm_measure::setShimmerScene;
+using csm_measure::testLight;
+using csm_measure::viewReceivers;
 
 /// Writes a test's report to artefactDir()/`fileName`: what it measured, its runs, and any
 /// further top-level fields of `extra`.
