@@ -257,15 +257,13 @@ bool inShadowRange(const PixelSample& p, const csm::CascadeFrame& frame) noexcep
   return p.cascade >= 0 && p.cascade < int(frame.cascadeCount);
 }
 
-// The ray-traced visibility as the module means to show it: toward the shadow distance it fades
-// to lit by design (ShadowSettings::fadeFraction), so there the truth is faded alike.
+}  // namespace
+
 double fadedTruth(double visibility, const PixelSample& p,
                   const csm::CascadeFrame& frame) noexcept {
   const double fade = csm::shadowFade(frame, csm::viewDepthM(frame, p.posWs));
   return visibility + fade * (1.0 - visibility);
 }
-
-}  // namespace
 
 AccuracyStats measureAccuracy(std::span<const PixelSample> pixels, const csm::CascadeFrame& frame,
                               const RayTracer& tracer, const csm::DirectionalLight& light) {

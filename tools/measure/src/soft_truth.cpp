@@ -10,6 +10,8 @@
 #include <random>
 #include <thread>
 
+#include "csm_measure/metrics.hpp"
+
 namespace csm_measure {
 namespace {
 
@@ -129,9 +131,7 @@ std::vector<float> softTruthOfPixels(std::span<const PixelSample> pixels,
   // Toward the shadow distance the module fades to lit by design (ShadowSettings::fadeFraction):
   // the truth there is the faded one.
   for (size_t i = 0; i < pixels.size(); ++i) {
-    if (truth[i] < 0.0f) continue;
-    const double fade = csm::shadowFade(frame, csm::viewDepthM(frame, pixels[i].posWs));
-    truth[i] = float(truth[i] + fade * (1.0 - truth[i]));
+    if (truth[i] >= 0.0f) truth[i] = float(fadedTruth(truth[i], pixels[i], frame));
   }
   return truth;
 }

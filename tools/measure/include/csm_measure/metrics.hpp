@@ -110,6 +110,11 @@ struct AccuracyStats {
   [[nodiscard]] nlohmann::json toJson(uint32_t cascadeCount) const;
 };
 
+/// The ray-traced visibility `visibility` of pixel `p` as the module means to show it: toward
+/// the shadow distance the frame fades to lit by design (ShadowSettings::fadeFraction,
+/// csm::shadowFade), so there the truth is faded alike: v + fade x (1 - v).
+double fadedTruth(double visibility, const PixelSample& p, const csm::CascadeFrame& frame) noexcept;
+
 /// Compares each receiver pixel's shadow factor s with the visibility v of a shadow ray toward
 /// the light (Embree, full-detail triangles). Pixels with dot(n, -lightDir) <= 0 are unlit by
 /// shading whatever the shadow says and are left out.
