@@ -149,11 +149,19 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   changed |= ImGui::SliderFloat("light elevation", &el, 1.0f, 90.0f);
   s.lightAzimuthDeg = az;
   s.lightElevationDeg = el;
-  // A quality tier sets cascades, resolution and kernel below (the other settings stay).
-  csm::Preset preset = s.preset.value_or(csm::Preset::kHigh);
-  if (world::enumCombo("preset", preset, csm::kAllPresets, csm::presetName)) {
-    changed = true;
-    (void)world::setSetting(s, "preset", csm::presetName(preset));
+  // A quality tier sets cascades, resolution and kernel below (the other settings stay). The
+  // menu names the tier those three hold now, or "custom" when no tier matches them.
+  const std::optional<csm::Preset> current = world::matchingPreset(s);
+  if (ImGui::BeginCombo("preset", current ? csm::presetName(*current) : "custom")) {
+    for (const csm::Preset p : csm::kAllPresets) {
+      const bool selected = current == p;
+      if (ImGui::Selectable(csm::presetName(p), selected) && !selected) {
+        changed = true;
+        (void)world::setSetting(s, "preset", csm::presetName(p));
+      }
+      if (selected) ImGui::SetItemDefaultFocus();
+    }
+    ImGui::EndCombo();
   }
   int cascades = static_cast<int>(s.shadow.cascadeCount);
   changed |= ImGui::SliderInt("cascades", &cascades, 1, static_cast<int>(csm::kMaxCascades));

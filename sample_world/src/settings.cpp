@@ -302,6 +302,17 @@ AppSettings::AppSettings() {
   shadow.lightStepDeg = 0.25;
 }
 
+std::optional<csm::Preset> matchingPreset(const AppSettings& s) noexcept {
+  for (csm::Preset p : csm::kAllPresets) {
+    const csm::PresetConfig c = csm::presetConfig(p, s.shadow);
+    if (c.settings.cascadeCount == s.shadow.cascadeCount &&
+        c.settings.resolution == s.shadow.resolution && c.kernel == s.kernel) {
+      return p;
+    }
+  }
+  return std::nullopt;
+}
+
 std::optional<std::string> setSetting(AppSettings& s, const std::string& key,
                                       const std::string& value) {
   if (key == kPresetKey) {

@@ -426,6 +426,18 @@ TEST(Settings, PresetsApplyFirstAndRoundTrip) {
     EXPECT_EQ(s.shadow.resolution, 4096u) << text;
     EXPECT_EQ(s.kernel, csm::PcfKernel::kPcss) << text;
   }
+  // The panel's menu: the tier the settings hold now, whether applied by name or not.
+  world::AppSettings m;
+  EXPECT_EQ(world::matchingPreset(m), csm::Preset::kHigh) << "the defaults are high";
+  ASSERT_FALSE(world::setSetting(m, "preset", "low"));
+  EXPECT_EQ(world::matchingPreset(m), csm::Preset::kLow);
+  ASSERT_FALSE(world::setSetting(m, "shadow.cascades", "3"));
+  EXPECT_FALSE(world::matchingPreset(m).has_value()) << "a tier changed by hand is custom";
+  ASSERT_FALSE(world::setSetting(m, "shadow.cascades", "4"));
+  ASSERT_FALSE(world::setSetting(m, "shadow.resolution", "4096"));
+  ASSERT_FALSE(world::setSetting(m, "shadow.kernel", "pcss"));
+  EXPECT_EQ(world::matchingPreset(m), csm::Preset::kUltra) << "ultra's choices set one by one";
+
   world::AppSettings s;
   auto err = world::setSetting(s, "preset", "epic");
   ASSERT_TRUE(err);

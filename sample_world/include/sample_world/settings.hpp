@@ -112,6 +112,9 @@ struct AppSettings {
 /// Key "preset" applies a quality tier (csm::presetConfig) over the current settings.
 [[nodiscard]] std::optional<std::string> setSetting(AppSettings& s, const std::string& key,
                                                     const std::string& value);
+/// The preset whose choices (cascade count, resolution, kernel: csm::presetConfig) `s` holds now,
+/// whether or not it was applied by name; nothing when none does ("custom" in the panel).
+[[nodiscard]] std::optional<csm::Preset> matchingPreset(const AppSettings& s) noexcept;
 /// Applies a JSON config file: an object whose members are setting keys (values as JSON
 /// numbers, strings, booleans or, for lod.cascades, an array); "preset" first, wherever it is.
 [[nodiscard]] std::optional<std::string> loadConfig(AppSettings& s, const std::string& path);
