@@ -70,6 +70,7 @@ int run(int argc, char** argv) {
                          info.find(';') - std::min(info.size(), size_t(8)));
   } else {
     rows = runSweep(o, info, device, elapsed);
+    std::ofstream(o.out + "/tradeoff_info.txt") << info << "\n";
   }
   markParetoFront(rows);
   const std::string csv = o.out + "/tradeoff.csv";

@@ -39,6 +39,15 @@ struct Options {
   /// --fit-resolution N: the fit study's shadow-map side for every configuration (0: the
   /// fly-through's, 2048); a power of two in [256, 16384].
   uint32_t fitResolution = 0;
+  /// Acne and leaks (csm_measure's bias metrics) at each pose's accuracy pixels: Row::acne,
+  /// Row::leak (csm_datasheet; off in the sweep, where the truth per configuration would double
+  /// its time).
+  bool bias = false;
+  /// Time the configurations (shadow, lit and CPU ms); off: the accuracy columns alone (the
+  /// datasheet's check), the ms columns 0.
+  bool timing = true;
+  /// Poses along the path (0: 5, or 2 with --quick).
+  int poses = 0;
 };
 
 struct Config {
@@ -151,6 +160,10 @@ struct Row {
   double misclassification = 0, meanError = 0;
   double softError = -1;  ///< mean |s - v_soft| against a sun of 0.53 degrees; -1: not measured
   double shimmerMean = 0, shimmerMax = 0;
+  /// With Options::bias: lit interior pixels facing the light shaded below 0.99
+  /// (BiasStats::below099) and shadowed pixels next to a contact line shaded above 0.5
+  /// (BiasStats::leaks), over every pose; -1: not measured.
+  double acne = -1, leak = -1;
   double triangles = 0;  ///< triangles the shadow pass draws per frame (mean over poses)
   uint64_t pixels = 0;
   bool pareto = false;
@@ -173,6 +186,12 @@ std::vector<Config> sweepConfigs(const Options& o);
 /// rows; `info` says what was measured where, `device` names the GPU.
 std::vector<Row> runSweep(const Options& o, std::string& info, std::string& device,
                           const std::function<double()>& elapsed);
+/// The same over the given configurations (csm_datasheet's rows).
+std::vector<Row> runSweep(const Options& o, const std::vector<Config>& configs, std::string& info,
+                          std::string& device, const std::function<double()>& elapsed);
+/// The settings and renderer options of a configuration (what the sweep configures).
+csm::ShadowSettings settingsOf(const Config& cfg);
+csm::vk::RendererOptions rendererOptionsOf(const Config& cfg);
 
 // ---- The CSV, the front, the table, the plot and the advice (tradeoff_report.cpp)
 /// Rows of a CSV this tool wrote (for --replot).

@@ -2,6 +2,7 @@
 #include "tradeoff.hpp"
 
 #include <csm/presets.hpp>
+#include <csm_measure/bias_metrics.hpp>
 #include <csm_measure/harness.hpp>
 #include <csm_measure/metrics.hpp>
 #include <csm_measure/raytracer.hpp>
@@ -18,7 +19,6 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
-#include <fstream>
 #include <functional>
 #include <optional>
 #include <stdexcept>
@@ -151,6 +151,29 @@ std::vector<Config> sweepConfigs(const Options& o) {
   return configs;
 }
 
+csm::ShadowSettings settingsOf(const Config& cfg) {
+  csm::ShadowSettings s;
+  s.cascadeCount = cfg.cascades;
+  s.resolution = cfg.resolution;
+  s.splitLambda = cfg.lambda;
+  s.blendBand = cfg.blendBand;
+  s.fadeFraction = cfg.fade;
+  s.boxFit = cfg.fit;
+  s.receiverSplitScheme =
+      cfg.histogram ? csm::ReceiverSplitScheme::kHistogram : csm::ReceiverSplitScheme::kRange;
+  s.sizeLadder = cfg.ladderSteps > 0.0;
+  if (cfg.ladderSteps > 0.0) s.ladderStepsPerOctave = cfg.ladderSteps;
+  return s;
+}
+
+csm::vk::RendererOptions rendererOptionsOf(const Config& cfg) {
+  csm::vk::RendererOptions ro;
+  ro.depthFormat = cfg.format;
+  ro.lodMaxErrorTexels = cfg.lods ? cfg.maxErrorTexels : 0.0f;
+  ro.cullClosedCasters = cfg.cullClosed;
+  return ro;
+}
+
 namespace {
 
 /// What every configuration of the sweep is measured with.
@@ -177,23 +200,9 @@ struct SweepRig {
 /// settings, or nothing when the harness refuses them (printed).
 std::optional<csm::ShadowSettings> configure(const SweepRig& rig, const Config& cfg) {
   csm_measure::Harness& harness = rig.harness;
-  csm::ShadowSettings s;
-  s.cascadeCount = cfg.cascades;
-  s.resolution = cfg.resolution;
-  s.splitLambda = cfg.lambda;
-  s.blendBand = cfg.blendBand;
-  s.fadeFraction = cfg.fade;
-  s.boxFit = cfg.fit;
-  s.receiverSplitScheme =
-      cfg.histogram ? csm::ReceiverSplitScheme::kHistogram : csm::ReceiverSplitScheme::kRange;
-  s.sizeLadder = cfg.ladderSteps > 0.0;
-  if (cfg.ladderSteps > 0.0) s.ladderStepsPerOctave = cfg.ladderSteps;
+  const csm::ShadowSettings s = settingsOf(cfg);
   harness.setReceiverRange(std::nullopt);
-  csm::vk::RendererOptions ro;
-  ro.depthFormat = cfg.format;
-  ro.lodMaxErrorTexels = cfg.lods ? cfg.maxErrorTexels : 0.0f;
-  ro.cullClosedCasters = cfg.cullClosed;
-  const csm::vk::Status st = harness.configure(s, ro);
+  const csm::vk::Status st = harness.configure(s, rendererOptionsOf(cfg));
   if (!st.ok()) {
     std::fprintf(stderr, "\nskipping %s: %s\n", cfg.label().c_str(), st.message().c_str());
     return std::nullopt;
@@ -248,24 +257,31 @@ csm_measure::ShimmerRun shimmerFromPose(const SweepRig& rig, const Config& cfg, 
       rig.shimmerFrames, cfg.kernel);
 }
 
-/// Pose `cam`'s timings in the configured harness: with `cfg.receivers`, the receiver range of
-/// the pose's full-range frame first (what the depth reduction reports for the frame before);
-/// then one warm-up frame and the fastest of kTimedFrames (lavapipe's timings vary by tens of
-/// percent from frame to frame with the host's scheduling; the minimum is stable).
+/// With `cfg.receivers`: the receiver range of pose `cam`'s full-range frame, as the depth
+/// reduction reports it for the frame before, set on the harness.
+void setPoseReceiverRange(const SweepRig& rig, const Config& cfg, const csm::ShadowSettings& s,
+                          const csm::Camera& cam) {
+  if (!cfg.receivers) return;
+  csm_measure::Harness& harness = rig.harness;
+  const VkExtent2D accuracyView = rig.accuracyView;
+  harness.setReceiverRange(std::nullopt);
+  csm::Camera rc = cam;
+  rc.aspect = double(accuracyView.width) / accuracyView.height;
+  csm::CascadeHistory hr;
+  const csm::CascadeFrame fr = harness.computeFrame(rc, rig.light, hr);
+  harness.setReceiverRange(receiverRangeOf(harness.renderAccuracy(rc, fr, accuracyView, cfg.kernel),
+                                           rc, rc.nearM,
+                                           std::max(s.shadowDistanceM, 2.0 * rc.nearM)));
+}
+
+/// Pose `cam`'s timings in the configured harness (the receiver range first, see
+/// setPoseReceiverRange); then one warm-up frame and the fastest of kTimedFrames (lavapipe's
+/// timings vary by tens of percent from frame to frame with the host's scheduling; the minimum
+/// is stable).
 csm_measure::FrameTimings timePose(const SweepRig& rig, const Config& cfg,
                                    const csm::ShadowSettings& s, const csm::Camera& cam) {
   csm_measure::Harness& harness = rig.harness;
-  const VkExtent2D accuracyView = rig.accuracyView;
-  if (cfg.receivers) {
-    harness.setReceiverRange(std::nullopt);
-    csm::Camera rc = cam;
-    rc.aspect = double(accuracyView.width) / accuracyView.height;
-    csm::CascadeHistory hr;
-    const csm::CascadeFrame fr = harness.computeFrame(rc, rig.light, hr);
-    harness.setReceiverRange(
-        receiverRangeOf(harness.renderAccuracy(rc, fr, accuracyView, cfg.kernel), rc, rc.nearM,
-                        std::max(s.shadowDistanceM, 2.0 * rc.nearM)));
-  }
+  setPoseReceiverRange(rig, cfg, s, cam);
   csm::CascadeHistory h;
   const VkExtent2D view{rig.o.width, rig.o.height};
   harness.timeFrame(cam, rig.light, h, view, cfg.kernel);
@@ -312,21 +328,35 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
   row.memoryMiB = double(harness.shadowMapBytes()) / (1024.0 * 1024.0);
   csm_measure::AccuracyStats acc;
   csm_measure::SoftErrorStats soft;
+  csm_measure::BiasStats bias;
   for (int p = 0; p < poses; ++p) {
     const double t = (p + 0.5) / poses;
     const csm::Camera cam = cameraAt(path->at(t), aspect);
-    const csm_measure::FrameTimings best = timePose(rig, cfg, s, cam);
-    row.shadowMs += best.shadowGpuMs / poses;
-    row.litMs += best.litGpuMs / poses;
-    row.cpuMs += best.cpuMs / poses;
-    row.triangles += double(harness.shadowTriangles()) / poses;
+    if (rig.o.timing) {
+      const csm_measure::FrameTimings best = timePose(rig, cfg, s, cam);
+      row.shadowMs += best.shadowGpuMs / poses;
+      row.litMs += best.litGpuMs / poses;
+      row.cpuMs += best.cpuMs / poses;
+    } else {
+      setPoseReceiverRange(rig, cfg, s, cam);
+    }
     csm::Camera accCam = cam;
     accCam.aspect = double(accuracyView.width) / accuracyView.height;
     csm::CascadeHistory ha;
     const csm::CascadeFrame frame = harness.computeFrame(accCam, light, ha);
     const std::vector<csm_measure::PixelSample> px =
         harness.renderAccuracy(accCam, frame, accuracyView, cfg.kernel);
+    row.triangles += double(harness.shadowTriangles()) / poses;
     acc.merge(csm_measure::measureAccuracy(px, frame, tracer, light));
+    if (rig.o.bias) {
+      const csm_measure::BiasTruth truth = csm_measure::computeBiasTruth(
+          px, accuracyView.width, accuracyView.height, frame, tracer, light);
+      const csm_measure::BiasStats b = csm_measure::scoreBias(px, truth, light);
+      bias.litInterior += b.litInterior;
+      bias.litInteriorBelow099 += b.litInteriorBelow099;
+      bias.contact += b.contact;
+      bias.contactLit += b.contactLit;
+    }
     const csm_measure::SoftErrorStats se = softErrorOfPose(rig, p, px);
     soft.pixels += se.pixels;
     soft.absErrorSum += se.absErrorSum;
@@ -341,6 +371,10 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
   row.meanError = acc.overall.meanAbsError();
   row.softError = soft.meanAbsError();
   row.pixels = acc.overall.pixels;
+  if (rig.o.bias) {
+    row.acne = bias.below099();
+    row.leak = bias.leaks();
+  }
   return row;
 }
 
@@ -386,6 +420,11 @@ void retimeInRounds(const SweepRig& rig, std::vector<Row>& rows, int rounds,
 
 std::vector<Row> runSweep(const Options& o, std::string& info, std::string& device,
                           const std::function<double()>& elapsed) {
+  return runSweep(o, sweepConfigs(o), info, device, elapsed);
+}
+
+std::vector<Row> runSweep(const Options& o, const std::vector<Config>& configs, std::string& info,
+                          std::string& device, const std::function<double()>& elapsed) {
   // The world: small enough to generate in seconds, the path's origin (10^7 m for "far").
   world::WorldDesc wd;
   wd.treeCount = o.quick ? 3000 : 8000;
@@ -411,9 +450,8 @@ std::vector<Row> runSweep(const Options& o, std::string& info, std::string& devi
   harness.setScene(scene);
   const std::array<uint32_t, csm::kMaxCascades> cascadeLod = world::AppSettings().cascadeLod;
   device = harness.context().properties().deviceName;
-  const std::vector<Config> configs = sweepConfigs(o);
 
-  const int poses = o.quick ? 2 : 5;
+  const int poses = o.poses > 0 ? o.poses : (o.quick ? 2 : 5);
   const int shimmerFrames = o.quick ? 4 : 8;
   const int kTimedFrames = 2;
   const VkExtent2D accuracyView = o.quick ? VkExtent2D{240, 135} : VkExtent2D{320, 180};
@@ -441,7 +479,7 @@ std::vector<Row> runSweep(const Options& o, std::string& info, std::string& devi
     if (std::optional<Row> row = measureConfig(rig, configs[ci])) rows.push_back(*row);
   }
   progress(configs.size(), configs.size(), "done", elapsed());
-  if (o.timingRounds > 1) retimeInRounds(rig, rows, o.timingRounds, elapsed);
+  if (o.timing && o.timingRounds > 1) retimeInRounds(rig, rows, o.timingRounds, elapsed);
   char buf[256];
   std::snprintf(buf, sizeof buf,
                 "device: %s; path %s, %d pose(s), view %ux%u (timing, median of %d round(s)), "
@@ -449,7 +487,6 @@ std::vector<Row> runSweep(const Options& o, std::string& info, std::string& devi
                 device.c_str(), o.path.c_str(), poses, o.width, o.height, o.timingRounds,
                 accuracyView.width, accuracyView.height);
   info = buf;
-  std::ofstream(o.out + "/tradeoff_info.txt") << info << "\n";
   return rows;
 }
 
