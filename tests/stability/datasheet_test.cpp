@@ -1,0 +1,66 @@
+// csm_datasheet's measurement of the default row against the committed datasheet
+// (tools/datasheet/results/datasheet.json): the code measures what is committed, a figure changed
+// by hand beyond the tolerance is found, and the default row's own figures hold what the module
+// promises (no shimmer under translation at 0, 10^6 or 10^7 m; no acne on the forest path).
+#include <gtest/gtest.h>
+
+#include <engine/errors.hpp>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "datasheet.hpp"
+#include "datasheet_measure.hpp"
+
+namespace {
+
+nlohmann::json committedSheet() {
+  std::ifstream in(std::string(CSM_SOURCE_DIR) + "/tools/datasheet/results/datasheet.json");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return nlohmann::json::parse(ss.str());
+}
+
+TEST(Datasheet, DefaultRowMatchesTheCommittedSheetAndAHandEditIsFound) {
+  datasheet::MeasureOptions o;
+  o.timing = false;
+  o.onlyRows = {"high"};
+  nlohmann::json measured;
+  try {
+    measured = datasheet::measure(o, [] { return 0.0; });
+  } catch (const engine::NoDeviceError& e) {
+    GTEST_SKIP() << "no Vulkan device: " << e.what();
+  }
+  ASSERT_EQ(measured["rows"].size(), 1u);
+  const nlohmann::json& row = measured["rows"][0];
+  EXPECT_TRUE(row["default"].get<bool>());
+  const nlohmann::json& f = row["figures"];
+  EXPECT_GT(f["misclassification"].get<double>(), 0.0);
+  EXPECT_LT(f["misclassification"].get<double>(), 0.01);
+  EXPECT_LT(f["acne"].get<double>(), 1e-4) << "lit interior pixels below 0.99";
+  for (const char* d : {"0", "1e+06", "1e+07"}) {
+    EXPECT_EQ(f["shimmer"]["translate"][d]["visible"].get<double>(), 0.0)
+        << "stabilised cascades shimmer under translation at " << d << " m";
+  }
+  EXPECT_FALSE(row.contains("timing"));
+
+  nlohmann::json committed = committedSheet();
+  const std::vector<std::string> now = datasheet::compareFigures(
+      committed, measured, datasheet::kRelativeTolerance, datasheet::kAbsoluteTolerance, false);
+  EXPECT_TRUE(now.empty()) << "the committed datasheet is stale (regenerate with "
+                              "build/bin/csm_datasheet): "
+                           << (now.empty() ? "" : now[0]);
+  for (nlohmann::json& r : committed["rows"]) {
+    if (r["name"] != "high") continue;
+    r["figures"]["misclassification"] = r["figures"]["misclassification"].get<double>() * 1.05;
+  }
+  const std::vector<std::string> edited = datasheet::compareFigures(
+      committed, measured, datasheet::kRelativeTolerance, datasheet::kAbsoluteTolerance, false);
+  ASSERT_EQ(edited.size(), now.size() + 1);
+  EXPECT_NE(edited.back().find("row 'high'.figures.misclassification"), std::string::npos)
+      << edited.back();
+}
+
+}  // namespace
