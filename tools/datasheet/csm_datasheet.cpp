@@ -14,9 +14,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -24,6 +24,7 @@
 
 #include "datasheet.hpp"
 #include "datasheet_measure.hpp"
+#include "tradeoff.hpp"
 
 namespace datasheet {
 
@@ -198,15 +199,14 @@ int run(int argc, char** argv) {
       cli.report = next();
     } else if (a == "--timing-rounds") {
       const std::string v = next();
-      char* end = nullptr;
-      const long n = std::strtol(v.c_str(), &end, 10);
-      if (v.empty() || *end != '\0' || n < 1 || n > 20) {
+      const std::optional<int> n = tradeoff::parseTimingRounds(v);
+      if (!n) {
         std::fprintf(stderr, "--timing-rounds %s is invalid: allowed an integer in [1, 20]\n",
                      v.c_str());
         return 2;
       }
-      cli.rounds = int(n);
-      if (n != 3) command += " --timing-rounds " + v;
+      cli.rounds = *n;
+      if (*n != 3) command += " --timing-rounds " + v;
     } else if (a == "--help" || a == "-h") {
       usage(stdout);
       return 0;

@@ -176,6 +176,10 @@ void usage(std::FILE* out);
 /// 0, an unknown argument: 2, with the usage printed).
 std::optional<int> parseArgs(int argc, char** argv, Options& o);
 
+/// The value of --timing-rounds: a whole number in [1, 20], else nothing (csm_tradeoff and
+/// csm_datasheet print the refusal and exit 2).
+std::optional<int> parseTimingRounds(const std::string& value);
+
 // ---- The sweep (tradeoff_sweep.cpp)
 csm::Camera cameraAt(const world::CameraPose& p, double aspect);
 void progress(size_t done, size_t total, const std::string& what, double elapsedS);

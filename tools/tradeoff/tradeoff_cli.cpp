@@ -82,13 +82,13 @@ std::optional<int> parseArgs(int argc, char** argv, Options& o) {
       o.presets = true;
     } else if (a == "--timing-rounds") {
       const std::string v = next();
-      const std::optional<long> n = wholeNumber(v);
-      if (!n || *n < 1 || *n > 20) {
+      const std::optional<int> n = parseTimingRounds(v);
+      if (!n) {
         std::fprintf(stderr, "--timing-rounds %s is invalid: allowed an integer in [1, 20]\n",
                      v.c_str());
         return 2;
       }
-      o.timingRounds = int(*n);
+      o.timingRounds = *n;
     } else if (a == "--fit-resolution") {
       // The module's own check of ShadowSettings::resolution decides what is allowed.
       const std::string v = next();

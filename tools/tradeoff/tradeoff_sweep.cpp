@@ -18,7 +18,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <optional>
 #include <stdexcept>
@@ -149,6 +151,14 @@ std::vector<Config> sweepConfigs(const Options& o) {
     configs.push_back(cfg);
   }
   return configs;
+}
+
+std::optional<int> parseTimingRounds(const std::string& value) {
+  char* end = nullptr;
+  errno = 0;
+  const long n = std::strtol(value.c_str(), &end, 10);
+  if (value.empty() || *end != '\0' || errno == ERANGE || n < 1 || n > 20) return std::nullopt;
+  return int(n);
 }
 
 csm::ShadowSettings settingsOf(const Config& cfg) {
