@@ -1,7 +1,8 @@
 // csm_datasheet's measurement of the default row against the committed datasheet
 // (tools/datasheet/results/datasheet.json): the code measures what is committed, a figure changed
 // by hand beyond the tolerance is found, and the default row's own figures hold what the module
-// promises (no shimmer under translation at 0, 10^6 or 10^7 m; no acne on the forest path).
+// promises (no shimmer under translation, rotation or zoom at 0, 10^6 or 10^7 m; no acne on the
+// forest path).
 #include <gtest/gtest.h>
 
 #include <engine/errors.hpp>
@@ -40,9 +41,11 @@ TEST(Datasheet, DefaultRowMatchesTheCommittedSheetAndAHandEditIsFound) {
   EXPECT_GT(f["misclassification"].get<double>(), 0.0);
   EXPECT_LT(f["misclassification"].get<double>(), 0.01);
   EXPECT_LT(f["acne"].get<double>(), 1e-4) << "lit interior pixels below 0.99";
-  for (const char* d : {"0", "1e+06", "1e+07"}) {
-    EXPECT_EQ(f["shimmer"]["translate"][d]["visible"].get<double>(), 0.0)
-        << "stabilised cascades shimmer under translation at " << d << " m";
+  for (const char* motion : {"translate", "rotate", "zoom"}) {
+    for (const char* d : {"0", "1e+06", "1e+07"}) {
+      EXPECT_EQ(f["shimmer"][motion][d]["visible"].get<double>(), 0.0)
+          << "stabilised cascades shimmer under " << motion << " at " << d << " m";
+    }
   }
   EXPECT_FALSE(row.contains("timing"));
 

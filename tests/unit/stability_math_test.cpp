@@ -126,14 +126,15 @@ TEST(Stability, UnstabilisedModeMovesBySubTexelAmounts) {
 
 TEST(Stability, SceneClampChangesOnlyInRareSteps) {
   // Flying toward the end of a scene: the shadow far distance follows in quantised steps, so
-  // the texel size changes on a handful of frames, not on every frame.
+  // the texel size changes on a handful of frames, not on every frame. (Stabilised, the far end
+  // is the farthest corner's distance, so the scene lies within the shadow distance all round.)
   ShadowSettings s;
   s.shadowDistanceM = 1500.0;
   Camera cam;
   cam.farM = 4000.0;
   cam.orientationWs = test::lookAlong({0, -0.1, -1});
   DirectionalLight light{{0.2, -1.0, 0.1}};
-  const AabbWs scene{{-2000, -50, -2000}, {2000, 200, 2000}};
+  const AabbWs scene{{-300, -50, -2000}, {300, 200, -700}};
   CascadeHistory history;
   double prevTexel = 0.0;
   int changes = 0;
@@ -148,6 +149,46 @@ TEST(Stability, SceneClampChangesOnlyInRareSteps) {
   }
   EXPECT_GT(changes, 0);            // the clamp does follow the scene
   EXPECT_LT(changes, frames / 20);  // but only in steps
+}
+
+TEST(Stability, TurningInPlaceInABoundedSceneMovesNoSplitAndNoTexel) {
+  // A scene smaller than the shadow distance clips the splits; a full turn of the camera in
+  // place (yaw and pitch) must not step them, nor any cascade's texel size, nor any box off its
+  // grid point, at 0, 10^6 and 10^7 m from the origin.
+  for (const double origin : {0.0, 1e6, 1e7}) {
+    ShadowSettings s;
+    s.shadowDistanceM = 200.0;
+    s.cascadeCount = 4;
+    s.resolution = 2048;
+    Camera cam;
+    cam.farM = 1000.0;
+    const glm::dvec3 o(origin, 0.0, origin);
+    cam.positionWs = o + glm::dvec3(10.0, 3.0, 20.0);
+    DirectionalLight light{{0.35, -0.8, 0.25}};
+    const AabbWs scene{o + glm::dvec3(-60, -5, -90), o + glm::dvec3(50, 30, 40)};
+    CascadeHistory history;
+    CascadeFrame first;
+    for (int i = 0; i < 720; ++i) {
+      const double yaw = glm::radians(0.5 * i);
+      const double pitch = glm::radians(-10.0 + 8.0 * std::sin(0.03 * i));
+      cam.orientationWs = test::lookAlong(
+          {std::sin(yaw) * std::cos(pitch), std::sin(pitch), -std::cos(yaw) * std::cos(pitch)});
+      const CascadeFrame f = test::computeOrDie(s, cam, light, &scene, &history);
+      if (i == 0) {
+        first = f;
+        EXPECT_LT(f.splitsM[4], s.shadowDistanceM) << "the scene must clip the splits";
+        continue;
+      }
+      for (std::uint32_t c = 0; c <= 4; ++c) {
+        ASSERT_EQ(f.splitsM[c], first.splitsM[c]) << "split " << c << " at frame " << i;
+      }
+      for (std::uint32_t c = 0; c < 4; ++c) {
+        ASSERT_EQ(f.cascades[c].texelSizeM(), first.cascades[c].texelSizeM())
+            << "cascade " << c << " at frame " << i << ", " << origin << " m";
+      }
+    }
+    for (std::uint32_t c = 0; c < 4; ++c) EXPECT_EQ(history.sizeRungEvents[c], 0u);
+  }
 }
 
 }  // namespace

@@ -146,6 +146,9 @@ struct SceneDepth {
   std::array<glm::dvec3, 8> corners{};
   double minM = -kInf;
   double maxM = kInf;
+  // The farthest corner's distance from the camera: a bound on the scene's view depth that no
+  // turn of the camera changes.
+  double reachM = kInf;
   // Some of the scene lies beyond the camera's near plane.
   bool ahead = true;
 };
@@ -189,10 +192,12 @@ SceneDepth sceneDepthInterval(const AabbWs* sceneBounds, const Camera& camera,
     scene.corners = aabbCorners(*sceneBounds);
     scene.minM = kInf;
     scene.maxM = -kInf;
+    scene.reachM = 0.0;
     for (const glm::dvec3& p : scene.corners) {
       const double d = glm::dot(p - camera.positionWs, forwardWs);
       scene.minM = std::min(scene.minM, d);
       scene.maxM = std::max(scene.maxM, d);
+      scene.reachM = std::max(scene.reachM, glm::length(p - camera.positionWs));
     }
   }
   scene.ahead = scene.maxM > camera.nearM;
@@ -569,11 +574,14 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   const double splitNearM = receiverSplitNear(in, receivers, maxFarM, receiverFarM);
   frame.receiverDriven = receivers != nullptr;
   // Splits end at the scene's (or the visible receivers') far end, in quantised steps; never
-  // closer than 2 x their near end.
+  // closer than 2 x their near end. Stabilised, the scene's end is its farthest corner's
+  // distance, not its depth along the view: turning the camera in place then moves no split
+  // and re-sizes no box (the depth along the view would step the last cascade's texel).
   const double minFarM =
       std::min(maxFarM, (splitNearM > camera.nearM ? kMinSpanRatio : 2.0) * splitNearM);
+  const double sceneFarM = settings.stabilize ? scene.reachM : scene.maxM;
   const double neededFarM =
-      std::min(scene.ahead ? std::min(maxFarM, scene.maxM) : maxFarM, receiverFarM);
+      std::min(scene.ahead ? std::min(maxFarM, sceneFarM) : maxFarM, receiverFarM);
   frame.shadowFarM = quantizedShadowFar(neededFarM, maxFarM, minFarM,
                                         history != nullptr ? history->shadowFarM : 0.0);
   if (history != nullptr) history->shadowFarM = frame.shadowFarM;
