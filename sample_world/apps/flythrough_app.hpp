@@ -111,6 +111,8 @@ class FlyCamera {
               world::AppSettings& live);
   /// The camera to render this frame with.
   [[nodiscard]] engine::Camera camera(const world::AppSettings& live, VkExtent2D extent) const;
+  /// Jumps to `pose` (a camera cut on the `cut` path); R then returns there.
+  void cutTo(const world::CameraPose& pose);
 
  private:
   world::CameraPose start_;

@@ -73,6 +73,13 @@ void FlyCamera::update(GLFWwindow* win, Input& input, const world::World& w, dou
   input.keys.endFrame();
 }
 
+void FlyCamera::cutTo(const world::CameraPose& pose) {
+  start_ = pose;
+  pos_ = pose.positionWs;
+  yaw_ = pose.yawRad;
+  pitch_ = pose.pitchRad;
+}
+
 engine::Camera FlyCamera::camera(const world::AppSettings& live, VkExtent2D extent) const {
   engine::Camera cam;
   cam.positionWs = pos_;

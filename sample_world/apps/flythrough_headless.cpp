@@ -56,8 +56,19 @@ class HeadlessFlight {
   /// Renders frame i of the flight (the measured frame) and returns its report entry.
   json renderFrame(int i, double t, const world::FlightPath& path, world::FrameStats& st) {
     const double aspect = double(o_.settings.width) / double(o_.settings.height);
+    // The `day` and `cut` paths run in simulated time: kHeadlessFrameS a frame.
+    const double seconds = i * world::kHeadlessFrameS;
+    const int shot = path.shotAt(seconds);
+    const bool cut = i > 0 && shot != shot_;
+    shot_ = shot;
+    const std::optional<world::SunPose> sun = path.sunAt(seconds);
+    if (sun) {
+      if (auto e = renderer_.setSun(*sun))
+        throw std::runtime_error("frame " + std::to_string(i) + ": " + *e);
+    }
+    if (cut) renderer_.cameraCut();
     engine::Camera cam;
-    poseCamera(cam, path.at(t), aspect, o_.settings);
+    poseCamera(cam, path.at(t, seconds), aspect, o_.settings);
     const auto cpu0 = Clock::now();
     if (auto e = renderer_.prepare(cam, st))
       throw std::runtime_error("frame " + std::to_string(i) + ": " + *e);
@@ -72,7 +83,13 @@ class HeadlessFlight {
     lastStats_ = st;
     lastCpuFrameMs_ = cpuMs;
     if (!timer_->results().empty()) lastGpu_ = timer_->results();
-    return frameJson(i, t, cam, st, cpuMs);
+    json fj = frameJson(i, t, cam, st, cpuMs);
+    fj["seconds"] = seconds;
+    if (sun) fj["sun_deg"] = {{"azimuth", sun->azimuthDeg}, {"elevation", sun->elevationDeg}};
+    if (path.cuts()) fj["shot"] = shot;
+    if (cut) fj["camera_cut"] = true;
+    if (st.cascades.lightStepped) fj["light_stepped"] = true;
+    return fj;
   }
 
   /// Writes frame i's screenshots (plain, shadow factor, overlay) and returns their entry.
@@ -149,6 +166,7 @@ class HeadlessFlight {
   std::optional<engine::GpuTimer> timer_;  // created after the settings are applied
   std::optional<ImGuiLayer> imgui_;
   std::array<int, engine::kFramesInFlight> owner_{};
+  int shot_ = 0;  // the `cut` path's shot of the last frame
   std::vector<std::map<std::string, double>> gpuByFrame_;
   std::map<std::string, double> lastGpu_;
   world::FrameStats lastStats_;
@@ -172,7 +190,7 @@ int runHeadless(const Options& o, const std::string& why) {
   if (auto e = lock.acquire(o.out)) throw UsageError(*e);
   const world::World w = makeWorld(o, o.path);
   const std::optional<world::FlightPath> path =
-      world::FlightPath::make(o.path, w, o.settings.fovDeg);
+      world::FlightPath::make(o.path, w, o.settings.fovDeg, o.settings.clock);
   std::printf("device: %s, validation %s, %ux%u, %d frames along '%s'\n",
               ctx.properties().deviceName, ctx.validationEnabled() ? "on" : "off", o.settings.width,
               o.settings.height, frames, o.path.c_str());
@@ -199,6 +217,14 @@ int runHeadless(const Options& o, const std::string& why) {
     }
     addGpuMs(framesJson, flight.finish());
     report["summary"] = summaryJson(framesJson, o.settings, flight.lastStats());
+    // What makes the worst frames on the day and cut paths: camera cuts and light steps.
+    int cuts = 0, steps = 0;
+    for (const json& f : framesJson) {
+      cuts += f.value("camera_cut", false) ? 1 : 0;
+      steps += f.value("light_stepped", false) ? 1 : 0;
+    }
+    report["summary"]["camera_cuts"] = cuts;
+    report["summary"]["light_steps"] = steps;
     report["world"] = worldJson(w, flight.renderer(), o.meshPath);
   }
   ctx.shutdown();

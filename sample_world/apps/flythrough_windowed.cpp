@@ -38,7 +38,7 @@ int runWindowed(Options o) {
   engine::Context ctx(desc);  // no device: found before the world is built
   const world::World w = makeWorld(o, o.path);
   const std::optional<world::FlightPath> path =
-      world::FlightPath::make(o.path, w, o.settings.fovDeg);
+      world::FlightPath::make(o.path, w, o.settings.fovDeg, o.settings.clock);
   std::printf("device: %s, validation %s\n", ctx.properties().deviceName,
               ctx.validationEnabled() ? "on" : "off");
   {
@@ -64,6 +64,9 @@ int runWindowed(Options o) {
     double cpuFrameMs = 0.0;
     int rendered = 0, attempts = 0;
     auto prev = Clock::now();
+    // The `day` and `cut` paths run on the wall clock: the sun moves, the camera cuts.
+    double seconds = 0.0;
+    int shot = 0;
     while (!target.shouldClose()) {
       if (o.frames > 0 && (rendered >= o.frames || attempts++ > o.frames * 50)) break;
       target.pollEvents();
@@ -76,6 +79,17 @@ int runWindowed(Options o) {
 
       // ---- Input (ignored while ImGui wants it) ------------------------------------------------
       fly.update(win, input, w, dt, live);
+      seconds += dt;
+      if (path->cuts() && path->shotAt(seconds) != shot) {
+        shot = path->shotAt(seconds);
+        fly.cutTo(path->at(0.0, seconds));
+        renderer.cameraCut();
+      }
+      if (const std::optional<world::SunPose> sun = path->sunAt(seconds)) {
+        live.lightAzimuthDeg = sun->azimuthDeg;
+        live.lightElevationDeg = sun->elevationDeg;
+        if (auto e = renderer.setSun(*sun)) throw std::runtime_error(*e);
+      }
 
       // ---- UI ----------------------------------------------------------------------------------
       imgui.newFrame(target.extent(), dt);

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <glm/gtc/constants.hpp>
 
 namespace world {
 
@@ -23,8 +24,8 @@ glm::dvec2 catmullRom(const std::vector<glm::dvec2>& p, double t) {
 }  // namespace
 
 const std::vector<std::string>& pathNames() {
-  static const std::vector<std::string> names = {"forest", "fast", "rotate",
-                                                 "zoom",   "far",  "cables"};
+  static const std::vector<std::string> names = {"forest", "fast",   "rotate", "zoom",
+                                                 "far",    "cables", "day",    "cut"};
   return names;
 }
 
@@ -35,17 +36,23 @@ glm::dvec3 pathWorldOrigin(const std::string& name, double worldSizeM) {
 }
 
 std::optional<FlightPath> FlightPath::make(const std::string& name, const World& world,
-                                           double baseFovDeg) {
+                                           double baseFovDeg, PathClock clock) {
+  if (!(clock.dayLengthS >= kMinDayLengthS && clock.dayLengthS <= kMaxDayLengthS) ||
+      !(clock.cutEveryS >= kMinCutEveryS && clock.cutEveryS <= kMaxCutEveryS)) {
+    return std::nullopt;
+  }
   FlightPath p;
   p.name_ = name;
   p.world_ = &world;
+  p.clock_ = clock;
   p.fov0_ = p.fov1_ = baseFovDeg;
   const double c = 0.5 * world.desc.sizeM;
-  if (name == "forest" || name == "far") {
+  if (name == "forest" || name == "far" || name == "day") {
     p.pointsUv_ = {{c - 1300, c + 900}, {c - 900, c + 650}, {c - 520, c + 380},
                    {c - 150, c + 330},  {c + 250, c + 80},  {c + 650, c - 300}};
     p.altitudeM_ = 28.0;
     p.pitchRad_ = -0.22;
+    p.sun_ = name == "day";
   } else if (name == "fast") {
     // Straight and fast over the forest the low pass winds through (higher, looking down enough
     // to keep trees and their shadows in view in every frame).
@@ -76,6 +83,17 @@ std::optional<FlightPath> FlightPath::make(const std::string& name, const World&
     p.pitchRad_ = -0.45;
     p.followTangent_ = false;
     p.yaw0_ = p.yaw1_ = 0.0;
+  } else if (name == "cut") {
+    // Six places far apart (a respawn, a teleport, a cut between cameras): the forest's start,
+    // the town from the south-east, the rotate path's point, the power line, the forest's end,
+    // the south-west; each looked at along its own heading.
+    p.shotsUvYaw_ = {{c - 1300, c + 900, 2.3}, {c + 670, c - 450, 1.0},  {c - 260, c + 220, -0.8},
+                     {c + 850, c + 190, 0.0},  {c + 650, c - 300, -2.4}, {c - 700, c - 800, 3.0}};
+    p.pointsUv_ = {{c, c}, {c, c}};  // unused: the pose follows the shots
+    p.altitudeM_ = 32.0;
+    p.pitchRad_ = -0.25;
+    p.followTangent_ = false;
+    p.timed_ = true;
   } else {
     return std::nullopt;
   }
@@ -83,6 +101,56 @@ std::optional<FlightPath> FlightPath::make(const std::string& name, const World&
 }
 
 CameraPose FlightPath::at(double t) const {
+  if (timed_) {
+    const double shots = static_cast<double>(shotsUvYaw_.size());
+    // Just short of the end, so that t = 1 stays in the last shot.
+    return cutPose(std::clamp(t, 0.0, 1.0) * shots * clock_.cutEveryS * (1.0 - 1e-9));
+  }
+  return splinePose(t);
+}
+
+CameraPose FlightPath::at(double t, double seconds) const {
+  return timed_ ? cutPose(seconds) : splinePose(t);
+}
+
+int FlightPath::shotAt(double seconds) const {
+  if (!timed_) return 0;
+  // (A frame's time on the cut, such as 18 x 1/60 s at 0.1 s, belongs to the new shot despite
+  // its rounding.)
+  return static_cast<int>(std::floor(std::max(0.0, seconds) / clock_.cutEveryS + 1e-9));
+}
+
+CameraPose FlightPath::cutPose(double seconds) const {
+  const int shot = shotAt(seconds);
+  const glm::dvec3& s = shotsUvYaw_[static_cast<std::size_t>(shot) % shotsUvYaw_.size()];
+  const double since = std::max(0.0, std::max(0.0, seconds) - shot * clock_.cutEveryS);
+  // Between cuts the camera drifts forward at 6 m/s (a walk-and-look shot, not a still).
+  const glm::dvec2 forward(-std::sin(s.z), -std::cos(s.z));
+  const glm::dvec2 uv = glm::dvec2(s.x, s.y) + forward * (6.0 * since);
+  const glm::dvec3 o = world_->desc.originWs;
+  CameraPose pose;
+  pose.positionWs = {o.x + uv.x, world_->heightAt(o.x + uv.x, o.z + uv.y) + altitudeM_, o.z + uv.y};
+  pose.yawRad = s.z;
+  pose.pitchRad = pitchRad_;
+  pose.fovDeg = fov0_;
+  return pose;
+}
+
+std::optional<SunPose> FlightPath::sunAt(double seconds) const {
+  if (!sun_) return std::nullopt;
+  // The fraction of daylight from sunrise (east, azimuth 90) through noon (south, 180, at
+  // kNoonDeg) to sunset (west, 270); the flight starts at mid-morning. Near the horizon the
+  // elevation holds at kLowDeg (the sun's disk is still above the ground there).
+  constexpr double kStart = 0.25, kNoonDeg = 65.0, kLowDeg = 2.0;
+  const double day = kStart + std::max(0.0, seconds) / clock_.dayLengthS;
+  const double f = day - std::floor(day);
+  SunPose sun;
+  sun.azimuthDeg = 90.0 + 180.0 * f;
+  sun.elevationDeg = std::max(kLowDeg, kNoonDeg * std::sin(glm::pi<double>() * f));
+  return sun;
+}
+
+CameraPose FlightPath::splinePose(double t) const {
   t = std::clamp(t, 0.0, 1.0);
   const glm::dvec3 o = world_->desc.originWs;
   const glm::dvec2 uv = catmullRom(pointsUv_, t);

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 
@@ -545,6 +546,31 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   if (resetHistory) shadow_->resetHistory();
   buildLitPipeline();
   return std::nullopt;
+}
+
+std::optional<std::string> WorldRenderer::setSun(const SunPose& sun) {
+  // The ranges of the light.azimuth and light.elevation settings.
+  const auto refuse = [](const char* key, double v, double lo, double hi) {
+    char text[160];
+    std::snprintf(text, sizeof(text), "%s = %g: allowed a number of degrees in [%g, %g]", key, v,
+                  lo, hi);
+    return std::optional<std::string>(text);
+  };
+  if (!(sun.azimuthDeg >= 0.0 && sun.azimuthDeg <= 360.0))
+    return refuse("sun.azimuthDeg", sun.azimuthDeg, 0.0, 360.0);
+  if (!(sun.elevationDeg >= 1.0 && sun.elevationDeg <= 90.0))
+    return refuse("sun.elevationDeg", sun.elevationDeg, 1.0, 90.0);
+  settings_.lightAzimuthDeg = sun.azimuthDeg;
+  settings_.lightElevationDeg = sun.elevationDeg;
+  return std::nullopt;
+}
+
+void WorldRenderer::cameraCut() {
+  if (depthRange_) depthRange_->invalidate();
+  receiverRange_.reset();
+  // The module's advice for a cut: sizes and splits start afresh instead of stepping down from
+  // the last place's (every cascade's window is new there anyway).
+  shadow_->resetHistory();
 }
 
 std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, FrameStats& stats) {

@@ -39,7 +39,8 @@ constexpr std::uint32_t kResolution = 512;
 
 /// Frames per flight: CSM_CACHE_WORLD_FRAMES, else 36 (each flight spans its whole path, so a
 /// cascade moves tens to hundreds of texels a frame: every frame exposes rows and columns, wraps,
-/// and new blocks; 9 flights, 324 frames in all).
+/// and new blocks; the day path steps the sun, the cut path cuts 5 times; 11 flights, 396 frames
+/// in all).
 int flightFrames() {
   const char* env = std::getenv("CSM_CACHE_WORLD_FRAMES");
   return env != nullptr ? std::max(2, std::atoi(env)) : 36;
@@ -66,7 +67,7 @@ class WorldRig {
     std::optional<world::World> w = world::generateWorld(wd, &err);
     if (!w) throw std::runtime_error(err.message);
     world_ = std::make_unique<world::World>(std::move(*w));
-    path_ = world::FlightPath::make(pathName, *world_, settings.fovDeg);
+    path_ = world::FlightPath::make(pathName, *world_, settings.fovDeg, settings.clock);
     if (!path_) throw std::runtime_error("no path " + pathName);
     target_ = std::make_unique<engine::HeadlessTarget>(
         *ctx_, engine::HeadlessDesc{{kWidth, kHeight}, VK_FORMAT_D32_SFLOAT});
@@ -102,9 +103,18 @@ class WorldRig {
   /// Renders frame i of n with both renderers and reads their layers and images back.
   void frame(int i, int n) {
     const double t = n > 1 ? double(i) / double(n - 1) : 0.0;
-    const engine::Camera cam =
-        world::poseCamera(path_->at(t), double(kWidth) / double(kHeight), 0.5, settings_.farM);
+    // The day and cut paths run in the headless flight's simulated time.
+    const double seconds = i * world::kHeadlessFrameS;
+    const std::optional<world::SunPose> sun = path_->sunAt(seconds);
+    const bool cut =
+        i > 0 && path_->shotAt(seconds) != path_->shotAt(seconds - world::kHeadlessFrameS);
+    const engine::Camera cam = world::poseCamera(
+        path_->at(t, seconds), double(kWidth) / double(kHeight), 0.5, settings_.farM);
     for (Side& side : sides_) {
+      if (sun) {
+        if (auto e = side.renderer->setSun(*sun)) throw std::runtime_error(*e);
+      }
+      if (cut) side.renderer->cameraCut();
       world::FrameStats stats;
       if (auto e = side.renderer->prepare(cam, stats)) throw std::runtime_error(*e);
       std::optional<engine::Frame> f = target_->beginFrame();
@@ -197,9 +207,13 @@ std::string flightName(const ::testing::TestParamInfo<Flight>& info) {
   return info.param.path + "_" + info.param.config;
 }
 
-/// The fly-through's defaults at the test's small sizes, with the flight's variation.
+/// The fly-through's defaults at the test's small sizes, with the flight's variation. The day
+/// and cut paths run fast: a 20 s day (the held sun steps by 0.25° every second frame) and a
+/// cut every 6 frames.
 world::AppSettings flightSettings(const std::string& config) {
   world::AppSettings s;
+  s.clock.dayLengthS = 20.0;
+  s.clock.cutEveryS = 0.1;
   s.width = kWidth;
   s.height = kHeight;
   s.shadow.resolution = kResolution;
@@ -280,6 +294,7 @@ INSTANTIATE_TEST_SUITE_P(Paths, CacheWorld,
                          ::testing::Values(Flight{"forest", "default"}, Flight{"fast", "default"},
                                            Flight{"rotate", "default"}, Flight{"zoom", "default"},
                                            Flight{"far", "default"}, Flight{"cables", "default"},
+                                           Flight{"day", "default"}, Flight{"cut", "default"},
                                            Flight{"fast", "budget"}, Flight{"forest", "receivers"},
                                            Flight{"fast", "pcss"}),
                          flightName);

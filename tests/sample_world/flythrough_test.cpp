@@ -171,10 +171,15 @@ TEST_P(CacheOnOff, ShadowScreenshotsByteIdentical) {
   for (int k = 0; k < 2; ++k) {
     dirs[k] = fs::path(CSM_TEST_ARTEFACT_DIR) / ("cache_" + path + (k == 0 ? "_on" : "_off"));
     fs::remove_all(dirs[k]);
-    const ProcessResult r =
-        runApp("--headless --frames 12 --shot-every 5 --validation --path " + path + " --out " +
-               dirs[k].string() + " --set view.width=320 --set view.height=180" +
-               " --set shadow.resolution=1024 --set shadow.cache=" + (k == 0 ? "true" : "false"));
+    // The day path's sun steps (0.25°) every frame or two in a 10 s day; the cut path cuts
+    // every 6 frames.
+    const std::string clock = path == "day"   ? " --set day.lengthS=10"
+                              : path == "cut" ? " --set cut.everyS=0.1"
+                                              : "";
+    const ProcessResult r = runApp(
+        "--headless --frames 12 --shot-every 5 --validation --path " + path + " --out " +
+        dirs[k].string() + " --set view.width=320 --set view.height=180" +
+        " --set shadow.resolution=1024 --set shadow.cache=" + (k == 0 ? "true" : "false") + clock);
     ASSERT_EQ(r.exitCode, 0) << r.output;
   }
   int compared = 0;
@@ -190,7 +195,69 @@ TEST_P(CacheOnOff, ShadowScreenshotsByteIdentical) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Paths, CacheOnOff,
-                         ::testing::Values("forest", "fast", "rotate", "zoom", "far", "cables"),
+                         ::testing::Values("forest", "fast", "rotate", "zoom", "far", "cables",
+                                           "day", "cut"),
                          [](const auto& info) { return info.param; });
+
+// The day path moves the sun at its day length (the light steps, the report says how often);
+// the cut path jumps between places at its interval (each cut marked). Both report the median
+// and the p99 of the shadow pass and of the whole frame.
+TEST(FlightClock, DayAndCutPathsReportSunStepsCutsAndTheirWorstFrames) {
+  for (const std::string path : {"day", "cut"}) {
+    const fs::path out = fs::path(CSM_TEST_ARTEFACT_DIR) / ("clock_" + path);
+    fs::remove_all(out);
+    const ProcessResult r =
+        runApp("--headless --frames 24 --validation --path " + path + " --out " + out.string() +
+               " --set view.width=160 --set view.height=90 --set shadow.resolution=512"
+               " --set day.lengthS=10 --set cut.everyS=0.1");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    std::ifstream in(out / "report.json");
+    ASSERT_TRUE(in) << "no report.json in " << out;
+    json rep;
+    in >> rep;
+    EXPECT_EQ(rep["validation"]["messages"].get<std::uint64_t>(), 0u);
+    EXPECT_EQ(rep["settings"]["day.lengthS"].get<double>(), 10.0);
+    EXPECT_EQ(rep["settings"]["cut.everyS"].get<double>(), 0.1);
+    const json& frames = rep["per_frame"];
+    ASSERT_EQ(frames.size(), 24u);
+    int cuts = 0, steps = 0;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      const json& f = frames[i];
+      EXPECT_NEAR(f["seconds"].get<double>(), double(i) / 60.0, 1e-12);
+      const bool cut = f.value("camera_cut", false);
+      cuts += cut ? 1 : 0;
+      steps += f.value("light_stepped", false) ? 1 : 0;
+      if (path == "day") {
+        // 180° of azimuth in 10 s: 0.3° a frame, from 135° at the start.
+        ASSERT_TRUE(f.contains("sun_deg"));
+        EXPECT_NEAR(f["sun_deg"]["azimuth"].get<double>(), 135.0 + 0.3 * double(i), 1e-9);
+        EXPECT_FALSE(cut);
+      } else {
+        EXPECT_FALSE(f.contains("sun_deg"));
+        // A new place every 6 frames (0.1 s at 60 frames a second).
+        EXPECT_EQ(f["shot"].get<int>(), static_cast<int>(i) / 6) << i;
+        EXPECT_EQ(cut, i > 0 && i % 6 == 0) << i;
+      }
+    }
+    EXPECT_EQ(rep["summary"]["camera_cuts"].get<int>(), cuts);
+    EXPECT_EQ(rep["summary"]["light_steps"].get<int>(), steps);
+    if (path == "day") {
+      // More than 0.25° a frame (azimuth and elevation): the held sun steps on every frame
+      // after the first.
+      EXPECT_EQ(steps, 23) << "the sun did not move the shadows";
+      EXPECT_EQ(cuts, 0);
+    } else {
+      EXPECT_EQ(cuts, 3);
+      EXPECT_EQ(steps, 0) << "the cut path keeps the settings' sun";
+    }
+    for (const char* k :
+         {"gpu_shadow_ms_median", "gpu_shadow_ms_p99", "gpu_frame_ms_median", "gpu_frame_ms_p99"}) {
+      ASSERT_TRUE(rep["summary"].contains(k)) << k;
+      EXPECT_GE(rep["summary"][k].get<double>(), 0.0) << k;
+    }
+    EXPECT_GE(rep["summary"]["gpu_shadow_ms_p99"].get<double>(),
+              rep["summary"]["gpu_shadow_ms_median"].get<double>());
+  }
+}
 
 }  // namespace

@@ -248,6 +248,92 @@ TEST(World, SameFlightAnywhere) {
   EXPECT_GT(p1->at(0.5).positionWs.x, 9.0e6);
 }
 
+TEST(World, DayPathMovesTheSunAcrossTheSkyAtItsDayLength) {
+  const world::World& w = defaultWorld();
+  world::PathClock clock;
+  clock.dayLengthS = 1200.0;
+  const auto day = world::FlightPath::make("day", w, 60.0, clock);
+  const auto forest = world::FlightPath::make("forest", w, 60.0, clock);
+  ASSERT_TRUE(day && forest);
+  EXPECT_TRUE(day->movesSun());
+  EXPECT_FALSE(day->cuts());
+  EXPECT_FALSE(forest->sunAt(10.0).has_value()) << "only the day path moves the sun";
+  // The camera flies the forest pass.
+  for (double t : {0.0, 0.4, 1.0}) {
+    EXPECT_EQ(day->at(t, 3.0).positionWs, forest->at(t).positionWs);
+  }
+  // Mid-morning at the start, then east to west through noon: azimuth rises by 180° over the day
+  // length, elevation peaks at noon, never below 2° (the settings' range starts at 1°).
+  const world::SunPose s0 = *day->sunAt(0.0);
+  EXPECT_NEAR(s0.azimuthDeg, 135.0, 1e-9);
+  EXPECT_GT(s0.elevationDeg, 30.0);
+  double lastAz = s0.azimuthDeg, noonEl = 0.0;
+  for (double sec = 1.0; sec < 900.0; sec += 1.0) {  // 900 s: sunset
+    const world::SunPose s = *day->sunAt(sec);
+    // A second of a 1200 s day turns the sun 0.15° in azimuth.
+    EXPECT_NEAR(s.azimuthDeg - lastAz, 180.0 / 1200.0, 1e-9) << sec;
+    lastAz = s.azimuthDeg;
+    EXPECT_GE(s.elevationDeg, 2.0);
+    EXPECT_LE(s.elevationDeg, 90.0);
+    noonEl = std::max(noonEl, s.elevationDeg);
+  }
+  EXPECT_NEAR(noonEl, 65.0, 1e-3);
+  // A shorter day turns it faster, in proportion.
+  clock.dayLengthS = 600.0;
+  const auto fast = world::FlightPath::make("day", w, 60.0, clock);
+  EXPECT_NEAR(fast->sunAt(10.0)->azimuthDeg - fast->sunAt(0.0)->azimuthDeg, 3.0, 1e-9);
+}
+
+TEST(World, CutPathJumpsToANewPlaceEveryCutAndDriftsBetween) {
+  const world::World& w = defaultWorld();
+  world::PathClock clock;
+  clock.cutEveryS = 2.0;
+  const auto cut = world::FlightPath::make("cut", w, 60.0, clock);
+  ASSERT_TRUE(cut);
+  EXPECT_TRUE(cut->cuts());
+  EXPECT_FALSE(cut->sunAt(1.0).has_value());
+  int cuts = 0;
+  glm::dvec3 last = cut->at(0.0, 0.0).positionWs;
+  for (int frame = 1; frame < 60 * 14; ++frame) {
+    const double sec = frame / 60.0;
+    const glm::dvec3 p = cut->at(0.0, sec).positionWs;
+    const double step = glm::length(p - last);
+    if (cut->shotAt(sec) != cut->shotAt((frame - 1) / 60.0)) {
+      ++cuts;
+      // A cut: hundreds of metres away, nothing in common with the frame before.
+      EXPECT_GT(step, 300.0) << "cut at " << sec << " s";
+    } else {
+      // Between cuts: a slow drift (6 m/s), over the ground.
+      EXPECT_LT(step, 0.5) << sec;
+    }
+    const glm::dvec3 rel = p - w.desc.originWs;
+    EXPECT_GT(rel.x, 0.0);
+    EXPECT_LT(rel.x, w.desc.sizeM);
+    EXPECT_GT(rel.z, 0.0);
+    EXPECT_LT(rel.z, w.desc.sizeM);
+    EXPECT_GT(p.y, w.heightAt(p.x, p.z));
+    last = p;
+  }
+  EXPECT_EQ(cuts, 6) << "14 s at a cut every 2 s";
+  EXPECT_EQ(cut->shotAt(1.99), 0);
+  EXPECT_EQ(cut->shotAt(2.0), 1);
+  // Along t alone (the tools that fly by t), every place is visited once.
+  int shotsByT = 0;
+  glm::dvec3 prevT = cut->at(0.0).positionWs;
+  for (int i = 1; i <= 600; ++i) {
+    const glm::dvec3 p = cut->at(i / 600.0).positionWs;
+    if (glm::length(p - prevT) > 100.0) ++shotsByT;
+    prevT = p;
+  }
+  EXPECT_EQ(shotsByT, 5) << "six places, five cuts over t in [0, 1]";
+  // A clock outside the settings' ranges makes no path (no division by zero, no endless shots).
+  for (const world::PathClock bad : {world::PathClock{1200.0, 0.0}, world::PathClock{0.0, 1.0},
+                                     world::PathClock{1200.0, std::nan("")}}) {
+    EXPECT_FALSE(world::FlightPath::make("cut", w, 60.0, bad).has_value());
+    EXPECT_FALSE(world::FlightPath::make("day", w, 60.0, bad).has_value());
+  }
+}
+
 TEST(MeshFile, LoadsObjPlyOff) {
   world::WorldError e;
   const auto off = world::loadMeshFile(writeFile("cube.off", kCubeOff), 10.0, &e);
@@ -390,6 +476,23 @@ TEST(Settings, InvalidValuesListWhatIsAllowed) {
   err = world::setSetting(s, "lod.maxErrorTexels", "-1");
   ASSERT_TRUE(err);
   EXPECT_NE(err->find("lod.maxErrorTexels"), std::string::npos) << *err;
+  // The day and cut paths' clock.
+  EXPECT_FALSE(world::setSetting(s, "day.lengthS", "3600"));
+  EXPECT_EQ(s.clock.dayLengthS, 3600.0);
+  EXPECT_FALSE(world::setSetting(s, "cut.everyS", "3"));
+  EXPECT_EQ(s.clock.cutEveryS, 3.0);
+  for (const auto& [key, value] : {std::pair<const char*, const char*>{"day.lengthS", "5"},
+                                   {"day.lengthS", "nan"},
+                                   {"cut.everyS", "0"},
+                                   {"cut.everyS", "1e9"}}) {
+    err = world::setSetting(s, key, value);
+    ASSERT_TRUE(err) << key << " = " << value;
+    EXPECT_NE(err->find(key), std::string::npos) << *err;
+    EXPECT_NE(err->find(value), std::string::npos) << *err;
+    EXPECT_NE(err->find("seconds"), std::string::npos) << *err;
+  }
+  EXPECT_EQ(s.clock.dayLengthS, 3600.0);
+  EXPECT_EQ(s.clock.cutEveryS, 3.0);
 }
 
 // --set preset=NAME: the module's tier on top of the fly-through's own settings (its shadow

@@ -15,6 +15,7 @@
 #include "csm/gpu_layout.hpp"
 #include "csm/presets.hpp"
 #include "csm/types.hpp"
+#include "sample_world/paths.hpp"
 #include "sample_world/world.hpp"
 
 namespace world {
@@ -63,6 +64,8 @@ struct AppSettings {
   /// Sun direction: azimuth from +x toward +z, elevation above the horizon, degrees.
   double lightAzimuthDeg = 140.0;
   double lightElevationDeg = 32.0;
+  /// The clock of the `day` and `cut` paths (day.lengthS, cut.everyS).
+  PathClock clock{};
   float ambient = 0.3f;
   /// Caster LODs on: each cascade draws a cluster's coarsest LOD whose geometric error is at
   /// most lodMaxErrorTexels of its texels (csm::vk::RendererOptions::lodMaxErrorTexels), and at

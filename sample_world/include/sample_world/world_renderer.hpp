@@ -25,6 +25,7 @@
 #include "engine/mesh_store.hpp"
 #include "engine/pipeline.hpp"
 #include "engine/render_target.hpp"
+#include "sample_world/paths.hpp"
 #include "sample_world/settings.hpp"
 #include "sample_world/world.hpp"
 
@@ -70,6 +71,15 @@ class WorldRenderer {
   /// Applies settings (shadow resources are recreated only when needed). Returns the error and
   /// keeps the previous settings when they are refused.
   std::optional<std::string> apply(const AppSettings& settings);
+
+  /// Moves the sun (AppSettings::lightAzimuthDeg / lightElevationDeg) without touching any other
+  /// setting: what a time of day changes every frame. Returns the error (naming the field, the
+  /// value and its range) and keeps the sun when refused.
+  std::optional<std::string> setSun(const SunPose& sun);
+  /// Tells the renderer the camera has cut to an unrelated place: the receivers' depth range of
+  /// earlier frames (receiver-driven splits) is dropped instead of being applied to the new view,
+  /// and the cascades' history is reset (csm::vk::ShadowView::resetHistory).
+  void cameraCut();
 
   /// CPU side of a frame: cascades, caster culling, lit-pass culling and instance lists.
   /// Returns the error of computeCascades (invalid camera) instead of throwing.
