@@ -15,8 +15,10 @@ cxx=${CXX_FUZZ:-clang++-14}
 # Objects are instrumented for coverage (fuzzer-no-link) and compiled once; each harness links
 # them with -fsanitize=fuzzer (libFuzzer's main).
 flags=(-std=c++20 -O1 -g -DNDEBUG -fsanitize=address,undefined -fno-sanitize-recover=all
-       -fno-omit-frame-pointer -Isample_world/include -Isample_world/src -Ishadows/include)
+       -fno-omit-frame-pointer -Isample_world/include -Isample_world/src -Ishadows/include
+       -Iengine/include)
 headers=(sample_world/src/*.hpp sample_world/include/sample_world/*.hpp shadows/include/csm/*.hpp
+         engine/include/engine/*.hpp
          tools/fuzz.sh)
 mkdir -p "$out/obj"
 object() {  # source [defines...] -> prints the object's path; rebuilt when anything is newer
