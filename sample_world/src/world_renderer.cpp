@@ -529,21 +529,20 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   } else {
     options.lodMaxErrorTexels = 0.0f;
   }
+  // The receiver fit: the view reduces this frame's depth buffer (recordDepthRange) and fits the
+  // next frames' splits, and with receiverBounds their boxes, to the receivers it shows.
+  options.receiverFit = !settings.receiverSplits  ? csm::vk::ReceiverFit::kOff
+                        : settings.receiverBounds ? csm::vk::ReceiverFit::kSplitsAndBoxes
+                                                  : csm::vk::ReceiverFit::kSplits;
   const csm::vk::Status s = shadow_->setSettings(effectiveShadow(settings), options);
   if (!s.ok()) return s.message();
   const bool resetHistory = !applied_ ||
                             settings.shadow.cascadeCount != settings_.shadow.cascadeCount ||
                             settings.shadow.stabilize != settings_.shadow.stabilize;
-  const bool rangeCut = resetHistory || settings.receiverSplits != settings_.receiverSplits ||
-                        settings.receiverBounds != settings_.receiverBounds;
   settings_ = settings;
   applied_ = true;
-  if (rangeCut) {
-    // A cut for the receiver range too: earlier depth ranges are dropped.
-    if (depthRange_) depthRange_->invalidate();
-    receiverRange_.reset();
-  }
-  if (resetHistory) shadow_->resetHistory();
+  // (A change of the receiver fit drops the earlier ranges in the view itself.)
+  if (resetHistory) shadow_->cameraCut();
   buildLitPipeline();
   return std::nullopt;
 }
@@ -566,11 +565,10 @@ std::optional<std::string> WorldRenderer::setSun(const SunPose& sun) {
 }
 
 void WorldRenderer::cameraCut() {
-  if (depthRange_) depthRange_->invalidate();
-  receiverRange_.reset();
-  // The module's advice for a cut: sizes and splits start afresh instead of stepping down from
-  // the last place's (every cascade's window is new there anyway).
-  shadow_->resetHistory();
+  // The module's cut: sizes and splits start afresh instead of stepping down from the last
+  // place's (every cascade's window is new there anyway), and no receiver range measured there
+  // is used here.
+  shadow_->cameraCut();
 }
 
 std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, FrameStats& stats) {
@@ -580,7 +578,6 @@ std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, 
 
   // The shadows: dynamic casters moved, cascades for this camera, the casters culled into them.
   auto t0 = Clock::now();
-  shadow_->setReceiverDepthRange(settings_.receiverSplits ? receiverRange_ : std::nullopt);
   moveDynamicCasters();
   const csm::vk::Status r = shadow_->compute(c, light);
   stats.cpuSetupMs = msSince(t0);
@@ -717,10 +714,6 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
   const auto t0 = Clock::now();
   VkCommandBuffer cmd = f.cmd;
   Slot& slot = slots_[f.slot];
-  // This slot's last depth-range result is complete (its fence passed in beginFrame): the next
-  // prepare() uses it. Nothing (first frames, after a cut, only sky): the full split range.
-  if (settings_.receiverSplits && depthRange_) receiverRange_ = depthRange_->read(f.slot);
-
   recordShadowPass(cmd, timer, stats);
   recordLitPass(f, slot, timer, overlay);
   if (overlay && (settings_.overlayThumbnails || settings_.overlayMap))
@@ -991,15 +984,8 @@ void WorldRenderer::recordOverlay(const engine::Frame& f, Slot& slot, engine::Gp
 }
 
 void WorldRenderer::recordDepthRange(const engine::Frame& f) {
-  // Receiver-driven splits: reduce this frame's depth buffer to the visible receivers' view-depth
-  // range; the frame that next reuses this slot (its fence passed) reads it for the following
-  // prepare(), so the splits follow the depth of a frame kFramesInFlight + 1 frames old.
-  if (!depthRange_) {
-    csm::vk::Status st;
-    depthRange_ = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(*ctx_),
-                                                     engine::kFramesInFlight, &st);
-    if (!depthRange_) throw std::runtime_error("DepthRangeReducer::create: " + st.message());
-  }
+  // The receiver fit: the view reduces this frame's depth buffer to the visible receivers' range
+  // (and their light-space bounds per cascade); the frames kFramesInFlight later fit to it.
   VkCommandBuffer cmd = f.cmd;
   const VkImageAspectFlags aspect = VK_IMAGE_ASPECT_DEPTH_BIT;
   engine::imageBarrier(
@@ -1008,25 +994,9 @@ void WorldRenderer::recordDepthRange(const engine::Frame& f) {
       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
       VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
       VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
-  const glm::mat4 proj = camera_.projection();
-  // (And the receivers' view-depth histogram, camera near .. shadow distance, for
-  // shadow.receiverSplitScheme=histogram.)
-  csm::vk::DepthProjection dp{
-      proj[2][2], proj[3][2], 1.0f, float(camera_.nearM),
-      float(std::max(settings_.shadow.shadowDistanceM, 2.0 * camera_.nearM))};
-  // (And the receivers' light-space bounds per cascade of this frame, shadow.receiverBounds.)
-  csm::vk::ReceiverBoundsInputs bounds;
-  const csm::Camera boundsCamera = glue::toCsmCamera(camera_);  // (copied by record())
-  if (settings_.receiverBounds) {
-    dp.p00 = proj[0][0];
-    dp.p11 = proj[1][1];
-    dp.p20 = proj[2][0];
-    dp.p21 = proj[2][1];
-    bounds = {&shadow_->frame(), &boundsCamera};
-  }
-  const csm::vk::Status s = depthRange_->record(
-      cmd, f.depthView, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, f.extent, dp, f.slot, bounds);
-  if (!s.ok()) throw std::runtime_error("DepthRangeReducer::record: " + s.message());
+  const csm::vk::Status s = shadow_->recordReceiverDepth(
+      cmd, {f.depthView, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, f.extent, camera_.projection()});
+  if (!s.ok()) throw std::runtime_error("ShadowView::recordReceiverDepth: " + s.message());
   // Back to the layout the render target expects at endFrame.
   engine::imageBarrier(
       cmd, f.depthImage, aspect, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,

@@ -2,16 +2,20 @@
 // infinite ground plane (sky where the view looks above the horizon or beyond the far plane),
 // computed exactly and uploaded; the reduction must return the nearest and farthest view depth
 // of the ground pixels, and their histogram over log-spaced view-depth bins pixel for pixel. A
-// camera cut drops every earlier result; an empty view gives none.
+// camera cut drops every earlier result; an empty view gives none. ShadowView's receiver fit
+// (one switch and one call a frame) gives the same ranges and the frames they make.
 // Validation on, zero messages.
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <string>
 #include <vector>
 
 #include <csm/light_space.hpp>
 #include <csm/receiver_bounds.hpp>
 #include <csm/splits.hpp>
 #include <csm/vulkan/depth_range.hpp>
+#include <csm/vulkan/shadow_view.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 
@@ -154,8 +158,8 @@ TEST_F(DepthRangeTest, ReturnsTheAnalyticRangeAndFallsBackAfterACut) {
         reducer->record(cmd, depth.view(), VK_IMAGE_LAYOUT_GENERAL, {kW, kH}, scene.projection, 0);
     EXPECT_EQ(layout.code(), csm::vk::ErrorCode::kInvalidArgument);
   });
-  EXPECT_FALSE(csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), 9, &status));
-  EXPECT_NE(status.message().find("slots = 9"), std::string::npos) << status.message();
+  EXPECT_FALSE(csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), 17, &status));
+  EXPECT_NE(status.message().find("slots = 17"), std::string::npos) << status.message();
   reducer.reset();
 }
 
@@ -406,6 +410,187 @@ TEST_F(DepthRangeTest, LightSpaceBoundsOfAnAnalyticGroundPlane) {
     }
   }
   std::printf("receiver-fitted cascades: %d of %u\n", fitted, s.cascadeCount);
+}
+
+// The receiver fit as one switch of the view (RendererOptions::receiverFit): the host hands
+// ShadowView::recordReceiverDepth its depth buffer and projection once a frame; the view keeps
+// a slot per frame in flight, reads each slot when it fills it again, and the next compute()
+// fits the splits and boxes to that range. Checked against a DepthRangeReducer driven by hand
+// over the same frames, and against computeCascades given the range the view reports.
+TEST_F(DepthRangeTest, ViewReceiverFitIsOneSwitchAndMatchesTheReducerByHand) {
+  constexpr std::uint32_t kW = 333, kH = 187;
+  const double fovDeg = 30.0, pitchDeg = -8.0, heightM = 20.0, nearM = 0.5, farM = 1500.0;
+  const AnalyticDepth scene = groundPlane(kW, kH, heightM, pitchDeg, fovDeg, nearM, farM);
+  const double aspect = double(kW) / kH;
+  // The host's projection: Vulkan clip space, row 0 at the top (+y up: P[1][1] < 0).
+  glm::mat4 projection(glm::perspectiveRH_ZO(glm::radians(fovDeg), aspect, nearM, farM));
+  projection[1][1] = -projection[1][1];
+  csm::vk::DepthProjection byHand = scene.projection;  // as the view must derive it
+  byHand.p00 = projection[0][0];
+  byHand.p11 = projection[1][1];
+  ASSERT_EQ(byHand.p22, projection[2][2]);
+  ASSERT_EQ(byHand.p32, projection[3][2]);
+
+  csm::Camera cam;
+  cam.positionWs = glm::dvec3(3.0e6, heightM, -7.0e6);
+  cam.orientationWs = glm::angleAxis(glm::radians(30.0), glm::dvec3(0, 1, 0)) *
+                      glm::angleAxis(glm::radians(pitchDeg), glm::dvec3(1, 0, 0));
+  cam.fovYRad = glm::radians(fovDeg);
+  cam.aspect = aspect;
+  cam.nearM = nearM;
+  cam.farM = farM;
+  csm::ShadowSettings s;
+  s.shadowDistanceM = 1200.0;
+  byHand.histogramNearM = float(nearM);
+  byHand.histogramFarM = float(s.shadowDistanceM);
+  const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
+
+  engine::ImageDesc desc;
+  desc.format = VK_FORMAT_D32_SFLOAT;
+  desc.extent = {kW, kH};
+  desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  engine::Image depth(ctx(), desc, "analytic depth");
+  engine::uploadImage(ctx(), depth, engine::asBytes(std::span<const float>(scene.depth)),
+                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  const csm::vk::ReceiverDepthInput input{
+      depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, projection};
+
+  std::unique_ptr<csm::vk::ShadowView> view = glue::createShadowView(ctx());
+  const std::uint32_t slots = glue::shadowDeviceInfo(ctx()).framesInFlight;
+  csm::vk::Status status;
+  auto reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), slots, &status);
+  ASSERT_TRUE(reducer) << status.message();
+
+  // Off (the default): refused by name, nothing recorded.
+  ASSERT_TRUE(view->setSettings(s).ok());
+  ctx().submitAndWait([&](VkCommandBuffer cmd) {
+    ASSERT_TRUE(view->record(cmd, cam, light).ok());
+    const csm::vk::Status off = view->recordReceiverDepth(cmd, input);
+    EXPECT_EQ(off.code(), csm::vk::ErrorCode::kWrongOrder);
+    EXPECT_NE(off.message().find("receiverFit = kOff"), std::string::npos) << off.message();
+  });
+
+  csm::vk::RendererOptions options = view->options();
+  options.receiverFit = csm::vk::ReceiverFit::kSplitsAndBoxes;
+  ASSERT_TRUE(view->setSettings(s, options).ok());
+  EXPECT_EQ(view->options().receiverFit, csm::vk::ReceiverFit::kSplitsAndBoxes);
+  // The same frames by hand: the history, and the range each frame's compute is given.
+  csm::CascadeHistory history;
+  std::optional<csm::ReceiverDepthRange> handRange;
+  std::vector<std::optional<csm::ReceiverDepthRange>> recorded;  // by hand, per frame
+  int fittedFrames = 0;
+  // (The first frame with the fit on recomputes the history the view's earlier frame left.)
+  ASSERT_TRUE(view->computeFrame(cam, light).ok());
+  {
+    csm::CascadeHistory h0;
+    ASSERT_TRUE(csm::computeCascades(s, cam, light, nullptr, &h0).ok());
+    history = h0;
+  }
+  for (std::uint32_t k = 0; k < 3 * slots; ++k) {
+    SCOPED_TRACE("frame " + std::to_string(k));
+    ASSERT_EQ(view->receiverDepthRange().has_value(), handRange.has_value());
+    auto expected =
+        csm::computeCascades(s, cam, light, nullptr, &history, handRange ? &*handRange : nullptr);
+    ASSERT_TRUE(expected.ok());
+    ctx().submitAndWait([&](VkCommandBuffer cmd) {
+      ASSERT_TRUE(view->record(cmd, cam, light).ok());
+      ASSERT_TRUE(view->recordReceiverDepth(cmd, input).ok());
+      const std::uint32_t slot = k % slots;
+      // By hand: read the slot this frame fills (its frame has completed), then fill it.
+      handRange = reducer->read(slot);
+      ASSERT_TRUE(reducer
+                      ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                               {kW, kH}, byHand, slot, {&view->frame(), &cam})
+                      .ok());
+    });
+    // The view's frame is what computeCascades makes of the same history and range.
+    const csm::CascadeFrame& got = view->frame();
+    EXPECT_EQ(got.splitsM, expected.value().splitsM);
+    for (std::uint32_t i = 0; i < s.cascadeCount; ++i) {
+      EXPECT_EQ(got.cascades[i].halfExtentLs, expected.value().cascades[i].halfExtentLs);
+      EXPECT_EQ(got.cascades[i].receiverFit, expected.value().cascades[i].receiverFit);
+    }
+    if (got.cascades[0].receiverFit) ++fittedFrames;
+    // The view's range for the next frame is the hand reducer's, field for field.
+    const auto& r = view->receiverDepthRange();
+    ASSERT_EQ(r.has_value(), handRange.has_value());
+    ASSERT_EQ(r.has_value(), k >= slots);  // a slot's first result is read when it is refilled
+    if (r) {
+      EXPECT_EQ(r->minM, double(scene.minF));
+      EXPECT_EQ(r->maxM, double(scene.maxF));
+      EXPECT_EQ(r->minM, handRange->minM);
+      EXPECT_EQ(r->maxM, handRange->maxM);
+      EXPECT_EQ(r->histogram.counts, handRange->histogram.counts);
+      EXPECT_TRUE(r->histogram.present());
+      ASSERT_TRUE(r->lightBounds.present());
+      EXPECT_EQ(r->lightBounds.splitsM, handRange->lightBounds.splitsM);
+      EXPECT_EQ(r->lightBounds.minLs, handRange->lightBounds.minLs);
+      EXPECT_EQ(r->lightBounds.maxLs, handRange->lightBounds.maxLs);
+    }
+  }
+  // The frames after the first result fit the receivers: the first split near the nearest one.
+  EXPECT_GE(fittedFrames, 1);
+  EXPECT_GT(view->frame().splitsM[0], 0.5 * scene.minM);
+  EXPECT_LE(view->frame().splitsM[0], scene.minM);
+
+  // A camera cut: the range is gone, the next frame covers the full range from the near plane,
+  // and the slots recorded before the cut give nothing.
+  view->cameraCut();
+  EXPECT_FALSE(view->receiverDepthRange().has_value());
+  for (std::uint32_t k = 0; k < slots; ++k) {
+    ctx().submitAndWait([&](VkCommandBuffer cmd) {
+      ASSERT_TRUE(view->record(cmd, cam, light).ok());
+      ASSERT_TRUE(view->recordReceiverDepth(cmd, input).ok());
+    });
+    EXPECT_EQ(view->frame().splitsM[0], nearM);
+    EXPECT_FALSE(view->receiverDepthRange().has_value()) << "frame " << k << " after the cut";
+  }
+  ctx().submitAndWait([&](VkCommandBuffer cmd) {
+    ASSERT_TRUE(view->record(cmd, cam, light).ok());
+    ASSERT_TRUE(view->recordReceiverDepth(cmd, input).ok());
+  });
+  EXPECT_TRUE(view->receiverDepthRange().has_value());
+
+  // Splits only: the range carries no light bounds.
+  options.receiverFit = csm::vk::ReceiverFit::kSplits;
+  ASSERT_TRUE(view->setSettings(s, options).ok());
+  EXPECT_FALSE(view->receiverDepthRange().has_value());  // a change of the fit drops the range
+  for (std::uint32_t k = 0; k <= slots; ++k) {
+    ctx().submitAndWait([&](VkCommandBuffer cmd) {
+      ASSERT_TRUE(view->record(cmd, cam, light).ok());
+      ASSERT_TRUE(view->recordReceiverDepth(cmd, input).ok());
+    });
+  }
+  ASSERT_TRUE(view->receiverDepthRange().has_value());
+  EXPECT_FALSE(view->receiverDepthRange()->lightBounds.present());
+  EXPECT_EQ(view->receiverDepthRange()->minM, double(scene.minF));
+
+  // Bad input is refused by name and records nothing; a frame recorded without its camera
+  // cannot give the boxes' bounds.
+  options.receiverFit = csm::vk::ReceiverFit::kSplitsAndBoxes;
+  ASSERT_TRUE(view->setSettings(s, options).ok());
+  ctx().submitAndWait([&](VkCommandBuffer cmd) {
+    ASSERT_TRUE(view->record(cmd, cam, light).ok());
+    csm::vk::ReceiverDepthInput bad = input;
+    bad.extent = {0, kH};
+    EXPECT_EQ(view->recordReceiverDepth(cmd, bad).code(), csm::vk::ErrorCode::kInvalidArgument);
+    bad = input;
+    bad.layout = VK_IMAGE_LAYOUT_GENERAL;
+    EXPECT_EQ(view->recordReceiverDepth(cmd, bad).code(), csm::vk::ErrorCode::kInvalidArgument);
+    bad = input;
+    bad.projection[3][2] = std::numeric_limits<float>::quiet_NaN();
+    const csm::vk::Status nan = view->recordReceiverDepth(cmd, bad);
+    EXPECT_EQ(nan.code(), csm::vk::ErrorCode::kInvalidArgument);
+    EXPECT_NE(nan.message().find("p32"), std::string::npos) << nan.message();
+    auto frame = view->computeFrame(cam, light);
+    ASSERT_TRUE(frame.ok());
+    ASSERT_TRUE(view->record(cmd, frame.value()).ok());
+    const csm::vk::Status noCamera = view->recordReceiverDepth(cmd, input);
+    EXPECT_EQ(noCamera.code(), csm::vk::ErrorCode::kWrongOrder);
+    EXPECT_NE(noCamera.message().find("camera"), std::string::npos) << noCamera.message();
+  });
+  view.reset();
+  reducer.reset();
 }
 
 }  // namespace

@@ -72,7 +72,8 @@ struct AppSettings {
   /// least LOD cascadeLod[c] (an explicit schedule; all 0 by default).
   bool casterLods = true;
   /// Receiver-driven splits: the splits follow the visible receivers' depth range, reduced on
-  /// the GPU from the lit pass's depth buffer (csm::vk::DepthRangeReducer) a few frames late.
+  /// the GPU from the lit pass's depth buffer a few frames late (the view's receiver fit,
+  /// csm::vk::RendererOptions::receiverFit and ShadowView::recordReceiverDepth).
   bool receiverSplits = false;
   /// With receiverSplits: the same reduction also bounds the visible receivers in light space
   /// per cascade (csm::ReceiverDepthRange::lightBounds), and each cascade's box covers only them

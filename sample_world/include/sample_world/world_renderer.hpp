@@ -15,7 +15,6 @@
 
 #include "csm/cascades.hpp"
 #include "csm/culling.hpp"
-#include "csm/vulkan/depth_range.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
 #include "csm/vulkan/shadow_view.hpp"
 #include "engine/camera.hpp"
@@ -172,9 +171,6 @@ class WorldRenderer {
   // The shadows of this view: clusters as instances with one mesh per LOD (cluster k's LOD l
   // is mesh k * kLodCount + l).
   std::unique_ptr<csm::vk::ShadowView> shadow_;
-  // Receiver-driven splits (settings.receiverSplits): the depth reduction and its last result.
-  std::unique_ptr<csm::vk::DepthRangeReducer> depthRange_;
-  std::optional<csm::ReceiverDepthRange> receiverRange_;
   engine::Camera camera_{};
 
   // Per chunk: the bounds of everything in it (view culling of the lit pass).

@@ -11,6 +11,7 @@ std::unique_ptr<ShadowView> ShadowView::create(const DeviceInfo& device, const V
   std::unique_ptr<ShadowView> view(new ShadowView());
   view->renderer_ = ShadowRenderer::create(device, layout, status);
   if (!view->renderer_) return nullptr;
+  view->device_ = device;
   return view;
 }
 
@@ -22,9 +23,27 @@ Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOpt
       return Status(ErrorCode::kInvalidArgument, e->message());
     }
   }
+  if (options.receiverFit != ReceiverFit::kOff && options.receiverFit != ReceiverFit::kSplits &&
+      options.receiverFit != ReceiverFit::kSplitsAndBoxes) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "options.receiverFit = " + std::to_string(int(options.receiverFit)) +
+                      " is invalid: allowed kOff, kSplits or kSplitsAndBoxes");
+  }
+  // The receiver fit's reduction, made before anything changes (a failure leaves the view whole).
+  std::unique_ptr<DepthRangeReducer> reducer;
+  if (options.receiverFit != ReceiverFit::kOff && !reducer_) {
+    Status made;
+    reducer = DepthRangeReducer::create(device_, device_.framesInFlight, &made);
+    if (!reducer) return made;
+  }
   Status s = renderer_->update(settings, options);
   if (!s.ok()) return s;
-  if (!hasSettings_ || settings.cascadeCount != settings_.cascadeCount) history_ = {};
+  if (reducer) reducer_ = std::move(reducer);
+  if (!hasSettings_ || settings.cascadeCount != settings_.cascadeCount) {
+    history_ = {};
+    dropReceiverDepth();
+  }
+  if (options.receiverFit != options_.receiverFit) dropReceiverDepth();
   settings_ = settings;
   options_ = options;
   hasSettings_ = true;
@@ -181,6 +200,7 @@ Status ShadowView::record(VkCommandBuffer cmd, const CascadeFrame& frame) {
     return Status(ErrorCode::kWrongOrder, "ShadowView::record before a successful setSettings()");
   }
   computed_ = false;
+  frameCamera_.reset();  // the frame's camera is not known here
   CascadeFrame windowed = frame;
   renderer_->applyCacheWindows(windowed);  // cached cascades: the depth windows (else no-op)
   cullInto(windowed);
@@ -201,6 +221,7 @@ Status ShadowView::compute(const Camera& camera, const DirectionalLight& light) 
   if (!frame.ok()) return Status(ErrorCode::kInvalidArgument, frame.error().message());
   history_ = history;
   lastCamera_ = camera;
+  frameCamera_ = camera;
   frame_ = frame.value();
   renderer_->applyCacheWindows(frame_);  // cached cascades: the depth windows (else no-op)
   cullInto(frame_);
@@ -230,6 +251,55 @@ Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,
   if (s.ok()) s = recordPass(cmd);
   if (!s.ok()) history_ = before;  // nothing recorded: the view stays as it was
   return s;
+}
+
+void ShadowView::dropReceiverDepth() noexcept {
+  if (reducer_) reducer_->invalidate();
+  receiverRange_.reset();
+}
+
+void ShadowView::cameraCut() noexcept {
+  history_ = {};
+  dropReceiverDepth();
+}
+
+Status ShadowView::recordReceiverDepth(VkCommandBuffer cmd, const ReceiverDepthInput& depth) {
+  if (options_.receiverFit == ReceiverFit::kOff || !reducer_) {
+    return Status(ErrorCode::kWrongOrder,
+                  "ShadowView::recordReceiverDepth with options.receiverFit = kOff: turn the "
+                  "receiver fit on (setSettings) first");
+  }
+  const bool boxes = options_.receiverFit == ReceiverFit::kSplitsAndBoxes;
+  if (!lastCamera_ || (boxes && !frameCamera_)) {
+    return Status(ErrorCode::kWrongOrder,
+                  boxes ? "ShadowView::recordReceiverDepth with options.receiverFit = "
+                          "kSplitsAndBoxes needs the frame's camera: record(cmd, camera, light) "
+                          "or compute() before it"
+                        : "ShadowView::recordReceiverDepth before any record(cmd, camera, light) "
+                          "or compute()");
+  }
+  const glm::mat4& p = depth.projection;
+  // The view depth of a depth value (DepthProjection), the histogram over the shadows' depth
+  // range (for ReceiverSplitScheme::kHistogram) and, for the boxes, the pixel rays.
+  DepthProjection dp{p[2][2], p[3][2], depth.clearDepth, float(lastCamera_->nearM),
+                     float(std::max(settings_.shadowDistanceM, 2.0 * lastCamera_->nearM))};
+  ReceiverBoundsInputs bounds;
+  if (boxes) {
+    dp.p00 = p[0][0];
+    dp.p11 = p[1][1];
+    dp.p20 = p[2][0];
+    dp.p21 = p[2][1];
+    bounds = {&frame_, &*frameCamera_};
+  }
+  // The slot this frame fills was last filled framesInFlight frames ago; the host has waited for
+  // that frame before recording this one, so its result is complete: the next compute() uses it.
+  const std::uint32_t slot = reducerSlot_;
+  std::optional<ReceiverDepthRange> previous = reducer_->read(slot);
+  Status s = reducer_->record(cmd, depth.depthView, depth.layout, depth.extent, dp, slot, bounds);
+  if (!s.ok()) return s;
+  receiverRange_ = previous;
+  reducerSlot_ = (slot + 1) % reducer_->slotCount();
+  return {};
 }
 
 }  // namespace csm::vk

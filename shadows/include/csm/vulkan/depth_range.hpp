@@ -65,7 +65,8 @@ struct ReceiverBoundsInputs {
 
 class DepthRangeReducer {
  public:
-  static constexpr std::uint32_t kMaxSlots = 8;
+  /// As many as DeviceInfo::framesInFlight allows (a ShadowView makes one slot per frame).
+  static constexpr std::uint32_t kMaxSlots = 16;
 
   /// Creates the compute pipeline, the sampler, `slots` descriptor sets and the host-visible
   /// result buffer. slots in [1, kMaxSlots]. Returns nullptr and fills `status` on error.

@@ -133,6 +133,21 @@ enum class CacheRestore {
   kRedraw,
 };
 
+/// The receiver fit of a ShadowView (RendererOptions::receiverFit): from the host's depth buffer
+/// (ShadowView::recordReceiverDepth), the view reduces the visible receivers on the GPU and fits
+/// the next frames' cascades to them (sample-distribution shadow maps).
+enum class ReceiverFit : std::uint8_t {
+  /// No reduction: the splits cover the camera's near plane to the shadow distance (or what a
+  /// host's own ShadowView::setReceiverDepthRange gives).
+  kOff,
+  /// The splits cover the receivers' view-depth range (ShadowSettings::receiverDepthMargin,
+  /// receiverSplitScheme: the histogram scheme places the interior splits).
+  kSplits,
+  /// kSplits, and each cascade's box fits the receivers' light-space bounds within it
+  /// (ShadowSettings::receiverBoundsMargin).
+  kSplitsAndBoxes,
+};
+
 /// What the renderer builds its resources from (besides csm::ShadowSettings).
 struct RendererOptions {
   /// VK_FORMAT_D32_SFLOAT (default) or VK_FORMAT_D16_UNORM.
@@ -198,6 +213,9 @@ struct RendererOptions {
   /// gaps of an unwidened sub-texel caster; half a texel makes any caster at least one texel
   /// wide (continuous), at that price.
   float thinCasterWidenTexels = 0.0625f;
+  /// ShadowView only (the renderer ignores it): the receiver fit, see ReceiverFit. Off by default;
+  /// on, the host calls ShadowView::recordReceiverDepth once a frame after drawing its depth.
+  ReceiverFit receiverFit = ReceiverFit::kOff;
 };
 
 /// A range of an index buffer drawn as one caster mesh.

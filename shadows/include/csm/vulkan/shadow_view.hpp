@@ -8,6 +8,11 @@
 //   view->setSceneBounds(&sceneBounds);                    // optional (recommended)
 //   each frame:  view->record(cmd, camera, light);         // then bind view->lightingSet()
 //
+// With the receiver fit on (RendererOptions::receiverFit), the host also hands the view its
+// depth buffer once a frame, after drawing it, and the next frames' cascades fit the receivers
+// it shows:
+//                view->recordReceiverDepth(cmd, {depthView, layout, extent, projection});
+//
 // Built on the public free functions (csm::computeCascades, csm::cullCasters) and
 // ShadowRenderer, which stay available to hosts that want their own loop. Settings are given in
 // one place, so the frame, the culling and the recording cannot disagree.
@@ -24,9 +29,26 @@
 
 #include "csm/cascades.hpp"
 #include "csm/culling.hpp"
+#include "csm/vulkan/depth_range.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
 
 namespace csm::vk {
+
+/// The host's depth buffer of this frame, for the receiver fit (ShadowView::recordReceiverDepth).
+struct ReceiverDepthInput {
+  /// A view of the depth aspect of the depth buffer, created with SAMPLED usage, in `layout`
+  /// (DEPTH_READ_ONLY_OPTIMAL, DEPTH_STENCIL_READ_ONLY_OPTIMAL, READ_ONLY_OPTIMAL or
+  /// SHADER_READ_ONLY_OPTIMAL), its writes made visible to the compute stage by the host's barrier.
+  VkImageView depthView = VK_NULL_HANDLE;
+  VkImageLayout layout = VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL;
+  VkExtent2D extent{};
+  /// The projection the buffer was drawn with (column-major, GLM indexing, Vulkan clip space:
+  /// depth in [0, 1], pixel row 0 at ndc y = -1, so a projection showing +y up has P[1][1] < 0):
+  /// any perspective one, standard or reversed depth, finite or infinite far.
+  glm::mat4 projection{1.0f};
+  /// What the buffer was cleared to: pixels still holding it (sky) are not receivers.
+  float clearDepth = 1.0f;
+};
 
 class ShadowView {
  public:
@@ -93,13 +115,29 @@ class ShadowView {
   /// Records the pending clear of a new image (hosts without DeviceInfo::queue; see
   /// ShadowRenderer::prepare).
   Status prepare(VkCommandBuffer cmd) { return renderer_->prepare(cmd); }
-  /// The view-depth range of the receivers visible from the camera (as DepthRangeReducer reports
-  /// it, a frame or two late), for receiver-driven splits; nothing (the default, and what a host
+  /// The receiver fit (RendererOptions::receiverFit on): records the reduction of this frame's
+  /// depth buffer, drawn with the camera of this frame's record() or compute(), after it (in
+  /// the same or a later command buffer, before the frame is submitted). The cascades of frame
+  /// N + DeviceInfo::framesInFlight + 1 fit the receivers frame N shows (the reduction's result
+  /// is read by the recordReceiverDepth of frame N + framesInFlight, whose recording means the
+  /// host has waited for frame N's fence);
+  /// before a first result, after cameraCut() and while only sky is seen they cover the full
+  /// range. Refused, naming the field, when the fit is off, before the frame's compute() (or
+  /// after a record(cmd, frame) whose camera the view does not know, with kSplitsAndBoxes), or
+  /// for an unusable layout, extent or projection; nothing is recorded then.
+  Status recordReceiverDepth(VkCommandBuffer cmd, const ReceiverDepthInput& depth);
+  /// The view-depth range of the receivers, for a host with its own reduction (as
+  /// DepthRangeReducer reports it, a frame or two late); nothing (the default, and what a host
   /// passes after a camera cut or while no result is ready) = the full range. With its
   /// lightBounds (DepthRangeReducer given ReceiverBoundsInputs) the boxes also fit the visible
-  /// receivers. Invalid ranges are refused by the next compute, naming the field.
+  /// receivers. Invalid ranges are refused by the next compute, naming the field. With the
+  /// receiver fit on, the next recordReceiverDepth() replaces it.
   void setReceiverDepthRange(std::optional<ReceiverDepthRange> range) noexcept {
     receiverRange_ = range;
+  }
+  /// The receiver range the next compute() fits the cascades to (nothing: the full range).
+  [[nodiscard]] const std::optional<ReceiverDepthRange>& receiverDepthRange() const noexcept {
+    return receiverRange_;
   }
   /// Cached cascades (RendererOptions::cache): marks the static depth under a world box stale
   /// (only the texels under it are re-rendered at the next record). setCasters() already does
@@ -109,8 +147,12 @@ class ShadowView {
   /// Re-renders every cascade's static depth at the next record.
   void invalidateAll() noexcept { renderer_->invalidateAll(); }
 
-  /// Forgets the history (after a camera cut, so sizes need not shrink step by step).
+  /// Forgets the history (so sizes need not shrink step by step).
   void resetHistory() noexcept { history_ = {}; }
+  /// A camera cut (a teleport, a respawn, a switch of camera): forgets the history and every
+  /// receiver range measured before it (the cascades cover the full range until the first depth
+  /// buffer after the cut has been reduced).
+  void cameraCut() noexcept;
   /// Per-cascade hook of the pass (GPU timestamps, labels): see CascadeHook.
   void setCascadeHook(CascadeHook hook) { renderer_->setCascadeHook(std::move(hook)); }
 
@@ -140,7 +182,12 @@ class ShadowView {
   void cullDeferred(const CascadeFrame& frame);
   void cullInto(const CascadeFrame& frame);
 
+  void dropReceiverDepth() noexcept;
+
+  DeviceInfo device_{};
   std::unique_ptr<ShadowRenderer> renderer_;
+  std::unique_ptr<DepthRangeReducer> reducer_;  // the receiver fit's, made when it is turned on
+  std::uint32_t reducerSlot_ = 0;               // the slot the next recordReceiverDepth fills
   ShadowSettings settings_{};
   RendererOptions options_{};
   bool hasSettings_ = false;
@@ -153,9 +200,10 @@ class ShadowView {
   std::optional<ReceiverDepthRange> receiverRange_;
   CascadeHistory history_{};
   CascadeFrame frame_{};
-  bool computed_ = false;             // frame_ and cull_ hold compute()'s result for recordPass()
-  bool castersChanged_ = false;       // setCasters() since cull_ was made
-  std::optional<Camera> lastCamera_;  // of the last compute(), for setSettings()' cross-checks
+  bool computed_ = false;              // frame_ and cull_ hold compute()'s result for recordPass()
+  bool castersChanged_ = false;        // setCasters() since cull_ was made
+  std::optional<Camera> lastCamera_;   // of the last compute(), for setSettings()' cross-checks
+  std::optional<Camera> frameCamera_;  // the camera frame_ was computed for (not record(frame))
   CullResult cull_;
 };
 
