@@ -294,8 +294,10 @@ int main(int argc, char** argv) try {
   Image color = createImage(h, VK_FORMAT_R8G8B8A8_UNORM,
                             VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                             VK_IMAGE_ASPECT_COLOR_BIT);
-  Image depth = createImage(h, VK_FORMAT_D32_SFLOAT, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT,
-                            VK_IMAGE_ASPECT_DEPTH_BIT);
+  Image depth =
+      createImage(h, VK_FORMAT_D32_SFLOAT,
+                  VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT,
+                  VK_IMAGE_ASPECT_DEPTH_BIT);
   Buffer readback =
       createBuffer(h, scene::kWidth * scene::kHeight * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
 
@@ -420,85 +422,112 @@ int main(int argc, char** argv) try {
   check(vkAllocateCommandBuffers(h.device, &cbai, &cmd), "command buffer");
   VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-  check(vkBeginCommandBuffer(cmd, &begin), "begin");
-
-  if (csm::vk::Status s = shadows->record(cmd, camera, light); !s)
-    throw std::runtime_error("csm: " + s.message());
-
-  barrier(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-          VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
-          VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT, VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
-  barrier(
-      cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
-      VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
-      VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
-      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT |
-          VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
-  VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  ca.imageView = color.view;
-  ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-  ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  ca.clearValue.color = {{0.4f, 0.6f, 0.9f, 1.0f}};
-  VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-  da.imageView = depth.view;
-  da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-  da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-  da.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  da.clearValue.depthStencil = {1.0f, 0};
-  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-  ri.renderArea = scissor;
-  ri.layerCount = 1;
-  ri.colorAttachmentCount = 1;
-  ri.pColorAttachments = &ca;
-  ri.pDepthAttachment = &da;
-  vkCmdBeginRendering(cmd, &ri);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
-  VkDescriptorSet set = shadows->lightingSet();
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout, 1, 1, &set, 0,
-                          nullptr);
-  const VkDeviceSize zero = 0;
-  vkCmdBindVertexBuffers(cmd, 0, 1, &vb.buffer, &zero);
-  vkCmdBindIndexBuffer(cmd, ib.buffer, 0, VK_INDEX_TYPE_UINT32);
-  for (const auto& [mesh, rgb] : {std::pair{ground, glm::vec3(0.8f, 0.8f, 0.75f)},
-                                  std::pair{box, glm::vec3(0.8f, 0.3f, 0.2f)}}) {
-    const Push push{viewProjCr, glm::vec4(glm::vec3(scene::kOrigin - camera.positionWs), 0.0f),
-                    glm::vec4(rgb, 1.0f)};
-    vkCmdPushConstants(cmd, pipelineLayout, range.stageFlags, 0, sizeof push, &push);
-    vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, 0);
-  }
-  vkCmdEndRendering(cmd);
-  barrier(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
-          VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
-          VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
-          VK_ACCESS_2_TRANSFER_READ_BIT);
-  VkBufferImageCopy copy{};
-  copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-  copy.imageExtent = {scene::kWidth, scene::kHeight, 1};
-  vkCmdCopyImageToBuffer(cmd, color.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.buffer, 1,
-                         &copy);
-  VkBufferMemoryBarrier2 hostRead{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2};
-  hostRead.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  hostRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  hostRead.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
-  hostRead.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
-  hostRead.srcQueueFamilyIndex = hostRead.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  hostRead.buffer = readback.buffer;
-  hostRead.size = VK_WHOLE_SIZE;
-  VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
-  dep.bufferMemoryBarrierCount = 1;
-  dep.pBufferMemoryBarriers = &hostRead;
-  vkCmdPipelineBarrier2(cmd, &dep);
-  check(vkEndCommandBuffer(cmd), "end");
-
   VkFence fence;
   VkFenceCreateInfo fci{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
   check(vkCreateFence(h.device, &fci, nullptr, &fence), "fence");
-  VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-  si.commandBufferCount = 1;
-  si.pCommandBuffers = &cmd;
-  check(vkQueueSubmit(h.queue, 1, &si, fence), "submit");
-  check(vkWaitForFences(h.device, 1, &fence, VK_TRUE, UINT64_MAX), "wait");
+
+  // A few frames of a still camera: the view's receiver fit reads frame N's depth buffer when it
+  // records frame N + framesInFlight (2), and the frame after that fits the splits to it; the
+  // boxes fit once the bounds were taken with fitted splits (frame 3's, in frame 6).
+  constexpr int kFrames = 8;
+  for (int frame = 0; frame < kFrames; ++frame) {
+    check(vkResetCommandPool(h.device, pool, 0), "reset pool");
+    check(vkBeginCommandBuffer(cmd, &begin), "begin");
+
+    if (csm::vk::Status s = shadows->record(cmd, camera, light); !s)
+      throw std::runtime_error("csm: " + s.message());
+
+    barrier(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+            VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
+            VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+            VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT);
+    barrier(
+        cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_UNDEFINED,
+        VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, VK_PIPELINE_STAGE_2_NONE, 0,
+        VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+        VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT |
+            VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT);
+    VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    ca.imageView = color.view;
+    ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    ca.clearValue.color = {{0.4f, 0.6f, 0.9f, 1.0f}};
+    VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    da.imageView = depth.view;
+    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    da.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+    da.clearValue.depthStencil = {1.0f, 0};
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = scissor;
+    ri.layerCount = 1;
+    ri.colorAttachmentCount = 1;
+    ri.pColorAttachments = &ca;
+    ri.pDepthAttachment = &da;
+    vkCmdBeginRendering(cmd, &ri);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline);
+    VkDescriptorSet set = shadows->lightingSet();
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout, 1, 1, &set, 0,
+                            nullptr);
+    const VkDeviceSize zero = 0;
+    vkCmdBindVertexBuffers(cmd, 0, 1, &vb.buffer, &zero);
+    vkCmdBindIndexBuffer(cmd, ib.buffer, 0, VK_INDEX_TYPE_UINT32);
+    for (const auto& [mesh, rgb] : {std::pair{ground, glm::vec3(0.8f, 0.8f, 0.75f)},
+                                    std::pair{box, glm::vec3(0.8f, 0.3f, 0.2f)}}) {
+      const Push push{viewProjCr, glm::vec4(glm::vec3(scene::kOrigin - camera.positionWs), 0.0f),
+                      glm::vec4(rgb, 1.0f)};
+      vkCmdPushConstants(cmd, pipelineLayout, range.stageFlags, 0, sizeof push, &push);
+      vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, 0);
+    }
+    vkCmdEndRendering(cmd);
+    // The receiver fit: the depth buffer, made readable by compute, and the projection it was
+    // drawn with.
+    barrier(cmd, depth.image, VK_IMAGE_ASPECT_DEPTH_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
+            VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT,
+            VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+            VK_ACCESS_2_SHADER_SAMPLED_READ_BIT);
+    const csm::vk::ReceiverDepthInput depthInput{
+        depth.view, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, {scene::kWidth, scene::kHeight}, proj};
+    if (csm::vk::Status s = shadows->recordReceiverDepth(cmd, depthInput); !s)
+      throw std::runtime_error("csm: " + s.message());
+    barrier(cmd, color.image, VK_IMAGE_ASPECT_COLOR_BIT, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL,
+            VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_PIPELINE_STAGE_2_COLOR_ATTACHMENT_OUTPUT_BIT,
+            VK_ACCESS_2_COLOR_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COPY_BIT,
+            VK_ACCESS_2_TRANSFER_READ_BIT);
+    VkBufferImageCopy copy{};
+    copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    copy.imageExtent = {scene::kWidth, scene::kHeight, 1};
+    vkCmdCopyImageToBuffer(cmd, color.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.buffer,
+                           1, &copy);
+    VkBufferMemoryBarrier2 hostRead{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2};
+    hostRead.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+    hostRead.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
+    hostRead.dstStageMask = VK_PIPELINE_STAGE_2_HOST_BIT;
+    hostRead.dstAccessMask = VK_ACCESS_2_HOST_READ_BIT;
+    hostRead.srcQueueFamilyIndex = hostRead.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    hostRead.buffer = readback.buffer;
+    hostRead.size = VK_WHOLE_SIZE;
+    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+    dep.bufferMemoryBarrierCount = 1;
+    dep.pBufferMemoryBarriers = &hostRead;
+    vkCmdPipelineBarrier2(cmd, &dep);
+    check(vkEndCommandBuffer(cmd), "end");
+
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cmd;
+    check(vkQueueSubmit(h.queue, 1, &si, fence), "submit");
+    check(vkWaitForFences(h.device, 1, &fence, VK_TRUE, UINT64_MAX), "wait");
+    check(vkResetFences(h.device, 1, &fence), "reset fence");
+  }
+  // The last frame's cascades fit the receivers: the first split is at the nearest ground the
+  // camera sees, not at its near plane.
+  const csm::CascadeFrame& fitted = shadows->frame();
+  std::printf("csm_consumer: first split %.2f m, %s\n", fitted.splitsM[0],
+              fitted.cascades[0].receiverFit ? "boxes fitted to the receivers" : "not fitted");
+  if (fitted.splitsM[0] <= scene::kNearM || !fitted.cascades[0].receiverFit)
+    throw std::runtime_error("the receiver fit did not reach the last frame");
   if (!stbi_write_png(argv[1], scene::kWidth, scene::kHeight, 4, readback.mapped,
                       scene::kWidth * 4)) {
     throw std::runtime_error(std::string("cannot write ") + argv[1]);

@@ -12,23 +12,22 @@ std::unique_ptr<csm::vk::ShadowView> createShadows(VkPhysicalDevice gpu, VkDevic
                                                    const glm::dvec3& originWs,
                                                    const csm::AabbWs& sceneBounds) {
   // The device the host made, the queue it submits to, and the features it enabled.
-  csm::vk::DeviceInfo info;
-  info.physicalDevice = gpu;
-  info.device = device;
-  info.queueFamily = family;
-  info.queue = queue;
-  info.depthClampEnabled = true;
+  const csm::vk::DeviceInfo info{.physicalDevice = gpu,
+                                 .device = device,
+                                 .queueFamily = family,
+                                 .queue = queue,
+                                 .depthClampEnabled = true};
   // The host's vertices: float3 position (VertexLayout::positionOffset 0) then float3 normal.
-  csm::vk::VertexLayout layout;
-  layout.stride = 24;
+  const csm::vk::VertexLayout layout{.stride = 24};
 
   csm::vk::Status s;
   auto view = csm::vk::ShadowView::create(info, layout, &s);
-  csm::ShadowSettings settings;
-  settings.cascadeCount = scene::kCascades;
-  settings.resolution = scene::kResolution;
-  settings.shadowDistanceM = scene::kShadowDistanceM;
-  if (view) s = view->setSettings(settings);
+  const csm::ShadowSettings settings{.cascadeCount = scene::kCascades,
+                                     .resolution = scene::kResolution,
+                                     .shadowDistanceM = scene::kShadowDistanceM};
+  // The receiver fit: the cascades follow what the host's depth buffer shows (recordReceiverDepth).
+  const csm::vk::RendererOptions options{.receiverFit = csm::vk::ReceiverFit::kSplitsAndBoxes};
+  if (view) s = view->setSettings(settings, options);
 
   // Instance i draws mesh i (one LOD here; CasterInstance::lodMeshes names coarser ones).
   std::vector<csm::vk::CasterInstance> instances;
