@@ -87,6 +87,106 @@ TEST(Culling, HierarchyMatchesBruteForceAndDropsNothingThatIntersects) {
   }
 }
 
+// Moving casters cost what changed: after every kind of change (bounds moved within and far
+// out of their leaf, a sphere turned box, removals, revivals, casters added after the build) the
+// refitted hierarchy gives the answer of brute force over the same casters and of a hierarchy
+// built afresh, and a removed caster is in no list.
+TEST(Culling, MovedRemovedAndAddedCastersMatchAFreshBuild) {
+  std::mt19937_64 rng(11);
+  for (const glm::dvec3& origin : {glm::dvec3(0, 20, 0), glm::dvec3(1e7, 20, -1e7)}) {
+    CasterSet set;
+    fillRandomScene(set, rng, origin, 600.0, 3000);
+    set.build();
+    const CascadeFrame f = makeFrame(origin, {0.3, -1, 0.2});
+    std::uniform_int_distribution<std::uint32_t> pick(0, 2999);
+    std::uniform_real_distribution<double> step(-3.0, 3.0), jump(-900.0, 900.0), size(0.05, 20.0);
+    std::vector<bool> gone(3000, false);
+    for (int frame = 0; frame < 40; ++frame) {
+      // 50 small moves, 5 far jumps, 3 removals, 2 revivals and an addition a frame.
+      for (int k = 0; k < 60; ++k) {
+        const std::uint32_t i = pick(rng);
+        const AabbWs b = set.bounds(i);
+        const glm::dvec3 d = k < 50 ? glm::dvec3(step(rng), step(rng), step(rng))
+                                    : glm::dvec3(jump(rng), 0.0, jump(rng));
+        if (k < 55) {
+          if (k % 2 == 0) {
+            ASSERT_TRUE(set.setBox(i, b.minWs + d, b.maxWs + d).ok());
+          } else {
+            ASSERT_TRUE(set.setSphere(i, 0.5 * (b.minWs + b.maxWs) + d, size(rng)).ok());
+          }
+          gone[i] = false;
+        } else if (k < 58) {
+          ASSERT_TRUE(set.remove(i).ok());
+          EXPECT_TRUE(set.removed(i));
+          gone[i] = true;
+        } else {
+          ASSERT_TRUE(set.setBox(i, b.minWs, b.maxWs).ok());  // back, where it was
+          EXPECT_FALSE(set.removed(i));
+          gone[i] = false;
+        }
+      }
+      const glm::dvec3 c = origin + glm::dvec3(jump(rng) * 0.3, 0.0, jump(rng) * 0.3);
+      ASSERT_TRUE(set.addBox(c - glm::dvec3(4.0), c + glm::dvec3(4.0)).ok());
+      gone.push_back(false);
+      EXPECT_TRUE(set.built());
+      EXPECT_EQ(set.unindexedCount(), std::size_t(frame + 1));
+
+      CasterSet fresh;
+      for (std::uint32_t i = 0; i < set.size(); ++i) {
+        const AabbWs b = set.bounds(i);
+        if (set.isSphere(i)) {
+          ASSERT_TRUE(
+              fresh.addSphere(0.5 * (b.minWs + b.maxWs), 0.5 * (b.maxWs.x - b.minWs.x)).ok());
+        } else {
+          ASSERT_TRUE(fresh.addBox(b.minWs, b.maxWs).ok());
+        }
+        if (gone[i]) {
+          ASSERT_TRUE(fresh.remove(i).ok());
+        }
+      }
+      fresh.build();
+      CullResult tree, brute, rebuilt;
+      cullCasters(set, f, 0.0f, tree);
+      cullCastersBruteForce(set, f, 0.0f, brute);
+      cullCasters(fresh, f, 0.0f, rebuilt);
+      std::size_t total = 0;
+      for (std::uint32_t c = 0; c < f.cascadeCount; ++c) {
+        ASSERT_EQ(tree.visible[c], brute.visible[c]) << "frame " << frame << " cascade " << c;
+        ASSERT_EQ(tree.visible[c], rebuilt.visible[c]) << "frame " << frame << " cascade " << c;
+        for (auto i : tree.visible[c]) ASSERT_FALSE(gone[i]) << "removed caster " << i;
+        total += tree.visible[c].size();
+      }
+      EXPECT_GT(total, 0u);
+    }
+    // A rebuild takes the added casters into the hierarchy.
+    set.build();
+    EXPECT_EQ(set.unindexedCount(), 0u);
+  }
+}
+
+TEST(Culling, UpdatesOfUnknownCastersOrBadBoundsAreRefusedByName) {
+  CasterSet set;
+  ASSERT_TRUE(set.addBox(glm::dvec3(0.0), glm::dvec3(1.0)).ok());
+  set.build();
+  auto outOfRange = set.setBox(1, glm::dvec3(0.0), glm::dvec3(1.0));
+  ASSERT_FALSE(outOfRange.ok());
+  EXPECT_NE(outOfRange.error().message().find("caster index"), std::string::npos);
+  EXPECT_FALSE(set.remove(7).ok());
+  EXPECT_FALSE(set.setSphere(3, glm::dvec3(0.0), 1.0).ok());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto bad = set.setBox(0, glm::dvec3(0.0, nan, 0.0), glm::dvec3(1.0));
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().message().find("caster.minWs[1]"), std::string::npos);
+  auto inverted = set.setBox(0, glm::dvec3(2.0), glm::dvec3(1.0));
+  ASSERT_FALSE(inverted.ok());
+  EXPECT_NE(inverted.error().message().find("caster.maxWs[0]"), std::string::npos);
+  EXPECT_FALSE(set.setSphere(0, glm::dvec3(0.0), -1.0).ok());
+  // Refused changes change nothing.
+  EXPECT_EQ(set.bounds(0).minWs, glm::dvec3(0.0));
+  EXPECT_EQ(set.bounds(0).maxWs, glm::dvec3(1.0));
+  EXPECT_FALSE(set.removed(0));
+}
+
 TEST(Culling, BehindAndBesideAreDroppedTowardTheLightIsKept) {
   // Oblique lights too: there the light's axes are not world axes, and rounding in the
   // separating-axis projections once kept boxes that lie beside the volume.
@@ -155,7 +255,7 @@ TEST(Culling, EmptyCascadesAndEmptySets) {
   cullCasters(set, f, 0.0f, out);
   for (auto& v : out.visible) EXPECT_TRUE(v.empty());
   ASSERT_TRUE(set.addSphere({0, 0, 0}, 1.0).ok());
-  EXPECT_FALSE(set.built());  // an add invalidates the hierarchy; queries fall back
+  EXPECT_EQ(set.unindexedCount(), 1u);  // added after the build: tested one by one
   cullCasters(set, f, 0.0f, out);
   EXPECT_EQ(out.visible[0].size(), 1u);
 }

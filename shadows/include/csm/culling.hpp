@@ -19,6 +19,12 @@ void cullCastersBruteForce(const CasterSet& casters, const CascadeFrame& frame,
 /// Caster bounds in structure-of-arrays form plus a bounding-volume hierarchy over them, so a
 /// query costs in proportion to what lies near the cascades, not to the size of the world.
 /// Each caster is a sphere or an axis-aligned box; its index is the order of insertion.
+///
+/// Moving casters cost what changed: setBox / setSphere change one caster's bounds and refit the
+/// hierarchy's nodes above it (O(leaf size + depth)), remove() takes one out of every query, and
+/// casters added after build() are tested one by one until the next build(). A refitted node may
+/// grow as its casters move apart, so a query visits more of the tree; rebuild (build()) when
+/// many casters have moved far.
 class CasterSet {
  public:
   /// Adds a bounding sphere and returns the caster's index, or refuses a non-finite centre or
@@ -35,22 +41,42 @@ class CasterSet {
   [[nodiscard]] float marginTexels(std::uint32_t i) const noexcept {
     return i < margin_.size() ? margin_[i] : 0.0f;
   }
+  /// New bounds for caster i (a sphere, or an axis-aligned box), with the refusals of addSphere /
+  /// addBox, and an index out of range refused; a removed caster is back in the queries. The
+  /// hierarchy is refitted above it (no rebuild). On a refusal nothing changes.
+  Result<std::uint32_t> setSphere(std::uint32_t i, const glm::dvec3& centerWs, double radiusM);
+  Result<std::uint32_t> setBox(std::uint32_t i, const glm::dvec3& minWs, const glm::dvec3& maxWs);
+  /// Takes caster i out of every query (its index stays; setBox / setSphere bring it back).
+  Result<std::uint32_t> remove(std::uint32_t i);
+  [[nodiscard]] bool removed(std::uint32_t i) const noexcept {
+    return i < kind_.size() && kind_[i] == kRemoved;
+  }
   /// Removes every caster.
   void clear() noexcept;
   /// Reserves room for `count` casters.
   void reserve(std::size_t count);
 
-  /// Builds (or rebuilds) the hierarchy. Queries before build() (or after an add) fall back to
-  /// testing every caster. O(n log n).
+  /// Builds (or rebuilds) the hierarchy over every caster. Queries before build() test every
+  /// caster; casters added after it are tested one by one (unindexedCount()) until the next
+  /// build(). O(n log n).
   void build();
   [[nodiscard]] bool built() const noexcept { return built_; }
+  /// Casters added since the last build(), outside the hierarchy.
+  [[nodiscard]] std::size_t unindexedCount() const noexcept {
+    return built_ ? size() - indexed_ : size();
+  }
   [[nodiscard]] std::size_t size() const noexcept { return centerX_.size(); }
 
   /// Bounds of caster i as an AABB.
   [[nodiscard]] AabbWs bounds(std::uint32_t i) const noexcept;
-  [[nodiscard]] bool isSphere(std::uint32_t i) const noexcept { return kind_[i] == 0; }
+  [[nodiscard]] bool isSphere(std::uint32_t i) const noexcept { return kind_[i] == kSphere; }
 
  private:
+  static constexpr std::uint8_t kSphere = 0, kBox = 1, kRemoved = 2;
+  // The bounds of caster i (stored as they are when added), then the nodes above it refitted.
+  void storeSphere(std::uint32_t i, const glm::dvec3& centerWs, double radiusM);
+  void storeBox(std::uint32_t i, const glm::dvec3& minWs, const glm::dvec3& maxWs);
+  void refit(std::uint32_t i);
   friend void cullCasters(const CasterSet&, const CascadeFrame&, float, CullResult&);
   friend void cullCastersBruteForce(const CasterSet&, const CascadeFrame&, float, CullResult&);
   struct Node {
@@ -64,11 +90,14 @@ class CasterSet {
   // Structure of arrays: centres in double (worlds reach 1e7 m), half extents in float.
   std::vector<double> centerX_, centerY_, centerZ_;
   std::vector<float> halfX_, halfY_, halfZ_;
-  std::vector<std::uint8_t> kind_;  // 0 sphere (half extents all = radius), 1 box
+  std::vector<std::uint8_t> kind_;  // kSphere (half extents all = radius), kBox, kRemoved
   std::vector<float> margin_;       // texels each caster is widened by (empty: none)
   float maxMargin_ = 0.0f;          // the largest of them (tree nodes are tested with it)
   std::vector<std::uint32_t> order_;
   std::vector<Node> nodes_;
+  std::vector<std::uint32_t> parent_;  // per node (the root's: kNoParent)
+  std::vector<std::uint32_t> leafOf_;  // per indexed caster: the leaf holding it
+  std::uint32_t indexed_ = 0;          // casters [0, indexed_) are in the hierarchy
   bool built_ = false;
 };
 

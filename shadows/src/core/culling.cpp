@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <string>
 
 namespace csm {
@@ -135,7 +136,9 @@ double lightSpaceSize(const Volume& v, const glm::dvec3& e, bool sphere) noexcep
 
 }  // namespace
 
-Result<std::uint32_t> CasterSet::addSphere(const glm::dvec3& centerWs, double radiusM) {
+namespace {
+
+std::optional<ValidationError> checkSphere(const glm::dvec3& centerWs, double radiusM) {
   for (int i = 0; i < 3; ++i) {
     if (!(std::abs(centerWs[i]) <= kMaxWorldCoordinateM)) {
       return ValidationError{"caster.centerWs[" + std::to_string(i) + "]", centerWs[i],
@@ -145,22 +148,10 @@ Result<std::uint32_t> CasterSet::addSphere(const glm::dvec3& centerWs, double ra
   if (!(radiusM >= 0.0 && radiusM <= 1e9)) {
     return ValidationError{"caster.radiusM", radiusM, "a radius in metres in [0, 1e9]"};
   }
-  const auto index = static_cast<std::uint32_t>(size());
-  centerX_.push_back(centerWs.x);
-  centerY_.push_back(centerWs.y);
-  centerZ_.push_back(centerWs.z);
-  // Round the radius up when it is narrowed to float, so the bounds stay conservative.
-  float r = static_cast<float>(radiusM);
-  if (static_cast<double>(r) < radiusM) r = std::nextafter(r, std::numeric_limits<float>::max());
-  halfX_.push_back(r);
-  halfY_.push_back(r);
-  halfZ_.push_back(r);
-  kind_.push_back(0);
-  built_ = false;
-  return index;
+  return std::nullopt;
 }
 
-Result<std::uint32_t> CasterSet::addBox(const glm::dvec3& minWs, const glm::dvec3& maxWs) {
+std::optional<ValidationError> checkBox(const glm::dvec3& minWs, const glm::dvec3& maxWs) {
   for (int i = 0; i < 3; ++i) {
     if (!(std::abs(minWs[i]) <= kMaxWorldCoordinateM)) {
       return ValidationError{"caster.minWs[" + std::to_string(i) + "]", minWs[i],
@@ -171,23 +162,138 @@ Result<std::uint32_t> CasterSet::addBox(const glm::dvec3& minWs, const glm::dvec
                              "a coordinate in [caster.minWs[" + std::to_string(i) + "], 1e9]"};
     }
   }
-  const auto index = static_cast<std::uint32_t>(size());
+  return std::nullopt;
+}
+
+std::optional<ValidationError> checkIndex(std::uint32_t i, std::size_t size) {
+  if (i >= size) {
+    return ValidationError{"caster index", double(i),
+                           "an index below the set's size " + std::to_string(size)};
+  }
+  return std::nullopt;
+}
+
+// A float at least `h` (bounds narrowed to float stay conservative).
+float roundUp(double h) noexcept {
+  float f = static_cast<float>(h);
+  if (static_cast<double>(f) < h) f = std::nextafter(f, std::numeric_limits<float>::max());
+  return f;
+}
+
+constexpr std::uint32_t kNoParent = std::numeric_limits<std::uint32_t>::max();
+
+}  // namespace
+
+void CasterSet::storeSphere(std::uint32_t i, const glm::dvec3& centerWs, double radiusM) {
+  if (i == size()) {
+    centerX_.push_back(0.0);
+    centerY_.push_back(0.0);
+    centerZ_.push_back(0.0);
+    halfX_.push_back(0.0f);
+    halfY_.push_back(0.0f);
+    halfZ_.push_back(0.0f);
+    kind_.push_back(kSphere);
+  }
+  centerX_[i] = centerWs.x;
+  centerY_[i] = centerWs.y;
+  centerZ_[i] = centerWs.z;
+  // Round the radius up when it is narrowed to float, so the bounds stay conservative.
+  const float r = roundUp(radiusM);
+  halfX_[i] = r;
+  halfY_[i] = r;
+  halfZ_[i] = r;
+  kind_[i] = kSphere;
+}
+
+void CasterSet::storeBox(std::uint32_t i, const glm::dvec3& minWs, const glm::dvec3& maxWs) {
+  if (i == size()) {
+    centerX_.push_back(0.0);
+    centerY_.push_back(0.0);
+    centerZ_.push_back(0.0);
+    halfX_.push_back(0.0f);
+    halfY_.push_back(0.0f);
+    halfZ_.push_back(0.0f);
+    kind_.push_back(kBox);
+  }
   const glm::dvec3 c = 0.5 * (minWs + maxWs);
-  centerX_.push_back(c.x);
-  centerY_.push_back(c.y);
-  centerZ_.push_back(c.z);
+  centerX_[i] = c.x;
+  centerY_[i] = c.y;
+  centerZ_[i] = c.z;
   auto half = [](double lo, double hi, double mid) {
-    const double h = std::max(hi - mid, mid - lo);
-    float f = static_cast<float>(h);
-    if (static_cast<double>(f) < h) f = std::nextafter(f, std::numeric_limits<float>::max());
-    return f;
+    return roundUp(std::max(hi - mid, mid - lo));
   };
-  halfX_.push_back(half(minWs.x, maxWs.x, c.x));
-  halfY_.push_back(half(minWs.y, maxWs.y, c.y));
-  halfZ_.push_back(half(minWs.z, maxWs.z, c.z));
-  kind_.push_back(1);
-  built_ = false;
+  halfX_[i] = half(minWs.x, maxWs.x, c.x);
+  halfY_[i] = half(minWs.y, maxWs.y, c.y);
+  halfZ_[i] = half(minWs.z, maxWs.z, c.z);
+  kind_[i] = kBox;
+}
+
+Result<std::uint32_t> CasterSet::addSphere(const glm::dvec3& centerWs, double radiusM) {
+  if (auto e = checkSphere(centerWs, radiusM)) return *e;
+  const auto index = static_cast<std::uint32_t>(size());
+  storeSphere(index, centerWs, radiusM);
+  if (margin_.size() == index) margin_.push_back(0.0f);
   return index;
+}
+
+Result<std::uint32_t> CasterSet::addBox(const glm::dvec3& minWs, const glm::dvec3& maxWs) {
+  if (auto e = checkBox(minWs, maxWs)) return *e;
+  const auto index = static_cast<std::uint32_t>(size());
+  storeBox(index, minWs, maxWs);
+  if (margin_.size() == index) margin_.push_back(0.0f);
+  return index;
+}
+
+Result<std::uint32_t> CasterSet::setSphere(std::uint32_t i, const glm::dvec3& centerWs,
+                                           double radiusM) {
+  if (auto e = checkIndex(i, size())) return *e;
+  if (auto e = checkSphere(centerWs, radiusM)) return *e;
+  storeSphere(i, centerWs, radiusM);
+  refit(i);
+  return i;
+}
+
+Result<std::uint32_t> CasterSet::setBox(std::uint32_t i, const glm::dvec3& minWs,
+                                        const glm::dvec3& maxWs) {
+  if (auto e = checkIndex(i, size())) return *e;
+  if (auto e = checkBox(minWs, maxWs)) return *e;
+  storeBox(i, minWs, maxWs);
+  refit(i);
+  return i;
+}
+
+Result<std::uint32_t> CasterSet::remove(std::uint32_t i) {
+  if (auto e = checkIndex(i, size())) return *e;
+  // The hierarchy keeps its bounds (still conservative); queries skip the caster.
+  kind_[i] = kRemoved;
+  return i;
+}
+
+void CasterSet::refit(std::uint32_t i) {
+  if (!built_ || i >= indexed_) return;
+  std::uint32_t n = leafOf_[i];
+  {
+    Node& leaf = nodes_[n];
+    glm::dvec3 lo(kInf), hi(-kInf);
+    for (std::uint32_t k = leaf.first; k < leaf.first + leaf.count; ++k) {
+      const std::uint32_t j = order_[k];
+      const glm::dvec3 c(centerX_[j], centerY_[j], centerZ_[j]);
+      const glm::dvec3 e(halfX_[j], halfY_[j], halfZ_[j]);
+      lo = glm::min(lo, c - e);
+      hi = glm::max(hi, c + e);
+    }
+    leaf.minWs = lo;
+    leaf.maxWs = hi;
+  }
+  for (n = parent_[n]; n != kNoParent; n = parent_[n]) {
+    Node& node = nodes_[n];
+    const Node& l = nodes_[node.first];
+    const Node& r = nodes_[node.first + 1];
+    const glm::dvec3 lo = glm::min(l.minWs, r.minWs), hi = glm::max(l.maxWs, r.maxWs);
+    if (lo == node.minWs && hi == node.maxWs) break;  // nothing above changes either
+    node.minWs = lo;
+    node.maxWs = hi;
+  }
 }
 
 Result<std::uint32_t> CasterSet::setMarginTexels(std::uint32_t i, float texels) {
@@ -205,6 +311,9 @@ Result<std::uint32_t> CasterSet::setMarginTexels(std::uint32_t i, float texels) 
 }
 
 void CasterSet::clear() noexcept {
+  parent_.clear();
+  leafOf_.clear();
+  indexed_ = 0;
   margin_.clear();
   maxMargin_ = 0.0f;
   centerX_.clear();
@@ -253,10 +362,12 @@ void CasterSet::build() {
     items[i] = {{centerX_[i], centerY_[i], centerZ_[i]}, {halfX_[i], halfY_[i], halfZ_[i]}, i};
   }
   nodes_.clear();
+  parent_.clear();
   order_.resize(n);
   if (n > 0) {
     nodes_.reserve(2 * (n / kLeafSize + 1));
     nodes_.push_back(Node{});
+    parent_.push_back(kNoParent);
     // Iterative top-down median split on the axis along which the centres spread most.
     struct Task {
       std::uint32_t node, begin, end;
@@ -291,6 +402,8 @@ void CasterSet::build() {
       const auto left = static_cast<std::uint32_t>(nodes_.size());
       nodes_.push_back(Node{});
       nodes_.push_back(Node{});
+      parent_.push_back(t.node);
+      parent_.push_back(t.node);
       nodes_[t.node].first = left;
       nodes_[t.node].count = 0;
       tasks.push_back({left + 1, mid, t.end});
@@ -298,6 +411,14 @@ void CasterSet::build() {
     }
   }
   for (std::uint32_t k = 0; k < n; ++k) order_[k] = items[k].index;
+  leafOf_.assign(n, 0);
+  for (std::uint32_t node = 0; node < nodes_.size(); ++node) {
+    if (nodes_[node].count == 0) continue;
+    for (std::uint32_t k = nodes_[node].first; k < nodes_[node].first + nodes_[node].count; ++k) {
+      leafOf_[order_[k]] = node;
+    }
+  }
+  indexed_ = n;
   built_ = true;
 }
 
@@ -342,10 +463,11 @@ void cullCastersBruteForce(const CasterSet& casters, const CascadeFrame& frame,
     if (cascade.empty) continue;
     const Volume v = makeVolume(frame, cascade, minCasterTexels);
     for (std::uint32_t i = 0; i < n; ++i) {
+      if (casters.kind_[i] == CasterSet::kRemoved) continue;
       const glm::dvec3 c(casters.centerX_[i], casters.centerY_[i], casters.centerZ_[i]);
       const glm::dvec3 e(casters.halfX_[i], casters.halfY_[i], casters.halfZ_[i]);
       ++out.castersTested;
-      if (casterVisible(v, c, e, casters.kind_[i] == 0, casters.marginTexels(i))) {
+      if (casterVisible(v, c, e, casters.kind_[i] == CasterSet::kSphere, casters.marginTexels(i))) {
         out.visible[ci].push_back(i);
       }
     }
@@ -361,7 +483,7 @@ void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minC
   out.nodesVisited = 0;
   out.castersTested = 0;
   for (auto& list : out.visible) list.clear();
-  if (casters.nodes_.empty()) return;
+  if (casters.size() == 0) return;
 
   std::array<Volume, kMaxCascades> volumes, nodeVolumes;
   std::uint32_t rootMask = 0;
@@ -373,6 +495,20 @@ void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minC
   }
   if (rootMask == 0) return;
 
+  auto testCaster = [&](std::uint32_t i, std::uint32_t mask) {
+    if (casters.kind_[i] == CasterSet::kRemoved) return;
+    const glm::dvec3 c(casters.centerX_[i], casters.centerY_[i], casters.centerZ_[i]);
+    const glm::dvec3 e(casters.halfX_[i], casters.halfY_[i], casters.halfZ_[i]);
+    const bool sphere = casters.kind_[i] == CasterSet::kSphere;
+    for (std::uint32_t m = mask; m != 0; m &= m - 1) {
+      const auto ci = static_cast<std::uint32_t>(std::countr_zero(m));
+      ++out.castersTested;
+      if (casterVisible(volumes[ci], c, e, sphere, casters.marginTexels(i))) {
+        out.visible[ci].push_back(i);
+      }
+    }
+  };
+
   // Depth-first over the tree, carrying the set of cascades each node may still touch.
   struct Item {
     std::uint32_t node;
@@ -380,7 +516,7 @@ void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minC
   };
   std::array<Item, 128> stack;
   std::size_t top = 0;
-  stack[top++] = {0, rootMask};
+  if (!casters.nodes_.empty()) stack[top++] = {0, rootMask};
   while (top > 0) {
     const Item item = stack[--top];
     const CasterSet::Node& node = casters.nodes_[item.node];
@@ -401,19 +537,11 @@ void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minC
       continue;
     }
     for (std::uint32_t k = node.first; k < node.first + node.count; ++k) {
-      const std::uint32_t i = casters.order_[k];
-      const glm::dvec3 c(casters.centerX_[i], casters.centerY_[i], casters.centerZ_[i]);
-      const glm::dvec3 e(casters.halfX_[i], casters.halfY_[i], casters.halfZ_[i]);
-      const bool sphere = casters.kind_[i] == 0;
-      for (std::uint32_t m = mask; m != 0; m &= m - 1) {
-        const auto ci = static_cast<std::uint32_t>(std::countr_zero(m));
-        ++out.castersTested;
-        if (casterVisible(volumes[ci], c, e, sphere, casters.marginTexels(i))) {
-          out.visible[ci].push_back(i);
-        }
-      }
+      testCaster(casters.order_[k], mask);
     }
   }
+  // Casters added since the hierarchy was built.
+  for (auto i = casters.indexed_; i < casters.size(); ++i) testCaster(i, rootMask);
   for (std::uint32_t ci = 0; ci < frame.cascadeCount; ++ci) {
     std::sort(out.visible[ci].begin(), out.visible[ci].end());
   }

@@ -89,7 +89,7 @@ Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
   Status s = validateCasters(meshes, instances);
   if (!s.ok()) return s;
   casterSet_ = casterSet;
-  if (!casterSet_.built()) casterSet_.build();
+  if (!casterSet_.built() || casterSet_.unindexedCount() > 0) casterSet_.build();
   adoptCasters(meshes, instances);
   return {};
 }
