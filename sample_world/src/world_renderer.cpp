@@ -271,7 +271,6 @@ void WorldRenderer::setUpShadowView(const World& world) {
     instances.push_back(in);
     bounds.push_back({glm::dvec3(0.0), glm::dvec3(1.0)});
   }
-  casterDraws_ = draws;
   casterInstances_ = instances;
   casterBounds_ = bounds;
   csm::vk::Status casterStatus = shadow_->setCasters(draws, instances, bounds);
@@ -695,6 +694,11 @@ void WorldRenderer::moveDynamicCasters() {
       b.maxWs = glm::max(b.maxWs, p);
     }
     casterBounds_[staticCasters_ + k] = b;
+    // Only this caster changed: the view refits its culling above it (a dynamic caster leaves
+    // the static cache alone).
+    const auto index = static_cast<std::uint32_t>(staticCasters_ + k);
+    const csm::vk::Status moved = shadow_->updateCaster(shadow_->casterHandle(index), in, b);
+    if (!moved.ok()) throw std::runtime_error("ShadowView::updateCaster: " + moved.message());
     Instance li;
     const glm::vec3 tr(at - cam);
     for (int row = 0; row < 3; ++row) {
@@ -704,9 +708,6 @@ void WorldRenderer::moveDynamicCasters() {
     li.color = m.crane ? glm::vec4(0.95f, 0.75f, 0.1f, 1.0f) : glm::vec4(0.7f, 0.1f, 0.1f, 1.0f);
     moverInstances_.push_back(li);
   }
-  // Only the dynamic instances changed: the view keeps the static cache (it compares).
-  const csm::vk::Status s = shadow_->setCasters(casterDraws_, casterInstances_, casterBounds_);
-  if (!s.ok()) throw std::runtime_error("ShadowView::setCasters: " + s.message());
 }
 
 void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool overlay,

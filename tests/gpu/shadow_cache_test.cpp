@@ -435,6 +435,105 @@ TEST(ShadowCache, InvalidatedBoxRerendersOnlyItsTexels) {
   EXPECT_EQ(engine::validationMessageCount(), 0u);
 }
 
+// Casters by handle: view 0 is given its casters once and then only changes (the two dynamic
+// movers updated every frame; a static box added, moved, removed, and another added into its
+// slot), view 1 the whole list every frame and a full render. Every frame's layers are bit for
+// bit the same, stale handles are refused by name, and a removed caster is culled into no list.
+TEST(ShadowCache, CastersByHandleStayBitIdenticalToFullRender) {
+  CacheRig rig;
+  rig.addView();
+  rig.addView();
+  csm::vk::ShadowView& view = *rig.views_[0].view;
+  rig.setDynamic(0);
+  ASSERT_TRUE(view.setCasters(rig.meshDraws_, rig.instances_, rig.bounds_).ok());
+  const std::uint32_t car = static_cast<std::uint32_t>(rig.staticCount_);
+  const csm::vk::CasterHandle carHandle = view.casterHandle(car);
+  const csm::vk::CasterHandle bladeHandle = view.casterHandle(car + 1);
+  ASSERT_TRUE(view.valid(carHandle));
+  ASSERT_TRUE(view.valid(bladeHandle));
+  csm::vk::CasterHandle box{}, first{};
+  csm::vk::CasterInstance boxInstance;
+  boxInstance.mesh = 1;
+  boxInstance.linearWs = glm::mat3(glm::dmat3(1.5, 0, 0, 0, 2.0, 0, 0, 0, 1.5));
+  constexpr int kFrames = 60;
+  for (int f = 0; f < kFrames; ++f) {
+    SCOPED_TRACE("frame " + std::to_string(f));
+    const csm::Camera cam = pathCamera("walk", f);
+    const csm::DirectionalLight light = pathLight("walk", f);
+    // The static box 8 m ahead of where the camera was at frame 10, moved 3 m at frame 25.
+    if (f == 10 || f == 25) {
+      const glm::dvec3 at = pathCamera("walk", 10).positionWs +
+                            pathCamera("walk", 10).forwardWs() * (f == 10 ? 8.0 : 11.0);
+      boxInstance.translationWs = {at.x, 2.0, at.z};
+      if (f == 10) {
+        ASSERT_TRUE(view.addCaster(boxInstance, CacheRig::boundsOf(boxInstance), &box).ok());
+        first = box;
+      } else {
+        ASSERT_TRUE(view.updateCaster(box, boxInstance, CacheRig::boundsOf(boxInstance)).ok());
+      }
+    }
+    if (f == 40) {
+      ASSERT_TRUE(view.removeCaster(box).ok());
+      EXPECT_FALSE(view.valid(box));
+      const csm::vk::Status stale = view.removeCaster(box);
+      EXPECT_EQ(stale.code(), csm::vk::ErrorCode::kInvalidArgument);
+      EXPECT_NE(stale.message().find("names no caster"), std::string::npos) << stale.message();
+    }
+    if (f == 45) {  // another box, into the removed one's slot; the old handle stays stale
+      boxInstance.translationWs += glm::dvec3(-4.0, 0.0, 2.0);
+      ASSERT_TRUE(view.addCaster(boxInstance, CacheRig::boundsOf(boxInstance), &box).ok());
+      EXPECT_EQ(box.index, first.index);
+      EXPECT_NE(box.generation, first.generation);
+      EXPECT_FALSE(view.valid(first));
+      EXPECT_FALSE(view.updateCaster(first, boxInstance, CacheRig::boundsOf(boxInstance)).ok());
+    }
+    // The movers: only they change, by handle.
+    rig.setDynamic(f);
+    ASSERT_TRUE(view.updateCaster(carHandle, rig.instances_[car], rig.bounds_[car]).ok());
+    ASSERT_TRUE(view.updateCaster(bladeHandle, rig.instances_[car + 1], rig.bounds_[car + 1]).ok());
+    // The reference: the whole list (the box while it exists), fully rendered.
+    auto instances = rig.instances_;
+    auto bounds = rig.bounds_;
+    if (f >= 10 && f != 40 && f != 41 && f != 42 && f != 43 && f != 44) {
+      instances.push_back(boxInstance);
+      bounds.push_back(CacheRig::boundsOf(boxInstance));
+    }
+    ASSERT_TRUE(rig.views_[1].view->setCasters(rig.meshDraws_, instances, bounds).ok());
+    rig.frame(cam, light, {false, true});
+    if (HasFailure()) return;
+    std::string firstDiff;
+    const std::uint64_t diff = rig.differences(0, 1, &firstDiff);
+    ASSERT_EQ(diff, 0u) << diff << " texels differ from the full render, first at " << firstDiff;
+    if (f >= 40 && f < 45) {
+      for (std::uint32_t c = 0; c < kCascades; ++c) {
+        for (std::uint32_t i : view.cull().visible[c]) ASSERT_NE(i, first.index);
+      }
+    }
+  }
+  // Refused by name, nothing changed: an instance naming a mesh that does not exist, bounds
+  // that are not a box, no handle to fill.
+  csm::vk::CasterInstance bad = boxInstance;
+  bad.mesh = 7;
+  const std::size_t slots = view.casterCount();
+  csm::vk::CasterHandle none{};
+  const csm::vk::Status mesh = view.addCaster(bad, CacheRig::boundsOf(boxInstance), &none);
+  EXPECT_EQ(mesh.code(), csm::vk::ErrorCode::kIndexOutOfRange);
+  EXPECT_NE(mesh.message().find("mesh = 7"), std::string::npos) << mesh.message();
+  const csm::vk::Status box2 =
+      view.updateCaster(box, boxInstance, {{0.0, 0.0, 0.0}, {-1.0, 1.0, 1.0}});
+  EXPECT_EQ(box2.code(), csm::vk::ErrorCode::kInvalidArgument);
+  EXPECT_NE(box2.message().find("caster.maxWs[0]"), std::string::npos) << box2.message();
+  EXPECT_FALSE(view.addCaster(boxInstance, CacheRig::boundsOf(boxInstance), nullptr).ok());
+  EXPECT_EQ(view.casterCount(), slots);
+  EXPECT_TRUE(view.valid(box));
+  // setCasters replaces the set: every earlier handle is stale.
+  ASSERT_TRUE(view.setCasters(rig.meshDraws_, rig.instances_, rig.bounds_).ok());
+  EXPECT_FALSE(view.valid(carHandle));
+  EXPECT_FALSE(view.valid(box));
+  EXPECT_TRUE(view.valid(view.casterHandle(car)));
+  EXPECT_EQ(engine::validationMessageCount(), 0u);
+}
+
 /// The layer `c` of view `v` as read back by the last frame.
 std::vector<std::uint32_t> layerOf(const CacheRig& rig, std::size_t v, std::uint32_t c) {
   const auto* p = static_cast<const std::uint32_t*>(rig.views_[v].readback->mapped());

@@ -214,7 +214,6 @@ class WorldRenderer {
   std::vector<Mover> movers_;
   std::uint32_t cubeMesh_ = 0;  // index into assetRanges_ (after the world's meshes)
   std::uint64_t frameCounter_ = 0;
-  std::vector<csm::vk::MeshDraw> casterDraws_;
   std::vector<csm::vk::CasterInstance> casterInstances_;
   std::vector<csm::AabbWs> casterBounds_;
   std::size_t staticCasters_ = 0;

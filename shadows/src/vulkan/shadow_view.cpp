@@ -2,9 +2,28 @@
 #include "csm/vulkan/shadow_view.hpp"
 
 #include <algorithm>
+#include <span>
 #include <string>
 
 namespace csm::vk {
+
+namespace {
+
+bool sameInstance(const CasterInstance& a, const CasterInstance& b) {
+  return a.mesh == b.mesh && a.translationWs == b.translationWs && a.linearWs == b.linearWs &&
+         a.lodMeshes == b.lodMeshes && a.lodErrorM == b.lodErrorM && a.dynamic == b.dynamic &&
+         a.thin == b.thin && a.closed == b.closed;
+}
+
+bool sameBox(const AabbWs& a, const AabbWs& b) {
+  return a.minWs == b.minWs && a.maxWs == b.maxWs;
+}
+
+std::string handleText(CasterHandle h) {
+  return "{index " + std::to_string(h.index) + ", generation " + std::to_string(h.generation) + "}";
+}
+
+}  // namespace
 
 std::unique_ptr<ShadowView> ShadowView::create(const DeviceInfo& device, const VertexLayout& layout,
                                                Status* status) {
@@ -104,14 +123,6 @@ void ShadowView::adoptCasters(std::span<const MeshDraw> meshes,
   // changed (or that was added or removed) invalidates its old and new bounds; dynamic ones are
   // drawn every frame.
   if (options_.cache) {
-    auto same = [](const CasterInstance& a, const CasterInstance& b) {
-      return a.mesh == b.mesh && a.translationWs == b.translationWs && a.linearWs == b.linearWs &&
-             a.lodMeshes == b.lodMeshes && a.lodErrorM == b.lodErrorM && a.dynamic == b.dynamic &&
-             a.thin == b.thin && a.closed == b.closed;
-    };
-    auto sameBox = [](const AabbWs& a, const AabbWs& b) {
-      return a.minWs == b.minWs && a.maxWs == b.maxWs;
-    };
     const bool meshesSame =
         meshes.size() == meshes_.size() &&
         std::equal(meshes.begin(), meshes.end(), meshes_.begin(), [](const auto& a, const auto& b) {
@@ -127,7 +138,7 @@ void ShadowView::adoptCasters(std::span<const MeshDraw> meshes,
       for (std::size_t i = 0; i < n; ++i) {
         const bool hasOld = i < instances_.size() && !instances_[i].dynamic;
         const bool hasNew = i < instances.size() && !instances[i].dynamic;
-        if (hasOld && hasNew && same(instances_[i], instances[i]) &&
+        if (hasOld && hasNew && sameInstance(instances_[i], instances[i]) &&
             sameBox(boundsWs_[i], bounds[i])) {
           continue;
         }
@@ -139,9 +150,109 @@ void ShadowView::adoptCasters(std::span<const MeshDraw> meshes,
   meshes_.assign(meshes.begin(), meshes.end());
   instances_.assign(instances.begin(), instances.end());
   boundsWs_ = std::move(bounds);
+  // Every handle given before names nothing now.
+  generations_.assign(instances_.size(), ++nextGeneration_);
+  freeSlots_.clear();
+  for (std::uint32_t i = 0; i < casterSet_.size(); ++i) {
+    if (casterSet_.removed(i)) freeSlots_.push_back(i);
+  }
   applyThinMargins();
   // A frame compute() made stays recordable: recordPass() culls the new casters into it.
   castersChanged_ = true;
+}
+
+bool ShadowView::valid(CasterHandle handle) const noexcept {
+  return handle.index < generations_.size() && generations_[handle.index] == handle.generation &&
+         !casterSet_.removed(handle.index);
+}
+
+CasterHandle ShadowView::casterHandle(std::uint32_t index) const noexcept {
+  if (index >= generations_.size() || casterSet_.removed(index)) return {};
+  return {index, generations_[index]};
+}
+
+Status ShadowView::checkHandle(const char* call, CasterHandle handle) const {
+  if (valid(handle)) return {};
+  return Status(ErrorCode::kInvalidArgument,
+                std::string(call) + ": handle " + handleText(handle) +
+                    " names no caster of this view (removed, replaced by setCasters, or never "
+                    "given)");
+}
+
+void ShadowView::invalidateChange(const CasterInstance* before, const AabbWs* beforeBounds,
+                                  const CasterInstance* after, const AabbWs* afterBounds) {
+  if (!options_.cache) return;
+  const bool hasOld = before != nullptr && !before->dynamic;
+  const bool hasNew = after != nullptr && !after->dynamic;
+  if (hasOld && hasNew && sameInstance(*before, *after) && sameBox(*beforeBounds, *afterBounds)) {
+    return;
+  }
+  if (hasOld) (void)renderer_->invalidate(*beforeBounds);
+  if (hasNew) (void)renderer_->invalidate(*afterBounds);
+}
+
+Status ShadowView::addCaster(const CasterInstance& instance, const AabbWs& boundsWs,
+                             CasterHandle* handle) {
+  if (handle == nullptr) {
+    return Status(ErrorCode::kInvalidArgument, "addCaster: handle is null: give where to put it");
+  }
+  if (Status s = validateCasters(meshes_, std::span<const CasterInstance>(&instance, 1)); !s.ok()) {
+    return Status(s.code(), "addCaster: " + s.message());
+  }
+  std::uint32_t slot;
+  if (!freeSlots_.empty()) {
+    slot = freeSlots_.back();
+    auto set = casterSet_.setBox(slot, boundsWs.minWs, boundsWs.maxWs);
+    if (!set) return Status(ErrorCode::kInvalidArgument, "addCaster: " + set.error().message());
+    freeSlots_.pop_back();
+    instances_[slot] = instance;
+    boundsWs_[slot] = casterSet_.bounds(slot);
+  } else {
+    auto added = casterSet_.addBox(boundsWs.minWs, boundsWs.maxWs);
+    if (!added) return Status(ErrorCode::kInvalidArgument, "addCaster: " + added.error().message());
+    slot = added.value();
+    instances_.push_back(instance);
+    boundsWs_.push_back(casterSet_.bounds(slot));
+    generations_.push_back(0);
+  }
+  generations_[slot] = ++nextGeneration_;
+  (void)casterSet_.setMarginTexels(slot, instance.thin ? renderer_->thinMarginTexels() : 0.0f);
+  invalidateChange(nullptr, nullptr, &instances_[slot], &boundsWs_[slot]);
+  castersChanged_ = true;
+  *handle = {slot, generations_[slot]};
+  return {};
+}
+
+Status ShadowView::updateCaster(CasterHandle handle, const CasterInstance& instance,
+                                const AabbWs& boundsWs) {
+  if (Status s = checkHandle("updateCaster", handle); !s.ok()) return s;
+  if (Status s = validateCasters(meshes_, std::span<const CasterInstance>(&instance, 1)); !s.ok()) {
+    return Status(s.code(), "updateCaster: " + s.message());
+  }
+  const std::uint32_t i = handle.index;
+  const CasterInstance before = instances_[i];
+  const AabbWs beforeBounds = boundsWs_[i];
+  auto set = casterSet_.setBox(i, boundsWs.minWs, boundsWs.maxWs);
+  if (!set) return Status(ErrorCode::kInvalidArgument, "updateCaster: " + set.error().message());
+  instances_[i] = instance;
+  boundsWs_[i] = casterSet_.bounds(i);
+  if (instance.thin != before.thin) {
+    (void)casterSet_.setMarginTexels(i, instance.thin ? renderer_->thinMarginTexels() : 0.0f);
+  }
+  invalidateChange(&before, &beforeBounds, &instances_[i], &boundsWs_[i]);
+  castersChanged_ = true;
+  return {};
+}
+
+Status ShadowView::removeCaster(CasterHandle handle) {
+  if (Status s = checkHandle("removeCaster", handle); !s.ok()) return s;
+  const std::uint32_t i = handle.index;
+  invalidateChange(&instances_[i], &boundsWs_[i], nullptr, nullptr);
+  (void)casterSet_.remove(i);
+  generations_[i] = ++nextGeneration_;
+  freeSlots_.push_back(i);
+  castersChanged_ = true;
+  return {};
 }
 
 // Thin casters reach beyond their bounds by the depth pass's widening: they are culled with it,

@@ -50,6 +50,14 @@ struct ReceiverDepthInput {
   float clearDepth = 1.0f;
 };
 
+/// A caster of a ShadowView by handle (ShadowView::addCaster, casterHandle): valid until that
+/// caster is removed or setCasters() replaces the set; a stale handle is refused by name, never
+/// taken for another caster that reuses its slot.
+struct CasterHandle {
+  std::uint32_t index = 0xffffffffu;
+  std::uint32_t generation = 0;
+};
+
 class ShadowView {
  public:
   /// Creates the view's renderer (ShadowRenderer::create). Returns nullptr and fills `status`
@@ -82,6 +90,23 @@ class ShadowView {
   /// of the set is instances[i]; copied, and built here if it was not).
   Status setCasters(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances,
                     const CasterSet& casterSet);
+  /// Casters one by one, at the cost of what changed (no copy of the set, no rebuild of the
+  /// culling hierarchy: the nodes above the caster are refitted): add one (its mesh indices into
+  /// the meshes of the last setCasters(), which may have given no instances), change its
+  /// instance (transform, LOD meshes, flags) and world bounds, or remove it. With the cache, a
+  /// static caster that is added, changed or removed invalidates the texels under its old and
+  /// new bounds; dynamic ones cost nothing there. Removed slots are reused by later adds. Refused
+  /// by name: a stale or unknown handle, an invalid instance (as setCasters) or bounds; nothing
+  /// changes then. A frame compute() made stays recordable: recordPass() culls the new casters.
+  Status addCaster(const CasterInstance& instance, const AabbWs& boundsWs, CasterHandle* handle);
+  Status updateCaster(CasterHandle handle, const CasterInstance& instance, const AabbWs& boundsWs);
+  Status removeCaster(CasterHandle handle);
+  /// The handle of caster `index` of the last setCasters() (or of a later add); an invalid
+  /// handle for a removed or unknown index.
+  [[nodiscard]] CasterHandle casterHandle(std::uint32_t index) const noexcept;
+  /// Whether `handle` names a caster of this view now.
+  [[nodiscard]] bool valid(CasterHandle handle) const noexcept;
+
   /// Bounds of every receiver and caster (splits end where the scene does, empty cascades are
   /// skipped); nullptr: unbounded. Invalid bounds are refused.
   Status setSceneBounds(const AabbWs* boundsWs);
@@ -168,6 +193,7 @@ class ShadowView {
   [[nodiscard]] const CullResult& cull() const noexcept { return cull_; }
   [[nodiscard]] const ShadowSettings& settings() const noexcept { return settings_; }
   [[nodiscard]] const RendererOptions& options() const noexcept { return options_; }
+  /// Caster slots (removed ones included until an add reuses them).
   [[nodiscard]] std::size_t casterCount() const noexcept { return instances_.size(); }
   [[nodiscard]] std::span<const MeshDraw> meshes() const noexcept { return meshes_; }
   [[nodiscard]] std::span<const CasterInstance> instances() const noexcept { return instances_; }
@@ -183,6 +209,10 @@ class ShadowView {
   void cullInto(const CascadeFrame& frame);
 
   void dropReceiverDepth() noexcept;
+  Status checkHandle(const char* call, CasterHandle handle) const;
+  // Invalidates the cached texels a caster's change touches (its old and new bounds, static ones).
+  void invalidateChange(const CasterInstance* before, const AabbWs* beforeBounds,
+                        const CasterInstance* after, const AabbWs* afterBounds);
 
   DeviceInfo device_{};
   std::unique_ptr<ShadowRenderer> renderer_;
@@ -194,7 +224,10 @@ class ShadowView {
   CasterSet casterSet_;
   std::vector<MeshDraw> meshes_;
   std::vector<CasterInstance> instances_;
-  std::vector<AabbWs> boundsWs_;  // casterSet_.bounds(i), for the cached pass's regions
+  std::vector<AabbWs> boundsWs_;            // casterSet_.bounds(i), for the cached pass's regions
+  std::vector<std::uint32_t> generations_;  // per slot: a handle's generation must match
+  std::vector<std::uint32_t> freeSlots_;    // removed slots, reused by addCaster
+  std::uint32_t nextGeneration_ = 0;
   AabbWs sceneBounds_{};
   bool hasSceneBounds_ = false;
   std::optional<ReceiverDepthRange> receiverRange_;
