@@ -64,11 +64,14 @@ Status checkCreateArgs(const DeviceInfo& device, const VertexLayout& layout) {
   return {};
 }
 
-// Every instance of a caster list valid (validateCasters) and every visible index in range.
+// Every instance of a caster list valid (validateCasters, unless the caller did) and every
+// visible index in range.
 Status checkCasterList(const CascadeFrame& frame, const CasterList& casters,
-                       const CullResult* visible) {
+                       const CullResult* visible, bool instancesValidated) {
   const std::size_t instanceCount = casters.instances.size();
-  if (Status s = validateCasters(casters.meshes, casters.instances); !s.ok()) return s;
+  if (!instancesValidated) {
+    if (Status s = validateCasters(casters.meshes, casters.instances); !s.ok()) return s;
+  }
   if (visible) {
     for (std::uint32_t c = 0; c < frame.cascadeCount; ++c) {
       if (frame.cascades[c].empty) continue;
@@ -1244,10 +1247,21 @@ void ShadowRenderer::endLayer(VkCommandBuffer cmd) {
 
 Status ShadowRenderer::recordShadowPass(VkCommandBuffer cmd, const CascadeFrame& frame,
                                         const CasterList& casters, const CullResult* visible) {
+  return recordCasterListPass(cmd, frame, casters, visible, false);
+}
+
+Status ShadowRenderer::recordValidatedPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                                           const CasterList& casters, const CullResult* visible) {
+  return recordCasterListPass(cmd, frame, casters, visible, true);
+}
+
+Status ShadowRenderer::recordCasterListPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                                            const CasterList& casters, const CullResult* visible,
+                                            bool instancesValidated) {
   Status s = checkFrame(frame);
   if (!s.ok()) return s;
   if (cmd == VK_NULL_HANDLE) return Status(ErrorCode::kInvalidArgument, "cmd is VK_NULL_HANDLE");
-  s = checkCasterList(frame, casters, visible);
+  s = checkCasterList(frame, casters, visible, instancesValidated);
   if (!s.ok()) return s;
   const std::size_t instanceCount = casters.instances.size();
   if (options_.cache) {

@@ -315,8 +315,8 @@ Status ShadowView::record(VkCommandBuffer cmd, const CascadeFrame& frame) {
   CascadeFrame windowed = frame;
   renderer_->applyCacheWindows(windowed);  // cached cascades: the depth windows (else no-op)
   cullInto(windowed);
-  Status s = renderer_->recordShadowPass(cmd, windowed, CasterList{meshes_, instances_, boundsWs_},
-                                         &cull_);
+  Status s = renderer_->recordValidatedPass(cmd, windowed,
+                                            CasterList{meshes_, instances_, boundsWs_}, &cull_);
   if (!s.ok()) return s;
   frame_ = windowed;
   return {};
@@ -351,8 +351,8 @@ Status ShadowView::recordPass(VkCommandBuffer cmd) {
     return Status(ErrorCode::kWrongOrder, "ShadowView::recordPass without a compute() before it");
   }
   if (castersChanged_) cullInto(frame_);  // setCasters() since compute()
-  return renderer_->recordShadowPass(cmd, frame_, CasterList{meshes_, instances_, boundsWs_},
-                                     &cull_);
+  return renderer_->recordValidatedPass(cmd, frame_, CasterList{meshes_, instances_, boundsWs_},
+                                        &cull_);
 }
 
 Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,

@@ -527,6 +527,14 @@ class ShadowRenderer {
   Status writeLightingSet(VkDescriptorSet set) const;
 
  private:
+  friend class ShadowView;
+  // recordShadowPass with the instances already validated by the caller (ShadowView validates
+  // each caster when it is given, so its frames do not pay O(casters) for it).
+  Status recordValidatedPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                             const CasterList& casters, const CullResult* visible);
+  Status recordCasterListPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                              const CasterList& casters, const CullResult* visible,
+                              bool instancesValidated);
   ShadowRenderer() = default;
   Status init(const DeviceInfo& device, const VertexLayout& layout);
   // init()'s steps, in order: debug-utils entry points, the depth and lighting set layouts,
