@@ -3,7 +3,6 @@
 #include <OpenMesh/Core/System/omstream.hh>
 #include <OpenMesh/Tools/Decimater/DecimaterT.hh>
 #include <OpenMesh/Tools/Decimater/ModAspectRatioT.hh>
-#include <OpenMesh/Tools/Decimater/ModHausdorffT.hh>
 #include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
 #include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
 
@@ -26,7 +25,58 @@ namespace world {
 
 namespace {
 
-using OmMesh = OpenMesh::TriMesh_ArrayKernelT<>;
+// OpenMesh's triangle mesh with the two connectivity queries the Decimater makes for every
+// candidate collapse written inline. The distribution's OpenMesh library is built with its
+// assertions on: its out-of-line TriConnectivity::is_collapse_ok builds and compares a type
+// name at each of its status reads, three quarters of the decimation time of a 2-million-
+// triangle mesh. These are the same tests; DecimaterT calls them on its mesh type, so they hide
+// the library's.
+struct OmMesh : OpenMesh::TriMesh_ArrayKernelT<> {
+  // Whether collapsing v0v1 (v0 into v1) keeps the mesh manifold: the edge and its vertices
+  // alive, no triangle beside it with both its other edges on the boundary, the two one-rings
+  // sharing no vertex but those of the triangles beside the edge (the link condition), and no
+  // interior edge joining two boundary vertices.
+  bool is_collapse_ok(HalfedgeHandle v0v1) {
+    if (status(edge_handle(v0v1)).deleted()) return false;
+    const HalfedgeHandle v1v0 = opposite_halfedge_handle(v0v1);
+    const VertexHandle v0 = to_vertex_handle(v1v0), v1 = to_vertex_handle(v0v1);
+    if (status(v0).deleted() || status(v1).deleted()) return false;
+    const bool left = !is_boundary(v0v1), right = !is_boundary(v1v0);
+    auto dangling = [&](HalfedgeHandle h) {
+      const HalfedgeHandle h1 = next_halfedge_handle(h), h2 = next_halfedge_handle(h1);
+      return is_boundary(opposite_halfedge_handle(h1)) && is_boundary(opposite_halfedge_handle(h2));
+    };
+    if ((left && dangling(v0v1)) || (right && dangling(v1v0))) return false;
+    const VertexHandle vl = to_vertex_handle(next_halfedge_handle(v0v1));
+    const VertexHandle vr = to_vertex_handle(next_halfedge_handle(v1v0));
+    // Mark v1's neighbours (a stamp per vertex: linear in the valences, poles included).
+    if (stamp_.size() != n_vertices()) stamp_.assign(n_vertices(), 0);
+    if (++stampNow_ == 0) {
+      std::fill(stamp_.begin(), stamp_.end(), 0u);
+      stampNow_ = 1;
+    }
+    for (const VertexHandle w : vv_range(v1)) stamp_[static_cast<std::size_t>(w.idx())] = stampNow_;
+    for (const VertexHandle w : vv_range(v0)) {
+      if (stamp_[static_cast<std::size_t>(w.idx())] == stampNow_ && !(left && w == vl) &&
+          !(right && w == vr)) {
+        return false;
+      }
+    }
+    return !(is_boundary(v0) && is_boundary(v1) && left && right);
+  }
+
+  // The halfedge from `from` to `to`, invalid when they share no edge.
+  HalfedgeHandle find_halfedge(VertexHandle from, VertexHandle to) const {
+    for (const HalfedgeHandle h : voh_range(from)) {
+      if (to_vertex_handle(h) == to) return h;
+    }
+    return HalfedgeHandle();
+  }
+
+ private:
+  std::vector<std::uint32_t> stamp_;
+  std::uint32_t stampNow_ = 0;
+};
 
 // Fills an OpenMesh mesh from positions and triangles. A triangle OpenMesh refuses (it would
 // make an edge or vertex non-manifold) gets vertices of its own instead of being dropped.
@@ -86,75 +136,6 @@ MeshData finishMesh(const std::vector<glm::vec3>& positions,
 
 namespace {
 
-// One error-bounded Decimater run: quadric error orders the collapses; a collapse is legal only
-// while every removed vertex stays within `toleranceM` of the new surface (ModHausdorffT), no
-// face normal turns by more than 60 degrees and no triangle gets thinner than 1:10.
-MeshData decimateWithin(const MeshData& in, double toleranceM) {
-  OmMesh mesh;
-  mesh.request_vertex_status();
-  mesh.request_edge_status();
-  mesh.request_halfedge_status();
-  mesh.request_face_status();
-  toOpenMesh(in.positions, in.indices, mesh);
-  for (const auto vh : mesh.vertices()) {
-    if (mesh.is_boundary(vh)) mesh.status(vh).set_locked(true);
-  }
-  mesh.request_face_normals();
-  mesh.update_face_normals();
-  using Decimater = OpenMesh::Decimater::DecimaterT<OmMesh>;
-  Decimater decimater(mesh);
-  OpenMesh::Decimater::ModQuadricT<OmMesh>::Handle quadric;
-  OpenMesh::Decimater::ModHausdorffT<OmMesh>::Handle hausdorff;
-  OpenMesh::Decimater::ModNormalFlippingT<OmMesh>::Handle flipping;
-  OpenMesh::Decimater::ModAspectRatioT<OmMesh>::Handle aspect;
-  decimater.add(quadric);
-  decimater.add(hausdorff);
-  decimater.add(flipping);
-  decimater.add(aspect);
-  decimater.module(quadric).unset_max_err();
-  decimater.module(hausdorff).set_tolerance(static_cast<float>(toleranceM));
-  decimater.module(flipping).set_max_normal_deviation(60.0);
-  decimater.module(aspect).set_aspect_ratio(10.0f);
-  decimater.module(aspect).set_binary(true);
-  if (!decimater.initialize()) return in;
-  decimater.decimate();
-  mesh.garbage_collection();
-  MeshData out = fromOpenMesh(mesh);
-  if (out.indices.empty()) return in;
-  return out;
-}
-
-}  // namespace
-
-MeshData decimateToError(const MeshData& in, double maxErrorM, double* errorM,
-                         const Progress& progress) {
-  if (errorM != nullptr) *errorM = 0.0;
-  if (!(maxErrorM > 0.0) || !std::isfinite(maxErrorM) || in.indices.empty()) return in;
-  // ModHausdorffT bounds only how far the removed vertices lie from the new surface; the
-  // measured symmetric distance (both directions, edges and faces sampled) and the shadow
-  // outlines along 48 directions decide (a pole flattened into a sheet is within its radius of
-  // the pole but casts no shadow edge-on), and a smaller tolerance is tried while they fail.
-  double tolerance = maxErrorM;
-  for (int attempt = 0; attempt < 8; ++attempt, tolerance *= 0.6) {
-    if (progress) {
-      char step[160];
-      std::snprintf(step, sizeof step, "%u triangles to within %.3g m, try %d of at most 8",
-                    in.triangleCount(), maxErrorM, attempt + 1);
-      progress(step);
-    }
-    MeshData out = decimateWithin(in, tolerance);
-    if (out.indices.size() >= in.indices.size()) break;
-    const double e = simplificationErrorM(in, out, lodSampleSpacingM(maxErrorM));
-    if (e <= maxErrorM && shadowOutlinesWithin(in, out, maxErrorM)) {
-      if (errorM != nullptr) *errorM = e;
-      return out;
-    }
-  }
-  return in;
-}
-
-namespace {
-
 // Squared distance from p to triangle abc (closest point by Voronoi regions of the triangle).
 float pointTriangleDistance2(const glm::vec3& p, const glm::vec3& a, const glm::vec3& b,
                              const glm::vec3& c) {
@@ -183,34 +164,272 @@ float pointTriangleDistance2(const glm::vec3& p, const glm::vec3& a, const glm::
   return d2To(a + ab * (vb / denom) + ac * (vc / denom));
 }
 
-// Triangles of a mesh bucketed in a uniform grid for nearest-surface queries.
+// A triangle with its (unnormalised) normal, for many point distance queries.
+struct FaceGeometry {
+  glm::vec3 a, b, c, n;
+  float nn = 0.0f;  // |n|^2
+};
+
+FaceGeometry faceGeometry(const glm::vec3& a, const glm::vec3& b, const glm::vec3& c) {
+  const glm::vec3 n = glm::cross(b - a, c - a);
+  return {a, b, c, n, glm::dot(n, n)};
+}
+
+// Whether p is at least sqrt(d2) from f's plane, hence from f (one dot product; false for a
+// degenerate face, whose plane is undefined).
+bool beyondPlane(const FaceGeometry& f, const glm::vec3& p, float d2) {
+  const float s = glm::dot(f.n, p - f.a);
+  return s * s >= d2 * f.nn && f.nn > 0.0f;
+}
+
+bool within(const FaceGeometry& f, const glm::vec3& p, float d2) {
+  return !beyondPlane(f, p, d2) && pointTriangleDistance2(p, f.a, f.b, f.c) <= d2;
+}
+
+glm::vec3 toGlm(const OmMesh::Point& p) {
+  return {p[0], p[1], p[2]};
+}
+
+// Keeps every vertex a collapse removes within a tolerance of the surface, the rule of OpenMesh's
+// ModHausdorffT: each removed vertex is kept by its nearest face, and a collapse is legal only
+// while every point kept by the faces around the removed vertex (and the vertex itself) lies
+// within the tolerance of one of the faces left around it. Evaluated without copying the points,
+// each point tried first against the face that keeps it, each face rejected by its plane's
+// distance before the exact distance (ModHausdorffT copies every point of the ring and measures
+// it against each face in turn: most of a large mesh's LOD time).
+template <class MeshT>
+class ModRemovedPointsT : public OpenMesh::Decimater::ModBaseT<MeshT> {
+ public:
+  DECIMATING_MODULE(ModRemovedPointsT, MeshT, RemovedPoints);
+
+  explicit ModRemovedPointsT(MeshT& mesh) : Base(mesh, true) { mesh.add_property(points_); }
+  ~ModRemovedPointsT() override { Base::mesh().remove_property(points_); }
+  ModRemovedPointsT(const ModRemovedPointsT&) = delete;
+  ModRemovedPointsT& operator=(const ModRemovedPointsT&) = delete;
+
+  void setTolerance(double toleranceM) {
+    tolerance2_ = static_cast<float>(toleranceM * toleranceM);
+  }
+
+  float collapse_priority(const CollapseInfo& ci) override {
+    Mesh& mesh = Base::mesh();
+    after_.clear();
+    ring_.clear();
+    for (const auto fh : mesh.vf_range(ci.v0)) {
+      std::size_t k = kNone;
+      if (fh != ci.fl && fh != ci.fr) {
+        k = after_.size();
+        after_.push_back(faceAfter(fh, ci.v0, ci.p1));
+      }
+      ring_.push_back({fh, k});
+    }
+    if (!covered(toGlm(ci.p0), kNone)) return float(Base::ILLEGAL_COLLAPSE);
+    for (const auto& [fh, k] : ring_) {
+      for (const glm::vec3& p : mesh.property(points_, fh)) {
+        if (!covered(p, k)) return float(Base::ILLEGAL_COLLAPSE);
+      }
+    }
+    return float(Base::LEGAL_COLLAPSE);
+  }
+
+  void preprocess_collapse(const CollapseInfo& ci) override {
+    moved_.clear();
+    for (const auto fh : Base::mesh().vf_range(ci.v0)) {
+      if (fh != ci.fl && fh != ci.fr) moved_.push_back(fh);
+    }
+  }
+
+  // The points of the faces that moved or went (and the removed vertex) go to their nearest face
+  // around the kept vertex; the other faces keep theirs.
+  void postprocess_collapse(const CollapseInfo& ci) override {
+    Mesh& mesh = Base::mesh();
+    after_.clear();
+    afterFaces_.clear();
+    for (const auto fh : mesh.vf_range(ci.v1)) {
+      afterFaces_.push_back(fh);
+      after_.push_back(faceAfter(fh, ci.v1, ci.p1));
+    }
+    if (after_.empty()) return;
+    pending_.clear();
+    for (const auto fh : moved_) {
+      const std::size_t own = static_cast<std::size_t>(
+          std::find(afterFaces_.begin(), afterFaces_.end(), fh) - afterFaces_.begin());
+      take(fh, own);
+    }
+    if (ci.fl.is_valid()) take(ci.fl, kNone);
+    if (ci.fr.is_valid()) take(ci.fr, kNone);
+    pending_.push_back({toGlm(ci.p0), kNone});
+    for (const auto& [p, own] : pending_) {
+      std::size_t best = own < after_.size() ? own : 0;
+      float best2 = pointTriangleDistance2(p, after_[best].a, after_[best].b, after_[best].c);
+      for (std::size_t k = 0; k < after_.size(); ++k) {
+        if (k == best || beyondPlane(after_[k], p, best2)) continue;
+        const float d2 = pointTriangleDistance2(p, after_[k].a, after_[k].b, after_[k].c);
+        if (d2 < best2) {
+          best2 = d2;
+          best = k;
+        }
+      }
+      mesh.property(points_, afterFaces_[best]).push_back(p);
+    }
+  }
+
+ private:
+  static constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+
+  // Face fh with vertex v at p.
+  FaceGeometry faceAfter(typename Mesh::FaceHandle fh, typename Mesh::VertexHandle v,
+                         const typename Mesh::Point& p) {
+    glm::vec3 q[3];
+    int i = 0;
+    for (const auto vh : Base::mesh().fv_range(fh)) {
+      q[i++] = toGlm(vh == v ? p : Base::mesh().point(vh));
+    }
+    return faceGeometry(q[0], q[1], q[2]);
+  }
+
+  // Whether p lies within the tolerance of a face of after_, face `first` tried first.
+  bool covered(const glm::vec3& p, std::size_t first) const {
+    if (first < after_.size() && within(after_[first], p, tolerance2_)) return true;
+    for (std::size_t k = 0; k < after_.size(); ++k) {
+      if (k != first && within(after_[k], p, tolerance2_)) return true;
+    }
+    return false;
+  }
+
+  void take(typename Mesh::FaceHandle fh, std::size_t own) {
+    std::vector<glm::vec3>& points = Base::mesh().property(points_, fh);
+    for (const glm::vec3& p : points) pending_.push_back({p, own});
+    points.clear();
+    points.shrink_to_fit();
+  }
+
+  OpenMesh::FPropHandleT<std::vector<glm::vec3>> points_;
+  float tolerance2_ = 0.0f;
+  // Scratch, kept to save allocations.
+  std::vector<FaceGeometry> after_;
+  std::vector<typename Mesh::FaceHandle> afterFaces_, moved_;
+  std::vector<std::pair<typename Mesh::FaceHandle, std::size_t>> ring_;
+  std::vector<std::pair<glm::vec3, std::size_t>> pending_;
+};
+
+// Fills a mesh for decimation: status flags, boundary vertices locked, face normals.
+void toDecimatable(const MeshData& in, OmMesh& mesh) {
+  mesh.request_vertex_status();
+  mesh.request_edge_status();
+  mesh.request_halfedge_status();
+  mesh.request_face_status();
+  toOpenMesh(in.positions, in.indices, mesh);
+  for (const auto vh : mesh.vertices()) {
+    if (mesh.is_boundary(vh)) mesh.status(vh).set_locked(true);
+  }
+  mesh.request_face_normals();
+  mesh.update_face_normals();
+}
+
+// One Decimater run over a mesh: quadric error orders the collapses; a collapse is legal only
+// while no face normal turns by more than 60 degrees, no triangle gets thinner than 1:10 (the
+// cheap tests first) and every removed vertex stays within the tolerance of the new surface
+// (ModRemovedPointsT). decimateWithin() again with a larger tolerance goes on from where the
+// run stopped: each collapse still kept every removed vertex within the tolerance of its time.
+class BoundedDecimation {
+ public:
+  explicit BoundedDecimation(const MeshData& in) : decimater_(mesh_) {
+    toDecimatable(in, mesh_);
+    decimater_.add(quadric_);
+    decimater_.add(flipping_);
+    decimater_.add(aspect_);
+    decimater_.add(points_);
+    decimater_.module(quadric_).unset_max_err();
+    decimater_.module(flipping_).set_max_normal_deviation(60.0);
+    decimater_.module(aspect_).set_aspect_ratio(10.0f);
+    decimater_.module(aspect_).set_binary(true);
+    ok_ = decimater_.initialize();
+  }
+
+  /// Collapses while every removed vertex stays within `toleranceM`.
+  void decimateWithin(double toleranceM) {
+    if (!ok_) return;
+    decimater_.module(points_).setTolerance(toleranceM);
+    decimater_.decimate();
+  }
+  /// The mesh now (ends the run).
+  [[nodiscard]] MeshData finish() {
+    mesh_.garbage_collection();
+    return fromOpenMesh(mesh_);
+  }
+
+ private:
+  using Decimater = OpenMesh::Decimater::DecimaterT<OmMesh>;
+  OmMesh mesh_;
+  Decimater decimater_;
+  OpenMesh::Decimater::ModQuadricT<OmMesh>::Handle quadric_;
+  OpenMesh::Decimater::ModNormalFlippingT<OmMesh>::Handle flipping_;
+  OpenMesh::Decimater::ModAspectRatioT<OmMesh>::Handle aspect_;
+  ModRemovedPointsT<OmMesh>::Handle points_;
+  bool ok_ = false;
+};
+
+// One error-bounded Decimater run of `in` (the mesh itself when nothing is left).
+MeshData decimateWithin(const MeshData& in, double toleranceM) {
+  BoundedDecimation run(in);
+  run.decimateWithin(toleranceM);
+  MeshData out = run.finish();
+  if (out.indices.empty()) return in;
+  return out;
+}
+
+}  // namespace
+
+namespace {
+
+// Triangles of a mesh bucketed in a uniform grid for nearest-surface queries: cells about one
+// and a half times the mean triangle's size (a surface mesh fills few of the cells a
+// triangles-per-volume rule sizes), 8 million at most, stored as one index array.
 class TriangleGrid {
  public:
   explicit TriangleGrid(const MeshData& m) {
+    tris_.reserve(m.indices.size() / 3);
+    double meanExtent = 0.0;
     for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
       const glm::vec3 a = m.positions[m.indices[t]], b = m.positions[m.indices[t + 1]],
                       c = m.positions[m.indices[t + 2]];
       tris_.push_back({a, b, c});
-      lo_ = glm::min(lo_, glm::min(a, glm::min(b, c)));
-      hi_ = glm::max(hi_, glm::max(a, glm::max(b, c)));
+      const glm::vec3 tlo = glm::min(a, glm::min(b, c)), thi = glm::max(a, glm::max(b, c));
+      lo_ = glm::min(lo_, tlo);
+      hi_ = glm::max(hi_, thi);
+      const glm::vec3 e = thi - tlo;
+      meanExtent += std::max({e.x, e.y, e.z});
     }
     if (tris_.empty()) return;
+    meanExtent /= static_cast<double>(tris_.size());
     const glm::vec3 extent = glm::max(hi_ - lo_, glm::vec3(1e-6f));
-    // About two triangles per cell, 64 cells per side at most.
-    const float cells = std::max(1.0f, static_cast<float>(tris_.size()) / 2.0f);
-    cell_ = std::max(std::cbrt(extent.x * extent.y * extent.z / cells),
-                     std::max({extent.x, extent.y, extent.z}) / 64.0f);
-    for (int k = 0; k < 3; ++k) n_[k] = std::max(1, static_cast<int>(std::ceil(extent[k] / cell_)));
-    cells_.resize(static_cast<std::size_t>(n_[0]) * n_[1] * n_[2]);
-    for (std::uint32_t t = 0; t < tris_.size(); ++t) {
-      const Tri& tri = tris_[t];
+    constexpr double kMaxCells = 8e6;
+    cell_ = std::max(static_cast<float>(1.5 * meanExtent),
+                     std::max({extent.x, extent.y, extent.z}) / 1024.0f);
+    for (;; cell_ *= 1.25f) {
+      for (int k = 0; k < 3; ++k) {
+        n_[k] = std::max(1, static_cast<int>(std::ceil(extent[k] / cell_)));
+      }
+      if (double(n_.x) * n_.y * n_.z <= kMaxCells) break;
+    }
+    // Two passes over the triangles' cell ranges: counts, then the triangles in place.
+    start_.assign(static_cast<std::size_t>(n_[0]) * n_[1] * n_[2] + 1, 0);
+    auto forCells = [&](const Tri& tri, auto&& f) {
       const glm::ivec3 c0 = cellOf(glm::min(tri.a, glm::min(tri.b, tri.c)));
       const glm::ivec3 c1 = cellOf(glm::max(tri.a, glm::max(tri.b, tri.c)));
       for (int z = c0.z; z <= c1.z; ++z) {
         for (int y = c0.y; y <= c1.y; ++y) {
-          for (int x = c0.x; x <= c1.x; ++x) cells_[index({x, y, z})].push_back(t);
+          for (int x = c0.x; x <= c1.x; ++x) f(index({x, y, z}));
         }
       }
+    };
+    for (const Tri& tri : tris_) forCells(tri, [&](std::size_t i) { ++start_[i + 1]; });
+    for (std::size_t i = 1; i < start_.size(); ++i) start_[i] += start_[i - 1];
+    std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
+    ids_.resize(start_.back());
+    for (std::uint32_t t = 0; t < tris_.size(); ++t) {
+      forCells(tris_[t], [&](std::size_t i) { ids_[fill[i]++] = t; });
     }
   }
   [[nodiscard]] bool empty() const { return tris_.empty(); }
@@ -225,13 +444,16 @@ class TriangleGrid {
     const int rings = std::max({n_.x, n_.y, n_.z});
     for (int r = 0; r <= rings; ++r) {
       // Cells at Chebyshev distance r from c: everything closer was seen in earlier rings.
-      for (int z = c.z - r; z <= c.z + r; ++z) {
-        for (int y = c.y - r; y <= c.y + r; ++y) {
-          for (int x = c.x - r; x <= c.x + r; ++x) {
-            if (std::max({std::abs(x - c.x), std::abs(y - c.y), std::abs(z - c.z)}) != r) continue;
-            if (x < 0 || y < 0 || z < 0 || x >= n_.x || y >= n_.y || z >= n_.z) continue;
-            for (std::uint32_t t : cells_[index({x, y, z})]) {
-              const Tri& tri = tris_[t];
+      for (int z = std::max(0, c.z - r); z <= std::min(n_.z - 1, c.z + r); ++z) {
+        for (int y = std::max(0, c.y - r); y <= std::min(n_.y - 1, c.y + r); ++y) {
+          const bool faceZy = std::abs(z - c.z) == r || std::abs(y - c.y) == r;
+          // Inside the ring's z and y faces every x; elsewhere only the two x faces.
+          const int step = faceZy || r == 0 ? 1 : 2 * r;
+          for (int x = c.x - r; x <= c.x + r; x += step) {
+            if (x < 0 || x >= n_.x) continue;
+            const std::size_t i = index({x, y, z});
+            for (std::uint32_t k = start_[i]; k < start_[i + 1]; ++k) {
+              const Tri& tri = tris_[ids_[k]];
               best2 = std::min(best2, pointTriangleDistance2(p, tri.a, tri.b, tri.c));
             }
           }
@@ -259,20 +481,20 @@ class TriangleGrid {
   glm::vec3 lo_{std::numeric_limits<float>::max()}, hi_{-std::numeric_limits<float>::max()};
   float cell_ = 1.0f;
   glm::ivec3 n_{1};
-  std::vector<std::vector<std::uint32_t>> cells_;
+  std::vector<std::uint32_t> start_;  // cell i holds ids_[start_[i], start_[i + 1])
+  std::vector<std::uint32_t> ids_;
 };
 
 // Largest distance from sample points of `from` to the surface of `to`: its vertices, and per
 // triangle its centroid, edge midpoints, the points halfway between centroid and corners and,
 // with `spacingM` > 0, a barycentric grid with samples at most spacingM apart along each edge
 // (16 steps per edge at most).
-double oneSidedDistance(const MeshData& from, const MeshData& to, double spacingM) {
-  const TriangleGrid grid(to);
-  if (grid.empty()) {
+double oneSidedDistance(const MeshData& from, const TriangleGrid& to, double spacingM) {
+  if (to.empty()) {
     return from.positions.empty() ? 0.0 : std::numeric_limits<double>::infinity();
   }
   float worst2 = 0.0f;
-  auto visit = [&](const glm::vec3& p) { worst2 = std::max(worst2, grid.distance2(p, worst2)); };
+  auto visit = [&](const glm::vec3& p) { worst2 = std::max(worst2, to.distance2(p, worst2)); };
   for (const glm::vec3& p : from.positions) visit(p);
   for (std::size_t t = 0; t + 2 < from.indices.size(); t += 3) {
     const glm::vec3 a = from.positions[from.indices[t]], b = from.positions[from.indices[t + 1]],
@@ -296,8 +518,27 @@ double oneSidedDistance(const MeshData& from, const MeshData& to, double spacing
   return std::sqrt(static_cast<double>(worst2));
 }
 
-// The mesh's shadow outline along `dir` as a coverage mask (orthographic, pixel centres inside
-// any triangle, no culling: what a depth pass without culling covers).
+// simplificationErrorM against one original mesh for any number of simplified meshes: the
+// original's grid is built once.
+class ErrorMeter {
+ public:
+  ErrorMeter(const MeshData& original, double sampleSpacingM)
+      : original_(original),
+        grid_(original),
+        spacingM_(std::isfinite(sampleSpacingM) && sampleSpacingM > 0.0 ? sampleSpacingM : 0.0) {}
+  [[nodiscard]] double errorM(const MeshData& simplified) const {
+    return std::max(oneSidedDistance(original_, TriangleGrid(simplified), spacingM_),
+                    oneSidedDistance(simplified, grid_, spacingM_));
+  }
+
+ private:
+  const MeshData& original_;
+  TriangleGrid grid_;
+  double spacingM_;
+};
+
+// The mesh's shadow outline along a direction as a coverage mask (orthographic, pixel centres
+// inside any triangle, no culling: what a depth pass without culling covers).
 struct OutlineMask {
   int n = 0;
   std::vector<std::uint8_t> on;
@@ -306,12 +547,15 @@ struct OutlineMask {
 OutlineMask outlineMask(const MeshData& m, const glm::vec3& u, const glm::vec3& v,
                         const glm::vec2& origin, float pixel, int n) {
   OutlineMask mask{n, std::vector<std::uint8_t>(static_cast<std::size_t>(n) * n, 0)};
+  // Each vertex projected once (a vertex is shared by about six triangles).
+  std::vector<glm::vec2> projected(m.positions.size());
+  for (std::size_t i = 0; i < m.positions.size(); ++i) {
+    const glm::vec3 x = m.positions[i];
+    projected[i] = (glm::vec2(glm::dot(x, u), glm::dot(x, v)) - origin) / pixel;
+  }
   for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
-    glm::vec2 q[3];
-    for (int k = 0; k < 3; ++k) {
-      const glm::vec3 x = m.positions[m.indices[t + k]];
-      q[k] = (glm::vec2(glm::dot(x, u), glm::dot(x, v)) - origin) / pixel;
-    }
+    const glm::vec2 q[3] = {projected[m.indices[t]], projected[m.indices[t + 1]],
+                            projected[m.indices[t + 2]]};
     const float area =
         (q[1].x - q[0].x) * (q[2].y - q[0].y) - (q[1].y - q[0].y) * (q[2].x - q[0].x);
     if (!(std::abs(area) > 1e-12f)) continue;
@@ -353,49 +597,109 @@ bool coveredWithin(const OutlineMask& a, const OutlineMask& b, int radius) {
   return true;
 }
 
+// shadowOutlinesWithin against one original mesh and bound for any number of simplified
+// meshes: the original's outlines are rasterised once, when first needed.
+class OutlineCheck {
+ public:
+  OutlineCheck(const MeshData& original, double boundM) : original_(original) {
+    if (!(boundM > 0.0) || original.positions.empty()) return;
+    glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
+    for (const glm::vec3& p : original.positions) {
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+    const float size = glm::length(hi - lo);
+    // Pixels of a quarter of the bound (coarser for a mesh over 500 of them across: a part
+    // flattened into a sheet leaves gaps in a raster finer than its width); a pixel counts as
+    // covered when the other outline has one within the bound plus a pixel.
+    pixel_ = std::max(static_cast<float>(boundM) / 4.0f, size / 500.0f);
+    radius_ = static_cast<int>(std::ceil(boundM / pixel_)) + 1;
+    n_ = static_cast<int>(std::ceil(size / pixel_)) + 2 * radius_ + 2;
+    // 48 directions spread over a hemisphere (a Fibonacci spiral; d and -d cast the same
+    // outline): dense enough that a thin part flattened into a sheet is seen nearly edge-on,
+    // where its outline thins to gaps, from some of them.
+    constexpr int kDirections = 48;
+    for (int k = 0; k < kDirections; ++k) {
+      const float z = (static_cast<float>(k) + 0.5f) / kDirections;
+      const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
+      const float phi = 2.39996323f * static_cast<float>(k);
+      const glm::vec3 w = glm::normalize(glm::vec3(r * std::cos(phi), z, r * std::sin(phi)));
+      const glm::vec3 u = glm::normalize(std::abs(w.y) > 0.9f ? glm::cross(glm::vec3(1, 0, 0), w)
+                                                              : glm::cross(glm::vec3(0, 1, 0), w));
+      const glm::vec3 v = glm::cross(w, u);
+      const glm::vec3 centre = 0.5f * (lo + hi);
+      const glm::vec2 origin =
+          glm::vec2(glm::dot(centre, u), glm::dot(centre, v)) - 0.5f * pixel_ * float(n_);
+      views_.push_back({u, v, origin});
+    }
+    masks_.resize(views_.size());
+  }
+
+  /// Whether the outlines of `simplified` and the original cover each other within the bound.
+  [[nodiscard]] bool within(const MeshData& simplified) {
+    for (std::size_t k = 0; k < views_.size(); ++k) {
+      const View& view = views_[k];
+      if (masks_[k].on.empty()) {
+        masks_[k] = outlineMask(original_, view.u, view.v, view.origin, pixel_, n_);
+      }
+      const OutlineMask b = outlineMask(simplified, view.u, view.v, view.origin, pixel_, n_);
+      if (!coveredWithin(masks_[k], b, radius_) || !coveredWithin(b, masks_[k], radius_)) {
+        return false;
+      }
+    }
+    return true;
+  }
+
+ private:
+  struct View {
+    glm::vec3 u, v;
+    glm::vec2 origin;
+  };
+  const MeshData& original_;
+  float pixel_ = 1.0f;
+  int radius_ = 0, n_ = 0;
+  std::vector<View> views_;  // none: every mesh is within (no bound, or no original)
+  std::vector<OutlineMask> masks_;
+};
+
 }  // namespace
 
 bool shadowOutlinesWithin(const MeshData& original, const MeshData& simplified, double boundM) {
-  if (!(boundM > 0.0) || original.positions.empty()) return true;
-  glm::vec3 lo(std::numeric_limits<float>::max()), hi(-std::numeric_limits<float>::max());
-  for (const glm::vec3& p : original.positions) {
-    lo = glm::min(lo, p);
-    hi = glm::max(hi, p);
-  }
-  const float size = glm::length(hi - lo);
-  // Pixels of a quarter of the bound (coarser for a mesh over 500 of them across: a part
-  // flattened into a sheet leaves gaps in a raster finer than its width); a pixel counts as
-  // covered when the other outline has one within the bound plus a pixel.
-  const float pixel = std::max(static_cast<float>(boundM) / 4.0f, size / 500.0f);
-  const int radius = static_cast<int>(std::ceil(boundM / pixel)) + 1;
-  const int n = static_cast<int>(std::ceil(size / pixel)) + 2 * radius + 2;
-  // 48 directions spread over a hemisphere (a Fibonacci spiral; d and -d cast the same outline):
-  // dense enough that a thin part flattened into a sheet is seen nearly edge-on, where its
-  // outline thins to gaps, from some of them.
-  constexpr int kDirections = 48;
-  for (int k = 0; k < kDirections; ++k) {
-    const float z = (static_cast<float>(k) + 0.5f) / kDirections;
-    const float r = std::sqrt(std::max(0.0f, 1.0f - z * z));
-    const float phi = 2.39996323f * static_cast<float>(k);
-    const glm::vec3 w = glm::normalize(glm::vec3(r * std::cos(phi), z, r * std::sin(phi)));
-    const glm::vec3 u = glm::normalize(std::abs(w.y) > 0.9f ? glm::cross(glm::vec3(1, 0, 0), w)
-                                                            : glm::cross(glm::vec3(0, 1, 0), w));
-    const glm::vec3 v = glm::cross(w, u);
-    const glm::vec3 centre = 0.5f * (lo + hi);
-    const glm::vec2 origin =
-        glm::vec2(glm::dot(centre, u), glm::dot(centre, v)) - 0.5f * pixel * float(n);
-    const OutlineMask a = outlineMask(original, u, v, origin, pixel, n);
-    const OutlineMask b = outlineMask(simplified, u, v, origin, pixel, n);
-    if (!coveredWithin(a, b, radius) || !coveredWithin(b, a, radius)) return false;
-  }
-  return true;
+  return OutlineCheck(original, boundM).within(simplified);
 }
 
 double simplificationErrorM(const MeshData& original, const MeshData& simplified,
                             double sampleSpacingM) {
-  const double s = std::isfinite(sampleSpacingM) && sampleSpacingM > 0.0 ? sampleSpacingM : 0.0;
-  return std::max(oneSidedDistance(original, simplified, s),
-                  oneSidedDistance(simplified, original, s));
+  return ErrorMeter(original, sampleSpacingM).errorM(simplified);
+}
+
+MeshData decimateToError(const MeshData& in, double maxErrorM, double* errorM,
+                         const Progress& progress) {
+  if (errorM != nullptr) *errorM = 0.0;
+  if (!(maxErrorM > 0.0) || !std::isfinite(maxErrorM) || in.indices.empty()) return in;
+  // The removed vertices within the tolerance bound only part of the error; the measured
+  // symmetric distance (both directions, edges and faces sampled) and the shadow outlines along
+  // 48 directions decide (a pole flattened into a sheet is within its radius of the pole but
+  // casts no shadow edge-on), and a smaller tolerance is tried while they fail.
+  const ErrorMeter meter(in, lodSampleSpacingM(maxErrorM));
+  OutlineCheck outlines(in, maxErrorM);
+  double tolerance = maxErrorM;
+  for (int attempt = 0; attempt < 8; ++attempt, tolerance *= 0.6) {
+    if (progress) {
+      char step[160];
+      std::snprintf(step, sizeof step, "%u triangles to within %.3g m, try %d of at most 8",
+                    in.triangleCount(), maxErrorM, attempt + 1);
+      progress(step);
+    }
+    MeshData out = decimateWithin(in, tolerance);
+    if (out.indices.size() >= in.indices.size()) break;
+    const double e = meter.errorM(out);
+    if (e <= maxErrorM && outlines.within(out)) {
+      if (errorM != nullptr) *errorM = e;
+      return out;
+    }
+  }
+  return in;
 }
 
 bool isClosedOutward(const MeshData& m) {

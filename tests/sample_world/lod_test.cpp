@@ -237,6 +237,44 @@ TEST(Lod, DecimateToErrorKeepsTheBound) {
   }
 }
 
+// A large bumpy mesh (about 100k triangles, bumps of many sizes, as a scanned or sculpted --mesh
+// is): each LOD decimateToError makes for the world's bounds (5 m mesh) records the error it
+// measured, lies within its bound re-measured both ways and along the 48 shadow outlines, is
+// still closed and outward (the Decimater's own collapse test keeps it manifold), and
+// simplifies.
+TEST(Lod, LargeBumpyMeshKeepsEveryBound) {
+  world::MeshData sphere;
+  addSphere(sphere, {0, 0, 0}, 2.5f, 160, 320);
+  for (glm::vec3& p : sphere.positions) {
+    const glm::vec3 d = glm::normalize(p);
+    float r = 2.5f;
+    for (int k = 0; k < 6; ++k) {
+      const float f = 1.5f * float(1 << k);
+      r += 0.12f / float(1 << k) * std::sin(f * d.x + 2.1f * k) * std::cos(f * d.z - 1.3f * k) *
+           std::sin(f * d.y + 0.7f * k);
+    }
+    p = d * r;
+  }
+  ASSERT_TRUE(world::isClosedOutward(sphere));
+  for (double bound : {world::kLodErrorLadderM[1] / 4.0, world::kLodErrorLadderM[2] / 4.0}) {
+    double measured = -1.0;
+    const world::MeshData lod = world::decimateToError(sphere, bound, &measured);
+    EXPECT_GT(measured, 0.0) << bound;
+    EXPECT_LE(measured, bound) << bound;
+    EXPECT_NEAR(world::simplificationErrorM(sphere, lod, world::lodSampleSpacingM(bound)), measured,
+                1e-6)
+        << bound;
+    EXPECT_LE(world::simplificationErrorM(sphere, lod, world::lodSampleSpacingM(bound) / 2.0),
+              bound * 1.05)
+        << bound;
+    EXPECT_TRUE(world::shadowOutlinesWithin(sphere, lod, bound)) << bound;
+    EXPECT_TRUE(world::isClosedOutward(lod)) << bound;
+    EXPECT_LT(lod.triangleCount(), sphere.triangleCount() / 10) << bound;
+    std::printf("bumpy sphere 5 m, bound %.3f m: %u -> %u triangles, measured %.4f m\n", bound,
+                sphere.triangleCount(), lod.triangleCount(), measured);
+  }
+}
+
 // A small piece beside a big one: above the bound it stays (matched within the bound), at any
 // bound it is never moved by more than the bound.
 TEST(Lod, SmallPiecesLargerThanTheBoundSurvive) {
