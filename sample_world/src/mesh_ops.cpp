@@ -1,10 +1,11 @@
 // OpenMesh side of the sample world: normals, Decimater LODs, mesh file loading, hashes.
 #include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
 #include <OpenMesh/Core/System/omstream.hh>
-#include <OpenMesh/Tools/Decimater/DecimaterT.hh>
+#include <OpenMesh/Tools/Decimater/BaseDecimaterT.hh>
 #include <OpenMesh/Tools/Decimater/ModAspectRatioT.hh>
 #include <OpenMesh/Tools/Decimater/ModNormalFlippingT.hh>
 #include <OpenMesh/Tools/Decimater/ModQuadricT.hh>
+#include <OpenMesh/Tools/Utils/HeapT.hh>
 
 #include <algorithm>
 #include <array>
@@ -327,6 +328,127 @@ void toDecimatable(const MeshData& in, OmMesh& mesh) {
   mesh.update_face_normals();
 }
 
+// OpenMesh's DecimaterT with the same collapses in the same order (a heap of vertices keyed by
+// the priority of their cheapest legal collapse), but a vertex's candidate collapses are ordered
+// by priority first and tested for legality (topology, then the binary modules, cheapest first)
+// only until one passes: DecimaterT tests every candidate and keeps the cheapest legal one, the
+// same collapse at several times the cost.
+class CheapestFirstDecimater : public OpenMesh::Decimater::BaseDecimaterT<OmMesh> {
+ public:
+  using Module = OpenMesh::Decimater::ModBaseT<OmMesh>;
+
+  explicit CheapestFirstDecimater(OmMesh& mesh) : BaseDecimaterT(mesh), mesh_(mesh) {
+    mesh_.add_property(priority_);
+    mesh_.add_property(position_);
+    mesh_.add_property(target_);
+  }
+  ~CheapestFirstDecimater() {
+    mesh_.remove_property(priority_);
+    mesh_.remove_property(position_);
+    mesh_.remove_property(target_);
+  }
+  CheapestFirstDecimater(const CheapestFirstDecimater&) = delete;
+  CheapestFirstDecimater& operator=(const CheapestFirstDecimater&) = delete;
+
+  /// Collapses until no vertex has a legal collapse: `priority` orders them (the module
+  /// initialize() chose), `binary` are the added binary modules, cheapest first.
+  void decimate(Module& priority, const std::vector<Module*>& binary) {
+    priorityModule_ = &priority;
+    binary_ = binary;
+    Heap heap(HeapInterface{mesh_, priority_, position_});
+    heap_ = &heap;
+    heap.reserve(mesh_.n_vertices());
+    for (const auto vh : mesh_.vertices()) {
+      heap.reset_heap_position(vh);
+      if (!mesh_.status(vh).deleted()) heapVertex(vh);
+    }
+    std::vector<OmMesh::VertexHandle> support;
+    while (!heap.empty()) {
+      const OmMesh::VertexHandle vh = heap.front();
+      const OmMesh::HalfedgeHandle v0v1 = mesh_.property(target_, vh);
+      heap.pop_front();
+      CollapseInfo ci(mesh_, v0v1);
+      if (!is_collapse_legal(ci)) continue;  // the mesh changed since it was queued
+      support.clear();
+      for (const auto w : mesh_.vv_range(ci.v0)) support.push_back(w);
+      preprocess_collapse(ci);
+      mesh_.collapse(v0v1);
+      for (const auto fh : mesh_.vf_range(ci.v1)) {
+        if (!mesh_.status(fh).deleted()) mesh_.set_normal(fh, mesh_.calc_face_normal(fh));
+      }
+      postprocess_collapse(ci);
+      for (const auto w : support) heapVertex(w);
+    }
+    heap_ = nullptr;
+  }
+
+ private:
+  struct HeapInterface {
+    OmMesh& mesh;
+    OpenMesh::VPropHandleT<float> priority;
+    OpenMesh::VPropHandleT<int> position;
+    bool less(OmMesh::VertexHandle a, OmMesh::VertexHandle b) {
+      return mesh.property(priority, a) < mesh.property(priority, b);
+    }
+    bool greater(OmMesh::VertexHandle a, OmMesh::VertexHandle b) {
+      return mesh.property(priority, a) > mesh.property(priority, b);
+    }
+    int get_heap_position(OmMesh::VertexHandle v) { return mesh.property(position, v); }
+    void set_heap_position(OmMesh::VertexHandle v, int i) { mesh.property(position, v) = i; }
+  };
+  using Heap = OpenMesh::Utils::HeapT<OmMesh::VertexHandle, HeapInterface>;
+
+  // Queues vh with its cheapest legal collapse (ties: the first around it), or unqueues it.
+  void heapVertex(OmMesh::VertexHandle vh) {
+    candidates_.clear();
+    for (const auto heh : mesh_.voh_range(vh)) {
+      candidates_.push_back({priorityModule_->collapse_priority(CollapseInfo(mesh_, heh)), heh});
+    }
+    std::stable_sort(candidates_.begin(), candidates_.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    OmMesh::HalfedgeHandle target;
+    float best = std::numeric_limits<float>::max();
+    for (const auto& [prio, heh] : candidates_) {
+      if (!(prio >= 0.0f && prio < best)) continue;
+      const CollapseInfo ci(mesh_, heh);
+      if (!is_collapse_legal(ci)) continue;
+      bool legal = true;
+      for (Module* m : binary_) {
+        if (m->collapse_priority(ci) < 0.0f) {
+          legal = false;
+          break;
+        }
+      }
+      if (legal) {
+        target = heh;
+        best = prio;
+        break;
+      }
+    }
+    mesh_.property(target_, vh) = target;
+    if (target.is_valid()) {
+      mesh_.property(priority_, vh) = best;
+      if (heap_->is_stored(vh)) {
+        heap_->update(vh);
+      } else {
+        heap_->insert(vh);
+      }
+    } else {
+      if (heap_->is_stored(vh)) heap_->remove(vh);
+      mesh_.property(priority_, vh) = -1.0f;
+    }
+  }
+
+  OmMesh& mesh_;
+  OpenMesh::VPropHandleT<float> priority_;
+  OpenMesh::VPropHandleT<int> position_;
+  OpenMesh::VPropHandleT<OmMesh::HalfedgeHandle> target_;
+  Module* priorityModule_ = nullptr;
+  std::vector<Module*> binary_;
+  Heap* heap_ = nullptr;
+  std::vector<std::pair<float, OmMesh::HalfedgeHandle>> candidates_;
+};
+
 // One Decimater run over a mesh: quadric error orders the collapses; a collapse is legal only
 // while no face normal turns by more than 60 degrees, no triangle gets thinner than 1:10 (the
 // cheap tests first) and every removed vertex stays within the tolerance of the new surface
@@ -351,7 +473,9 @@ class BoundedDecimation {
   void decimateWithin(double toleranceM) {
     if (!ok_) return;
     decimater_.module(points_).setTolerance(toleranceM);
-    decimater_.decimate();
+    decimater_.decimate(
+        decimater_.module(quadric_),
+        {&decimater_.module(flipping_), &decimater_.module(aspect_), &decimater_.module(points_)});
   }
   /// The mesh now (ends the run).
   [[nodiscard]] MeshData finish() {
@@ -360,9 +484,8 @@ class BoundedDecimation {
   }
 
  private:
-  using Decimater = OpenMesh::Decimater::DecimaterT<OmMesh>;
   OmMesh mesh_;
-  Decimater decimater_;
+  CheapestFirstDecimater decimater_;
   OpenMesh::Decimater::ModQuadricT<OmMesh>::Handle quadric_;
   OpenMesh::Decimater::ModNormalFlippingT<OmMesh>::Handle flipping_;
   OpenMesh::Decimater::ModAspectRatioT<OmMesh>::Handle aspect_;
