@@ -225,17 +225,18 @@ void addCones(Shape& shape, const std::vector<ConeSpec>& cones, double budgetM) 
 }
 
 // Records each LOD's geometric error against LOD 0 (0 where the LOD is LOD 0's mesh), sampled
-// as densely as decimateToError measured it.
-void measureLodErrors(MeshAsset& asset) {
+// as densely as decimateToError measured it; `measuredM[l]` >= 0: the error decimateToError
+// measured for lods[l] as it is (the same number, not measured twice: seconds on a large mesh).
+void measureLodErrors(MeshAsset& asset, const std::array<double, kLodCount>& measuredM) {
   asset.lodErrorM[0] = 0.0f;
   for (std::uint32_t l = 1; l < kLodCount; ++l) {
     const bool same = asset.lods[l].indices == asset.lods[0].indices &&
                       asset.lods[l].positions == asset.lods[0].positions;
     const double spacing = lodSampleSpacingM(asset.lodBoundM[l]);
-    asset.lodErrorM[l] =
-        same ? 0.0f
-             : std::max(asset.lodErrorM[l - 1], static_cast<float>(simplificationErrorM(
-                                                    asset.lods[0], asset.lods[l], spacing)));
+    const double errorM = measuredM[l] >= 0.0
+                              ? measuredM[l]
+                              : simplificationErrorM(asset.lods[0], asset.lods[l], spacing);
+    asset.lodErrorM[l] = same ? 0.0f : std::max(asset.lodErrorM[l - 1], static_cast<float>(errorM));
   }
 }
 
@@ -273,6 +274,7 @@ std::optional<MeshData> cutWithin(const ShapeBuilder& build, const MeshData& lod
 // has 48 triangles instead of the Decimater's 74.
 void buildLods(MeshAsset& asset, double maxScale, const ShapeBuilder& build = {},
                const Progress& progress = {}) {
+  std::array<double, kLodCount> measuredM{};  // decimateToError's measured error, -1: none
   for (std::uint32_t l = 1; l < kLodCount; ++l) {
     asset.lodBoundM[l] = maxScale > 0.0 ? static_cast<float>(kLodErrorLadderM[l] / maxScale) : 0.0f;
     Progress lodProgress;
@@ -282,20 +284,23 @@ void buildLods(MeshAsset& asset, double maxScale, const ShapeBuilder& build = {}
                  std::to_string(kLodCount - 1) + ", " + step);
       };
     }
-    asset.lods[l] = maxScale > 0.0
-                        ? decimateToError(asset.lods[0], asset.lodBoundM[l], nullptr, lodProgress)
-                        : asset.lods[0];
+    asset.lods[l] = maxScale > 0.0 ? decimateToError(asset.lods[0], asset.lodBoundM[l],
+                                                     &measuredM[l], lodProgress)
+                                   : asset.lods[0];
+    if (maxScale <= 0.0) measuredM[l] = -1.0;
     if (maxScale > 0.0 && build) {
       std::optional<MeshData> cut = cutWithin(build, asset.lods[0], asset.lodBoundM[l]);
       if (cut && cut->triangleCount() < asset.lods[l].triangleCount()) {
         asset.lods[l] = std::move(*cut);
+        measuredM[l] = -1.0;
       }
     }
     if (asset.lods[l].triangleCount() > asset.lods[l - 1].triangleCount()) {
       asset.lods[l] = asset.lods[l - 1];
+      measuredM[l] = -1.0;
     }
   }
-  measureLodErrors(asset);
+  measureLodErrors(asset, measuredM);
 }
 
 // `maxScale`: the largest uniform scale the asset is placed with (0: no simplified LODs).
