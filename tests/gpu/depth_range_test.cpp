@@ -71,6 +71,21 @@ AnalyticDepth groundPlane(std::uint32_t w, std::uint32_t h, double heightM, doub
   return a;
 }
 
+// The camera of groundPlane() `heightM` above the ground at (3e6, 7e6) m from the origin, yawed
+// 30 degrees (the ground's depths do not change) and pitched by `pitchDeg`.
+csm::Camera yawedCamera(double heightM, double pitchDeg, double fovDeg, double aspect, double nearM,
+                        double farM) {
+  csm::Camera cam;
+  cam.positionWs = glm::dvec3(3.0e6, heightM, -7.0e6);
+  cam.orientationWs = glm::angleAxis(glm::radians(30.0), glm::dvec3(0, 1, 0)) *
+                      glm::angleAxis(glm::radians(pitchDeg), glm::dvec3(1, 0, 0));
+  cam.fovYRad = glm::radians(fovDeg);
+  cam.aspect = aspect;
+  cam.nearM = nearM;
+  cam.farM = farM;
+  return cam;
+}
+
 class DepthRangeTest : public engine_test::GpuTest {};
 
 TEST_F(DepthRangeTest, ReturnsTheAnalyticRangeAndFallsBackAfterACut) {
@@ -288,15 +303,7 @@ TEST_F(DepthRangeTest, LightSpaceBoundsOfAnAnalyticGroundPlane) {
   proj.p00 = float(1.0 / (tanY * aspect));
   proj.p11 = float(-1.0 / tanY);  // row 0 at the top: +y up in the view
 
-  csm::Camera cam;
-  cam.positionWs = glm::dvec3(3.0e6, heightM, -7.0e6);
-  // Yawed 30 degrees (the ground's depths do not change), pitched as groundPlane().
-  cam.orientationWs = glm::angleAxis(glm::radians(30.0), glm::dvec3(0, 1, 0)) *
-                      glm::angleAxis(glm::radians(pitchDeg), glm::dvec3(1, 0, 0));
-  cam.fovYRad = glm::radians(fovDeg);
-  cam.aspect = aspect;
-  cam.nearM = nearM;
-  cam.farM = farM;
+  const csm::Camera cam = yawedCamera(heightM, pitchDeg, fovDeg, aspect, nearM, farM);
   csm::ShadowSettings s;
   s.shadowDistanceM = 1200.0;  // the far ground is beyond the last cascade
   const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
@@ -431,14 +438,7 @@ TEST_F(DepthRangeTest, ViewReceiverFitIsOneSwitchAndMatchesTheReducerByHand) {
   ASSERT_EQ(byHand.p22, projection[2][2]);
   ASSERT_EQ(byHand.p32, projection[3][2]);
 
-  csm::Camera cam;
-  cam.positionWs = glm::dvec3(3.0e6, heightM, -7.0e6);
-  cam.orientationWs = glm::angleAxis(glm::radians(30.0), glm::dvec3(0, 1, 0)) *
-                      glm::angleAxis(glm::radians(pitchDeg), glm::dvec3(1, 0, 0));
-  cam.fovYRad = glm::radians(fovDeg);
-  cam.aspect = aspect;
-  cam.nearM = nearM;
-  cam.farM = farM;
+  const csm::Camera cam = yawedCamera(heightM, pitchDeg, fovDeg, aspect, nearM, farM);
   csm::ShadowSettings s;
   s.shadowDistanceM = 1200.0;
   byHand.histogramNearM = float(nearM);

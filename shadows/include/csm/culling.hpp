@@ -73,6 +73,8 @@ class CasterSet {
 
  private:
   static constexpr std::uint8_t kSphere = 0, kBox = 1, kRemoved = 2;
+  // One more caster slot (removed until stored).
+  void grow();
   // The bounds of caster i (stored as they are when added), then the nodes above it refitted.
   void storeSphere(std::uint32_t i, const glm::dvec3& centerWs, double radiusM);
   void storeBox(std::uint32_t i, const glm::dvec3& minWs, const glm::dvec3& maxWs);

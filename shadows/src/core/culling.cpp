@@ -184,16 +184,18 @@ constexpr std::uint32_t kNoParent = std::numeric_limits<std::uint32_t>::max();
 
 }  // namespace
 
+void CasterSet::grow() {
+  centerX_.push_back(0.0);
+  centerY_.push_back(0.0);
+  centerZ_.push_back(0.0);
+  halfX_.push_back(0.0f);
+  halfY_.push_back(0.0f);
+  halfZ_.push_back(0.0f);
+  kind_.push_back(kRemoved);
+}
+
 void CasterSet::storeSphere(std::uint32_t i, const glm::dvec3& centerWs, double radiusM) {
-  if (i == size()) {
-    centerX_.push_back(0.0);
-    centerY_.push_back(0.0);
-    centerZ_.push_back(0.0);
-    halfX_.push_back(0.0f);
-    halfY_.push_back(0.0f);
-    halfZ_.push_back(0.0f);
-    kind_.push_back(kSphere);
-  }
+  if (i == size()) grow();
   centerX_[i] = centerWs.x;
   centerY_[i] = centerWs.y;
   centerZ_[i] = centerWs.z;
@@ -206,15 +208,7 @@ void CasterSet::storeSphere(std::uint32_t i, const glm::dvec3& centerWs, double 
 }
 
 void CasterSet::storeBox(std::uint32_t i, const glm::dvec3& minWs, const glm::dvec3& maxWs) {
-  if (i == size()) {
-    centerX_.push_back(0.0);
-    centerY_.push_back(0.0);
-    centerZ_.push_back(0.0);
-    halfX_.push_back(0.0f);
-    halfY_.push_back(0.0f);
-    halfZ_.push_back(0.0f);
-    kind_.push_back(kBox);
-  }
+  if (i == size()) grow();
   const glm::dvec3 c = 0.5 * (minWs + maxWs);
   centerX_[i] = c.x;
   centerY_[i] = c.y;
