@@ -9,6 +9,7 @@
 #include <engine/pipeline.hpp>
 #include <glue/shadow_probe.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -212,6 +213,52 @@ TEST(ShadowSelection, GpuIndexAndBlendWeightMatchTheCpuMirror) {
     EXPECT_EQ(indexDiffer, 0u);
     EXPECT_EQ(blendDiffer, 0u);
     EXPECT_LT(maxWeightDiff, 1e-3);
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
+// The probe's depth-gap diagnostic (ProbeResult::depthGapM: how near a receiver sits to a depth
+// tie, printed beside every shimmer report's visible changes) reads the receiver's own texels in
+// windowed layers too. Stabilised per-layer cascades address each layer toroidally, so after the
+// camera moved the box no longer starts at layer texel 0; read without the wrap, the gap of lit
+// ground came from texels metres away along the light (it reported 0.3 to 20 m where the real
+// gap was under 2 cm, and sent a diagnosis of the sweep's shimmer the wrong way).
+TEST(ShadowProbe, DepthGapReadsTheReceiversTexelsThroughTheWrap) {
+  {
+    ShadowScene scene;
+    CSM_ASSERT_OK(scene.update(testSettings(4, 512)));
+    Probe probe(scene.context(), scene.renderer().lightingSetLayout(), csm::PcfKernel::kTent3,
+                true);
+    // First frame: the windows anchor at the boxes. Then 9 m along the light's horizontal
+    // direction, so the boxes move hundreds of texels inside their windows (and a read that
+    // misses the wrap lands on ground metres nearer or farther along the light).
+    (void)probe.run(scene, scene.computeFrame(), {scene.camera.positionWs});
+    const glm::dvec3 along =
+        glm::normalize(glm::dvec3(scene.light.directionWs.x, 0.0, scene.light.directionWs.z));
+    scene.camera.positionWs += 9.0 * along;
+    const csm::CascadeFrame frame = scene.computeFrame();
+    // Lit ground far from every shadow edge, inside the cascades.
+    std::vector<glm::dvec3> points;
+    scene.forEachGroundPixel(320, 180, [&](uint32_t x, uint32_t y, const glm::dvec3& p) {
+      if (x % 4 != 0 || y % 4 != 0) return;
+      const csm::CascadeSelection sel = scene.selection(frame, p);
+      if (sel.index < 0 || scene.shadowedAnalytic(p)) return;
+      const double texel = frame.cascades[uint32_t(sel.index)].texelSizeLs.x;
+      if (scene.farFromEdge(p, 4.0 * texel, frame)) points.push_back(p);
+    });
+    ASSERT_GT(points.size(), 300u);
+    const std::vector<glue::ProbeResult> r = probe.run(scene, frame, points);
+    double worst = 0.0;
+    for (size_t i = 0; i < points.size(); ++i) {
+      ASSERT_GE(r[i].cascade, 0);
+      // Lit flat ground: the nearest stored depth of its 5x5 texels is its own plane, within
+      // the bias and the plane's change over a texel (the 4th cascade's texel is under 0.3 m).
+      worst = std::max(worst, double(r[i].depthGapM));
+      EXPECT_LT(r[i].depthGapM, 0.25f) << "point " << i << " in cascade " << r[i].cascade;
+      if (HasFailure()) break;
+    }
+    std::printf("depth gap of %zu lit ground points after a 9 m move: at most %.4f m\n",
+                points.size(), worst);
   }
   EXPECT_EQ(validationMessages(), 0u);
 }

@@ -46,7 +46,8 @@ void main() {
     const float metresPerDepth = csmU.cascades[sel.index].depthRangeM;
     for (int dy = -2; dy <= 2; ++dy) {
       for (int dx = -2; dx <= 2; ++dx) {
-        const vec2 uv = (base + vec2(dx, dy) + 0.5) * csmU.invResolution;
+        // Through the wrap of windowed (stabilised per-layer or cached) layers.
+        const vec2 uv = csmWrapUv(base + vec2(dx, dy) + 0.5, sel.index);
         const float stored = textureLod(csmDepthMap, vec3(uv, float(sel.index)), 0.0).r;
         gapM = min(gapM, abs(c.z - stored) * metresPerDepth);
       }
