@@ -195,12 +195,13 @@ const std::vector<Entry>& table() {
       number<double>("shadow.fade", "a fraction of the shadow distance in [0, 1] (0: hard cut)", 0,
                      1, false, [](AppSettings& s) -> double& { return s.shadow.fadeFraction; }),
       named("shadow.kernel", kKernelAllowed.c_str(), csm::parseKernel, csm::kernelName,
-            [](AppSettings& s) -> csm::PcfKernel& { return s.kernel; }),
+            [](AppSettings& s) -> csm::PcfKernel& { return s.shadow.kernel; }),
       number<double>("shadow.lightAngleDeg", "degrees in [0, 20] (the sun: 0.53)", 0, 20, false,
                      [](AppSettings& s) -> double& { return s.shadow.lightAngularDiameterDeg; }),
       number<double>("shadow.maxPenumbra", "metres in [0, 100]", 0, 100, false,
                      [](AppSettings& s) -> double& { return s.shadow.maxPenumbraM; }),
-      boolean("shadow.worldKernel", [](AppSettings& s) -> bool& { return s.worldSpaceKernel; }),
+      boolean("shadow.worldKernel",
+              [](AppSettings& s) -> bool& { return s.shadow.worldSpaceKernel; }),
       number<float>("shadow.biasConstant", "a number in [0, 1000]", 0, 1000, false,
                     [](AppSettings& s) -> float& { return s.shadow.depthBiasConstant; }),
       number<float>("shadow.biasSlope", "a number in [0, 100]", 0, 100, false,
@@ -312,7 +313,7 @@ std::optional<csm::Preset> matchingPreset(const AppSettings& s) noexcept {
   for (csm::Preset p : csm::kAllPresets) {
     const csm::PresetConfig c = csm::presetConfig(p, s.shadow);
     if (c.settings.cascadeCount == s.shadow.cascadeCount &&
-        c.settings.resolution == s.shadow.resolution && c.kernel == s.kernel) {
+        c.settings.resolution == s.shadow.resolution && c.settings.kernel == s.shadow.kernel) {
       return p;
     }
   }
@@ -327,7 +328,6 @@ std::optional<std::string> setSetting(AppSettings& s, const std::string& key,
     const csm::PresetConfig c = csm::presetConfig(p.value(), s.shadow);
     s.preset = p.value();
     s.shadow = c.settings;
-    s.kernel = c.kernel;
     return std::nullopt;
   }
   for (const Entry& e : table()) {

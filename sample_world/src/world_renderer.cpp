@@ -421,9 +421,28 @@ std::uint64_t WorldRenderer::clusterTriangles(std::uint32_t lod) const {
   return t;
 }
 
+namespace {
+
+// The lighting pipelines' key: the view's specialization (kernel, blend, PCSS taps; below
+// WorldRenderer::kLitAfterPrepass).
+std::uint32_t specKey(const csm::vk::LightingSpecialization& spec) {
+  return spec.value(CSM_SPEC_KERNEL) | spec.value(CSM_SPEC_BLEND) << 3 |
+         spec.value(CSM_SPEC_PCSS_TAPS) << 4;
+}
+
+// The view's specialization on the fragment stage of a lighting pipeline.
+void specialize(engine::GraphicsPipelineBuilder& b, const csm::vk::LightingSpecialization& spec) {
+  for (const csm::SpecConstant& c : spec.constants()) {
+    b.specialization(VK_SHADER_STAGE_FRAGMENT_BIT, c.id, c.value);
+  }
+}
+
+}  // namespace
+
 void WorldRenderer::buildLitPipeline() {
-  const auto kernel = static_cast<std::uint32_t>(settings_.kernel);
-  const std::uint32_t key = kernel | (settings_.depthPrepass ? kLitAfterPrepass : 0u);
+  const csm::vk::LightingSpecialization spec = shadow_->lightingSpecialization();
+  const std::uint32_t specBits = specKey(spec);
+  const std::uint32_t key = specBits | (settings_.depthPrepass ? kLitAfterPrepass : 0u);
   const VkVertexInputBindingDescription bindings[] = {
       engine::MeshStore::bindingDescription(),
       {1, sizeof(Instance), VK_VERTEX_INPUT_RATE_INSTANCE}};
@@ -466,7 +485,7 @@ void WorldRenderer::buildLitPipeline() {
           g.build(*ctx_, cull ? "world.gbuffer.cullBack" : "world.gbuffer");
     }
   }
-  if (settings_.deferred && !deferredPipelines_.count(kernel)) {
+  if (settings_.deferred && !deferredPipelines_.count(specBits)) {
     // One triangle over the view, no depth test, into the frame's colour (and depth: the overlay
     // draws in the same rendering).
     engine::GraphicsPipelineBuilder d;
@@ -477,11 +496,10 @@ void WorldRenderer::buildLitPipeline() {
         .depthTest(false, false)
         .descriptorSetLayout(frameLayout_.get())
         .descriptorSetLayout(shadow_->lightingSetLayout())
-        .descriptorSetLayout(gbufferLayout_.get())
-        .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_KERNEL, kernel)
-        .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, 1u);
-    deferredPipelines_[kernel] =
-        d.build(*ctx_, std::string("world.deferred.") + kernelKey(settings_.kernel));
+        .descriptorSetLayout(gbufferLayout_.get());
+    specialize(d, spec);
+    deferredPipelines_[specBits] =
+        d.build(*ctx_, std::string("world.deferred.") + kernelKey(settings_.shadow.kernel));
   }
   if (litPipelines_.count(key)) return;
   for (int cull = 0; cull < 2; ++cull) {
@@ -495,17 +513,16 @@ void WorldRenderer::buildLitPipeline() {
                    settings_.depthPrepass ? VK_COMPARE_OP_EQUAL : VK_COMPARE_OP_LESS)
         .descriptorSetLayout(frameLayout_.get())
         .descriptorSetLayout(shadow_->lightingSetLayout())
-        .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_KERNEL, kernel)
-        .specialization(VK_SHADER_STAGE_FRAGMENT_BIT, CSM_SPEC_BLEND, 1u)
         .cullMode(cull ? VK_CULL_MODE_BACK_BIT : VK_CULL_MODE_NONE);
+    specialize(b, spec);
     litPipelines_[key | (cull ? kLitCullBack : 0u)] = b.build(
-        *ctx_, std::string("world.lit.") + kernelKey(settings_.kernel) +
+        *ctx_, std::string("world.lit.") + kernelKey(settings_.shadow.kernel) +
                    (settings_.depthPrepass ? ".afterPrepass" : "") + (cull ? ".cullBack" : ""));
   }
 }
 
 const engine::GraphicsPipeline& WorldRenderer::litPipeline(bool prepass, bool cullBack) const {
-  return litPipelines_.at(static_cast<std::uint32_t>(settings_.kernel) |
+  return litPipelines_.at(specKey(shadow_->lightingSpecialization()) |
                           (prepass ? kLitAfterPrepass : 0u) | (cullBack ? kLitCullBack : 0u));
 }
 
@@ -727,7 +744,7 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
 void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& timer,
                                      FrameStats& stats) {
   // ---- Shadow pass: each cascade draws its culled clusters at its LOD (the module's LODs) -----
-  shadow_->setUniformOptions({settings_.debug, settings_.worldSpaceKernel});
+  shadow_->setUniformOptions({settings_.debug});
   const csm::CascadeFrame& cascades = shadow_->frame();
   const csm::CullResult& culled = shadow_->cull();
   stats.casters = {};
@@ -945,7 +962,7 @@ void WorldRenderer::recordDeferredLighting(const engine::Frame& f, Slot& slot,
   {
     engine::ScopedLabel label(cmd, "world deferred lighting", {0.9f, 0.8f, 0.3f, 1.0f});
     const engine::GraphicsPipeline& p =
-        deferredPipelines_.at(static_cast<std::uint32_t>(settings_.kernel));
+        deferredPipelines_.at(specKey(shadow_->lightingSpecialization()));
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.pipeline);
     const VkDescriptorSet sets[3] = {slot.frameSet, shadow_->lightingSet(), slot.gbufferSet};
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p.layout, 0, 3, sets, 0, nullptr);

@@ -5,7 +5,7 @@ file(READ ${GUIDE} guide)
 # CMake lists split on ';': stand it in for a marker so each block stays one list element.
 string(REPLACE ";" "<semicolon>" guide "${guide}")
 set(sources "")
-foreach(f main.cpp shadows_integration.cpp shadows_integration.hpp scene.frag scene.vert
+foreach(f main.cpp shadows_integration.hpp scene.frag scene.vert
           CMakeLists.txt)
   file(READ ${CONSUMER}/${f} text)
   string(REPLACE ";" "<semicolon>" text "${text}")

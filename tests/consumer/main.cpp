@@ -9,6 +9,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #define STB_IMAGE_WRITE_IMPLEMENTATION
@@ -338,6 +339,8 @@ int main(int argc, char** argv) try {
     stages[i].module = modules[i];
     stages[i].pName = "main";
   }
+  // The filter of the view's settings (kernel, blend, PCSS taps): csm.glsl's constants.
+  stages[1].pSpecializationInfo = shadows->lightingSpecializationInfo();
   VkVertexInputBindingDescription binding{0, sizeof(Vertex), VK_VERTEX_INPUT_RATE_VERTEX};
   VkVertexInputAttributeDescription attrs[2] = {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, 0},
                                                 {1, 0, VK_FORMAT_R32G32B32_SFLOAT, 12}};
@@ -434,6 +437,11 @@ int main(int argc, char** argv) try {
     check(vkResetCommandPool(h.device, pool, 0), "reset pool");
     check(vkBeginCommandBuffer(cmd, &begin), "begin");
 
+    // A moving caster: the box slides in, by handle, and stops at the checked place.
+    const glm::dvec3 at = scene::kOrigin + glm::dvec3(0.5 * (kFrames - 1 - frame), 0.0, 0.0);
+    const csm::AabbWs boxWs{at + scene::kBoxMin, at + scene::kBoxMax};
+    if (csm::vk::Status s = shadows->updateCaster(shadows->casterHandle(1), {1, at}, boxWs); !s)
+      throw std::runtime_error("csm: " + s.message());
     if (csm::vk::Status s = shadows->record(cmd, camera, light); !s)
       throw std::runtime_error("csm: " + s.message());
 
@@ -473,9 +481,10 @@ int main(int argc, char** argv) try {
     const VkDeviceSize zero = 0;
     vkCmdBindVertexBuffers(cmd, 0, 1, &vb.buffer, &zero);
     vkCmdBindIndexBuffer(cmd, ib.buffer, 0, VK_INDEX_TYPE_UINT32);
-    for (const auto& [mesh, rgb] : {std::pair{ground, glm::vec3(0.8f, 0.8f, 0.75f)},
-                                    std::pair{box, glm::vec3(0.8f, 0.3f, 0.2f)}}) {
-      const Push push{viewProjCr, glm::vec4(glm::vec3(scene::kOrigin - camera.positionWs), 0.0f),
+    for (const auto& [mesh, rgb, posWs] :
+         {std::tuple{ground, glm::vec3(0.8f, 0.8f, 0.75f), scene::kOrigin},
+          std::tuple{box, glm::vec3(0.8f, 0.3f, 0.2f), at}}) {
+      const Push push{viewProjCr, glm::vec4(glm::vec3(posWs - camera.positionWs), 0.0f),
                       glm::vec4(rgb, 1.0f)};
       vkCmdPushConstants(cmd, pipelineLayout, range.stageFlags, 0, sizeof push, &push);
       vkCmdDrawIndexed(cmd, mesh.indexCount, 1, mesh.firstIndex, mesh.vertexOffset, 0);

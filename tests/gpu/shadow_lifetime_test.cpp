@@ -8,6 +8,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 
 #include "glue/shadow_host.hpp"
@@ -407,7 +408,7 @@ TEST(ShadowView, OutOfRangeValuesAndMismatchedFramesAreRefusedByName) {
     expectRefused(view.setSettings(testSettings(2, 512), badLod), "options.cascadeLod[1] = 9");
 
     csm::vk::Status status;
-    view.setUniformOptions({static_cast<csm::DebugMode>(99), false});
+    view.setUniformOptions({static_cast<csm::DebugMode>(99)});
     scene.context().submitAndWait(
         [&](VkCommandBuffer cmd) { status = view.record(cmd, scene.csmCamera(), scene.light); });
     expectRefused(status, "debugMode = 99");
@@ -558,6 +559,81 @@ TEST(ShadowView, SetSettingsWithoutOptionsKeepsTheOptions) {
   EXPECT_EQ(validationMessages(), 0u);
 }
 
+// The filter is a setting: the view's specialization of the lighting pipeline follows its
+// settings (kernel, blend band, PCSS taps), a refused change leaves it whole, and a pipeline
+// built from it renders what one specialised by hand with the same filter renders, bit for bit
+// (and not what the shader's defaults render).
+TEST(ShadowView, LightingSpecializationFollowsTheSettings) {
+  {
+    ShadowScene scene;
+    csm::ShadowSettings settings = testSettings(2, 512);
+    settings.kernel = csm::PcfKernel::kTent7;
+    CSM_ASSERT_OK(scene.update(settings));
+    const VkSpecializationInfo* info = scene.view().lightingSpecializationInfo();
+    ASSERT_NE(info, nullptr);
+    ASSERT_EQ(info->mapEntryCount, csm::kLightingSpecConstantCount);
+    // What a pipeline created with `info` reads, by constant id.
+    auto valueOf = [&](std::uint32_t id) {
+      for (std::uint32_t i = 0; i < info->mapEntryCount; ++i) {
+        const VkSpecializationMapEntry& e = info->pMapEntries[i];
+        if (e.constantID != id) continue;
+        EXPECT_EQ(e.size, sizeof(std::uint32_t));
+        EXPECT_LE(e.offset + e.size, info->dataSize);
+        std::uint32_t v = 0;
+        std::memcpy(&v, static_cast<const char*>(info->pData) + e.offset, sizeof v);
+        return v;
+      }
+      ADD_FAILURE() << "constant " << id << " missing";
+      return 0xffffffffu;
+    };
+    EXPECT_EQ(valueOf(CSM_SPEC_KERNEL), std::uint32_t(CSM_KERNEL_TENT7));
+    EXPECT_EQ(valueOf(CSM_SPEC_BLEND), 1u);
+    EXPECT_EQ(valueOf(CSM_SPEC_PCSS_TAPS), std::uint32_t(CSM_PCSS_DEFAULT_TAPS));
+
+    ShadowScene::FrameHooks byView;
+    byView.viewSpecialization = true;
+    ShadowScene::FrameHooks byHand;
+    const Rendered viewTent7 = scene.renderFrame(csm::PcfKernel::kTent3, byView);
+    const Rendered handTent7 = scene.renderFrame(csm::PcfKernel::kTent7, byHand);
+    const Rendered handTent3 = scene.renderFrame(csm::PcfKernel::kTent3, byHand);
+    EXPECT_TRUE(viewTent7.image.rgba == handTent7.image.rgba);
+    EXPECT_FALSE(viewTent7.image.rgba == handTent3.image.rgba)
+        << "tent 7x7 and the default tent 3x3 must differ here, or this proves nothing";
+
+    // Refused (naming the field): the constants stay.
+    csm::ShadowSettings bad = settings;
+    bad.kernel = csm::PcfKernel::kPcss;
+    bad.pcssTaps = CSM_PCSS_MAX_TAPS + 1;
+    const csm::vk::Status refused = scene.view().setSettings(bad);
+    EXPECT_EQ(refused.code(), csm::vk::ErrorCode::kInvalidArgument);
+    EXPECT_NE(refused.message().find("settings.pcssTaps"), std::string::npos) << refused.message();
+    EXPECT_EQ(valueOf(CSM_SPEC_KERNEL), std::uint32_t(CSM_KERNEL_TENT7));
+
+    // Accepted: PCSS with 32 taps and no band (the hard switch), through the same pointer.
+    settings.kernel = csm::PcfKernel::kPcss;
+    settings.pcssTaps = 32;
+    settings.blendBand = 0.0;
+    CSM_ASSERT_OK(scene.view().setSettings(settings));
+    EXPECT_EQ(scene.view().lightingSpecializationInfo(), info);
+    EXPECT_EQ(valueOf(CSM_SPEC_KERNEL), std::uint32_t(CSM_KERNEL_PCSS));
+    EXPECT_EQ(valueOf(CSM_SPEC_BLEND), 0u);
+    EXPECT_EQ(valueOf(CSM_SPEC_PCSS_TAPS), 32u);
+    const csm::vk::LightingSpecialization copy = scene.view().lightingSpecialization();
+    EXPECT_TRUE(copy == csm::vk::LightingSpecialization(settings));
+    EXPECT_FALSE(copy == csm::vk::LightingSpecialization(testSettings(2, 512)));
+    // With the shader's own tap count, PCSS and the hard switch render as the same filter
+    // specialised by hand.
+    settings.pcssTaps = CSM_PCSS_DEFAULT_TAPS;
+    CSM_ASSERT_OK(scene.view().setSettings(settings));
+    byHand.blend = false;
+    const Rendered viewPcss = scene.renderFrame(csm::PcfKernel::kTent3, byView);
+    const Rendered handPcss = scene.renderFrame(csm::PcfKernel::kPcss, byHand);
+    EXPECT_TRUE(viewPcss.image.rgba == handPcss.image.rgba);
+    EXPECT_FALSE(viewPcss.image.rgba == viewTent7.image.rgba);
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
 // setSettings() is all or nothing: a Vulkan failure injected at each step of update() that
 // creates objects (after the steps before it succeeded) leaves the settings, options, image,
 // lighting set, static image and thin pipelines as they were, and the next frame renders the
@@ -598,7 +674,11 @@ TEST(ShadowView, SetSettingsIsAllOrNothingUnderFaultsAtEachStep) {
     next.depthFormat = change.format;
     next.thinCasterWidenTexels = change.widen;
     renderer.failNextUpdateAt(change.step);
-    const csm::vk::Status s = scene.view().setSettings(testSettings(2, change.resolution), next);
+    // The change also picks another filter: a failure keeps the pipeline's constants too.
+    csm::ShadowSettings changedSettings = testSettings(2, change.resolution);
+    changedSettings.kernel = csm::PcfKernel::kTent5;
+    const VkSpecializationInfo* spec = scene.view().lightingSpecializationInfo();
+    const csm::vk::Status s = scene.view().setSettings(changedSettings, next);
     EXPECT_EQ(s.code(), csm::vk::ErrorCode::kVulkan) << s.message();
     EXPECT_NE(s.message().find("injected"), std::string::npos) << s.message();
     EXPECT_EQ(scene.view().settings().resolution, 512u);
@@ -611,8 +691,13 @@ TEST(ShadowView, SetSettingsIsAllOrNothingUnderFaultsAtEachStep) {
     EXPECT_EQ(renderer.thinMarginTexels(), margin);
     const Rendered after = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
     EXPECT_TRUE(after.image.rgba == before.image.rgba) << "the image changed after a refusal";
+    EXPECT_EQ(scene.view().lightingSpecialization().value(CSM_SPEC_KERNEL),
+              std::uint32_t(CSM_KERNEL_TENT3));
 
-    CSM_ASSERT_OK(scene.view().setSettings(testSettings(2, change.resolution), next));
+    CSM_ASSERT_OK(scene.view().setSettings(changedSettings, next));
+    EXPECT_EQ(scene.view().lightingSpecializationInfo(), spec) << "the pointer stays the view's";
+    EXPECT_EQ(scene.view().lightingSpecialization().value(CSM_SPEC_KERNEL),
+              std::uint32_t(CSM_KERNEL_TENT5));
     EXPECT_EQ(renderer.depthFormat(), change.format);
     EXPECT_EQ(scene.view().settings().resolution, change.resolution);
     const Rendered changed = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);

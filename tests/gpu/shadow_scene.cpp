@@ -78,6 +78,20 @@ csm::vk::Status ShadowScene::update(const csm::ShadowSettings& settings,
   return s;
 }
 
+namespace {
+
+// The kernel's size in metres or in texels is a setting of the view (ShadowSettings::
+// worldSpaceKernel): changed in place, the history and the image kept.
+void useWorldSpaceKernel(csm::vk::ShadowView& view, bool on) {
+  if (view.settings().worldSpaceKernel == on) return;
+  csm::ShadowSettings settings = view.settings();
+  settings.worldSpaceKernel = on;
+  const csm::vk::Status s = view.setSettings(settings);
+  if (!s.ok()) throw std::runtime_error("ShadowView::setSettings: " + s.message());
+}
+
+}  // namespace
+
 Rendered ShadowScene::render(csm::PcfKernel kernel, csm::DebugMode debug, bool blend,
                              bool worldSpaceKernel) {
   FrameHooks hooks;
@@ -102,14 +116,25 @@ void ShadowScene::destroyView() {
 
 Rendered ShadowScene::renderFrame(csm::PcfKernel kernel, const FrameHooks& hooks) {
   if (!built_) buildScene();
-  const auto key = std::make_pair(static_cast<uint32_t>(kernel), hooks.blend ? 1u : 0u);
+  auto key = std::make_pair(static_cast<uint32_t>(kernel), hooks.blend ? 1u : 0u);
+  const csm::vk::LightingSpecialization& spec = view_->lightingSpecialization();
+  if (hooks.viewSpecialization) {
+    // Distinct from every (kernel, blend) key: the high bit, then the constants' values.
+    key = {0x80000000u | spec.value(CSM_SPEC_KERNEL) | spec.value(CSM_SPEC_BLEND) << 8,
+           spec.value(CSM_SPEC_PCSS_TAPS)};
+  }
   auto& lit = litPasses_[key];
   if (!lit) {
     glue::LitPassDesc desc;
     desc.colorFormat = target_->colorFormat();
     desc.depthFormat = target_->depthFormat();
     desc.shadowSetLayout = view_->lightingSetLayout();
-    desc.specialization = {{CSM_SPEC_KERNEL, key.first}, {CSM_SPEC_BLEND, key.second}};
+    if (hooks.viewSpecialization) {
+      for (const csm::SpecConstant& c : spec.constants())
+        desc.specialization.push_back({c.id, c.value});
+    } else {
+      desc.specialization = {{CSM_SPEC_KERNEL, key.first}, {CSM_SPEC_BLEND, key.second}};
+    }
     lit = std::make_unique<glue::LitPass>(*ctx_, desc);
   }
 
@@ -119,7 +144,8 @@ Rendered ShadowScene::renderFrame(csm::PcfKernel kernel, const FrameHooks& hooks
   csm::CascadeFrame secondFrame;
   if (second_) {
     // Split screen: the second view records into the same command buffer, first.
-    second_->setUniformOptions({hooks.debug, hooks.worldSpaceKernel});
+    useWorldSpaceKernel(*second_, hooks.worldSpaceKernel);
+    second_->setUniformOptions({hooks.debug});
     csm::Camera c = csmCamera();
     c.positionWs = secondCamera.positionWs;
     c.orientationWs = secondCamera.orientation;
@@ -157,7 +183,8 @@ csm::CascadeFrame ShadowScene::computeFrame() {
 csm::CascadeFrame ShadowScene::recordShadow(VkCommandBuffer cmd, csm::DebugMode debug,
                                             bool worldSpaceKernel) {
   if (!built_) buildScene();
-  view_->setUniformOptions({debug, worldSpaceKernel});
+  useWorldSpaceKernel(*view_, worldSpaceKernel);
+  view_->setUniformOptions({debug});
   const csm::vk::Status s = view_->record(cmd, csmCamera(), light);
   if (!s.ok()) throw std::runtime_error("ShadowView::record: " + s.message());
   return view_->frame();

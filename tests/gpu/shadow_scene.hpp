@@ -64,6 +64,10 @@ class ShadowScene {
     bool shadowPass = true;
     /// With enableSecondView(): the lit pass renders from secondCamera with the second view.
     bool litFromSecond = false;
+    /// The lit pipeline specialised with the view's own constants
+    /// (ShadowView::lightingSpecialization: its settings' kernel, blend and PCSS taps) instead of
+    /// `kernel` and `blend`.
+    bool viewSpecialization = false;
     /// Run after recording, before the frame is submitted / right after it is submitted.
     std::function<void()> beforeSubmit;
     std::function<void()> afterSubmit;
@@ -138,6 +142,8 @@ class ShadowScene {
   std::unique_ptr<csm::vk::ShadowView> second_;
   glue::Scene geometry_;
   glue::GpuScene gpu_;
+  // By (kernel, blend), or by the view's constants (kViewSpec | their values) for
+  // FrameHooks::viewSpecialization.
   std::map<std::pair<uint32_t, uint32_t>, std::unique_ptr<glue::LitPass>> litPasses_;
   bool built_ = false;
 

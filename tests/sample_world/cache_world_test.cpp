@@ -219,7 +219,7 @@ world::AppSettings flightSettings(const std::string& config) {
   s.shadow.resolution = kResolution;
   if (config == "budget") s.cacheBudgetTexels = std::uint64_t(kResolution) * kResolution;
   if (config == "receivers") s.receiverSplits = true;
-  if (config == "pcss") s.kernel = csm::PcfKernel::kPcss;
+  if (config == "pcss") s.shadow.kernel = csm::PcfKernel::kPcss;
   return s;
 }
 

@@ -508,7 +508,7 @@ TEST(Settings, PresetsApplyFirstAndRoundTrip) {
     const csm::PresetConfig c = csm::presetConfig(p, defaults.shadow);
     EXPECT_EQ(s.shadow.cascadeCount, c.settings.cascadeCount);
     EXPECT_EQ(s.shadow.resolution, c.settings.resolution);
-    EXPECT_EQ(s.kernel, c.kernel);
+    EXPECT_EQ(s.shadow.kernel, c.settings.kernel);
     EXPECT_EQ(s.shadow.shadowDistanceM, defaults.shadow.shadowDistanceM);
     EXPECT_EQ(s.shadow.splitLambda, defaults.shadow.splitLambda);
     EXPECT_EQ(s.shadow.lightStepDeg, defaults.shadow.lightStepDeg);
@@ -527,7 +527,7 @@ TEST(Settings, PresetsApplyFirstAndRoundTrip) {
     ASSERT_FALSE(world::applyConfigText(s, text, "config"));
     EXPECT_EQ(s.shadow.cascadeCount, 3u) << text;
     EXPECT_EQ(s.shadow.resolution, 4096u) << text;
-    EXPECT_EQ(s.kernel, csm::PcfKernel::kPcss) << text;
+    EXPECT_EQ(s.shadow.kernel, csm::PcfKernel::kPcss) << text;
   }
   // The panel's menu: the tier the settings hold now, whether applied by name or not.
   world::AppSettings m;

@@ -236,7 +236,7 @@ TEST(StabilityThinCasters, CableShadowsInTheImageNoWiderOrDarkerThanTruthByMoreT
         CSM_ASSERT_STATUS(harness->configure(settings, opt));
         csm::CascadeHistory history;
         const csm::CascadeFrame frame = harness->computeFrame(cam, light, history);
-        const auto results = harness->probe(frame, receivers, app.kernel);
+        const auto results = harness->probe(frame, receivers, app.shadow.kernel);
         std::map<int, Stats> perCascade;
         size_t at = 0;
         for (const Section& sec : sections) {

@@ -137,8 +137,8 @@ TEST(Presets, SetTheirFieldsKeepTheRestAndHighIsTheDefault) {
   const csm::ShadowSettings def;
   EXPECT_EQ(high.settings.cascadeCount, def.cascadeCount);
   EXPECT_EQ(high.settings.resolution, def.resolution);
-  EXPECT_EQ(high.kernel, csm::PcfKernel::kTent3);
-  EXPECT_EQ(csm::presetConfig(csm::Preset::kUltra).kernel, csm::PcfKernel::kPcss);
+  EXPECT_EQ(high.settings.kernel, csm::PcfKernel::kTent3);
+  EXPECT_EQ(csm::presetConfig(csm::Preset::kUltra).settings.kernel, csm::PcfKernel::kPcss);
   EXPECT_EQ(csm::presetConfig(csm::Preset::kLow).settings.resolution, 512u);
 }
 

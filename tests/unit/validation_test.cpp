@@ -4,6 +4,8 @@
 #include <functional>
 #include <limits>
 
+#include <csm/names.hpp>
+
 #include "test_util.hpp"
 
 namespace csm {
@@ -86,6 +88,11 @@ const Case kCases[] = {
      [](auto& s, auto&, auto&) { s.lightAngularDiameterDeg = kNaN; }},
     {"penumbraNeg", "settings.maxPenumbraM", [](auto& s, auto&, auto&) { s.maxPenumbraM = -1.0; }},
     {"penumbraInf", "settings.maxPenumbraM", [](auto& s, auto&, auto&) { s.maxPenumbraM = kInf; }},
+    {"kernelUnknown", "settings.kernel",
+     [](auto& s, auto&, auto&) { s.kernel = static_cast<PcfKernel>(CSM_KERNEL_COUNT); }},
+    {"pcssTaps0", "settings.pcssTaps", [](auto& s, auto&, auto&) { s.pcssTaps = 0; }},
+    {"pcssTapsOver", "settings.pcssTaps",
+     [](auto& s, auto&, auto&) { s.pcssTaps = CSM_PCSS_MAX_TAPS + 1; }},
     {"posNaN", "camera.positionWs.y", [](auto&, auto& c, auto&) { c.positionWs.y = kNaN; }},
     {"posInf", "camera.positionWs.x", [](auto&, auto& c, auto&) { c.positionWs.x = -kInf; }},
     {"quatZero", "camera.orientationWs (length)",
@@ -216,6 +223,15 @@ TEST(Validation, ValidBoundariesAccepted) {
           EXPECT_FALSE(validate(s, c, l).has_value());
         }
       }
+    }
+  }
+  // Every kernel, and the PCSS taps' ends.
+  s = ShadowSettings{};
+  for (PcfKernel k : kAllKernels) {
+    s.kernel = k;
+    for (std::uint32_t taps : {1u, std::uint32_t(CSM_PCSS_MAX_TAPS)}) {
+      s.pcssTaps = taps;
+      EXPECT_FALSE(validate(s, c, l).has_value()) << kernelName(k) << " " << taps;
     }
   }
   // The domain's own limits are inside it.

@@ -108,9 +108,9 @@ std::vector<nlohmann::json> measureShimmer(const std::vector<RowSpec>& specs,
 std::vector<RowSpec> rowSpecs() {
   std::vector<RowSpec> specs;
   for (csm::Preset p : csm::kAllPresets) {
-    specs.push_back({csm::presetName(p), p, csm::presetConfig(p).kernel});
+    specs.push_back({csm::presetName(p), p, csm::presetConfig(p).settings.kernel});
   }
-  const csm::PcfKernel own = csm::presetConfig(csm::Preset::kHigh).kernel;
+  const csm::PcfKernel own = csm::presetConfig(csm::Preset::kHigh).settings.kernel;
   for (csm::PcfKernel k :
        {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent3, csm::PcfKernel::kTent5,
         csm::PcfKernel::kTent7, csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
@@ -172,7 +172,7 @@ nlohmann::json measure(const MeasureOptions& o, const std::function<double()>& e
                        {"shimmer", shimmerWhat}};
   sheet["tolerance"] = {{"relative", kRelativeTolerance}, {"absolute", kAbsoluteTolerance}};
   nlohmann::json out = nlohmann::json::array();
-  const csm::PcfKernel defaultKernel = csm::presetConfig(csm::Preset::kHigh).kernel;
+  const csm::PcfKernel defaultKernel = csm::presetConfig(csm::Preset::kHigh).settings.kernel;
   for (size_t r = 0; r < specs.size(); ++r) {
     const tradeoff::Row& row = rows[r];
     nlohmann::json j;

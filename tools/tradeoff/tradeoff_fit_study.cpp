@@ -187,9 +187,9 @@ void retimeInterleaved(const FitPathContext& ctx, std::span<const FitConfig> con
       }
       harness.setReceiverRange(ranges[k]);
       csm::CascadeHistory h;
-      harness.timeFrame(cam, ctx.light, h, ctx.timingView, ctx.app.kernel);
+      harness.timeFrame(cam, ctx.light, h, ctx.timingView, ctx.app.shadow.kernel);
       const double ms =
-          harness.timeFrame(cam, ctx.light, h, ctx.timingView, ctx.app.kernel).shadowGpuMs;
+          harness.timeFrame(cam, ctx.light, h, ctx.timingView, ctx.app.shadow.kernel).shadowGpuMs;
       poseRows[k]["shadow_gpu_ms"] = std::min(poseRows[k]["shadow_gpu_ms"].get<double>(), ms);
     }
   }
@@ -215,17 +215,17 @@ nlohmann::json measureFitConfig(const FitPathContext& ctx, const FitConfig& fc, 
   ranges.push_back(cfgRange);
   harness.setReceiverRange(cfgRange);
   csm::CascadeHistory h;
-  harness.timeFrame(pose.cam, ctx.light, h, ctx.timingView, ctx.app.kernel);
+  harness.timeFrame(pose.cam, ctx.light, h, ctx.timingView, ctx.app.shadow.kernel);
   double shadowMs = 1e30;
   for (int k = 0; k < 2; ++k) {
     shadowMs = std::min(
-        shadowMs,
-        harness.timeFrame(pose.cam, ctx.light, h, ctx.timingView, ctx.app.kernel).shadowGpuMs);
+        shadowMs, harness.timeFrame(pose.cam, ctx.light, h, ctx.timingView, ctx.app.shadow.kernel)
+                      .shadowGpuMs);
   }
   csm::CascadeHistory ha;
   const csm::CascadeFrame frame = harness.computeFrame(pose.accCam, ctx.light, ha);
   const std::vector<csm_measure::PixelSample> px =
-      harness.renderAccuracy(pose.accCam, frame, ctx.accuracyView, ctx.app.kernel);
+      harness.renderAccuracy(pose.accCam, frame, ctx.accuracyView, ctx.app.shadow.kernel);
   const csm_measure::AccuracyStats acc =
       csm_measure::measureAccuracy(px, frame, ctx.tracer, ctx.light);
   if (!pose.range) recordReceivers(pose, px, s.shadowDistanceM);

@@ -61,7 +61,7 @@ std::vector<Config> sweepConfigs(const Options& o) {
       Config cfg;
       cfg.cascades = preset.settings.cascadeCount;
       cfg.resolution = preset.settings.resolution;
-      cfg.kernel = preset.kernel;
+      cfg.kernel = preset.settings.kernel;
       configs.push_back(cfg);
     }
     return configs;

@@ -33,7 +33,6 @@ struct AppSettings {
   std::optional<csm::Preset> preset;
   csm::ShadowSettings shadow{};
   SplitScheme scheme = SplitScheme::kPractical;
-  csm::PcfKernel kernel = csm::PcfKernel::kTent3;
   /// true: D16_UNORM shadow maps, false: D32_SFLOAT.
   bool depth16 = false;
   /// Cached cascades (csm::vk::RendererOptions::cache): static casters' depth kept across
@@ -44,8 +43,6 @@ struct AppSettings {
   /// The cache's texel budget (csm::vk::RendererOptions::cacheBudgetTexels): at most this many
   /// static texels re-rendered per frame beyond cascade 0; 0 = no cap (every frame exact).
   std::uint64_t cacheBudgetTexels = 0;
-  /// PCF kernel of constant size in metres across cascades.
-  bool worldSpaceKernel = false;
   /// Thin casters (the clusters of cables, fence segments and poles, World's CasterCluster::thin)
   /// widened by thinWidenTexels on each side in the depth pass
   /// (csm::vk::RendererOptions::thinCasterWidenTexels). Needs geometry shaders (or conservative

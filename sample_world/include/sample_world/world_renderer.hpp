@@ -181,8 +181,8 @@ class WorldRenderer {
   engine::DeviceHandle<VkDescriptorPool> pool_;
   std::array<Slot, engine::kFramesInFlight> slots_;
   engine::DeviceHandle<VkShaderModule> worldVert_, worldFrag_, overlayVert_, overlayFrag_;
-  // By kernel | kLitAfterPrepass: the lit pipeline, with depth LESS and writes, or after the
-  // depth pre-pass (EQUAL, no writes).
+  // By the view's specialization (specKey) | kLitAfterPrepass: the lit pipeline, with depth LESS
+  // and writes, or after the depth pre-pass (EQUAL, no writes).
   std::map<std::uint32_t, engine::GraphicsPipeline> litPipelines_;
   static constexpr std::uint32_t kLitAfterPrepass = 1u << 16;
   static constexpr std::uint32_t kLitCullBack = 1u << 17;

@@ -5,6 +5,7 @@
 
 #include <glm/glm.hpp>
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 
@@ -25,17 +26,7 @@ enum class DebugMode : std::uint32_t {
   kCascadeTint = CSM_DEBUG_CASCADE,
 };
 
-/// PCF kernels of csm.glsl (values of CSM_KERNEL_* in csm/shared_constants.h); chosen by the
-/// lighting pipeline's specialization constant CSM_SPEC_KERNEL.
-enum class PcfKernel : std::uint32_t {
-  k1Tap = CSM_KERNEL_1TAP,
-  kTent3 = CSM_KERNEL_TENT3,
-  kTent5 = CSM_KERNEL_TENT5,
-  kTent7 = CSM_KERNEL_TENT7,
-  kPoisson16 = CSM_KERNEL_POISSON16,
-  /// Percentage-closer soft shadows (penumbra from ShadowSettings::lightAngularDiameterDeg).
-  kPcss = CSM_KERNEL_PCSS,
-};
+// PcfKernel (the filters of csm.glsl) is declared in csm/types.hpp, with ShadowSettings::kernel.
 
 /// The one spelling of a kernel ("tent5x5") in code, CLI, JSON, reports and UI; parse it with
 /// parseKernel() (csm/names.hpp, with the list of every kernel). "unknown" outside PcfKernel.
@@ -56,7 +47,7 @@ struct CsmCascadeGpu {
   /// Side of one shadow-map texel (m).
   float texelSizeM = 0.0f;
   /// Tap spacing of the PCF kernel in texels: 1, or texel_0 / texel_i for kernels of constant
-  /// world size (UniformOptions::worldSpaceKernel).
+  /// world size (ShadowSettings::worldSpaceKernel).
   float kernelScale = 0.0f;
   /// View depth (m) where the blend band toward the next cascade starts (= splitFarM when there
   /// is no band).
@@ -118,9 +109,6 @@ struct CsmUniforms {
 struct UniformOptions {
   /// Run-time debug output of the lighting shader.
   DebugMode debugMode = DebugMode::kNone;
-  /// Keep the PCF kernel the same size in metres in every cascade (that of cascade 0): tap
-  /// spacing in cascade i becomes texel_0 / texel_i texels. Off: the same size in texels.
-  bool worldSpaceKernel = false;
   /// Bits of the shadow map's depth format (16: D16_UNORM, 32: D32_SFLOAT): sets the depth floor
   /// the shader adds for the format's quantisation (depthQuantum()). The renderer fills it in.
   std::uint32_t depthBits = 32;
@@ -137,6 +125,24 @@ struct UniformOptions {
 /// and unused cascades are zeroed and left out of the non-empty mask. Never produces NaN.
 [[nodiscard]] CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settings,
                                        const UniformOptions& options = {}) noexcept;
+
+/// One specialization constant of the lighting pipeline: its constant_id in csm.glsl
+/// (CSM_SPEC_*) and its value (a 32-bit int or bool, as the shader declares it).
+struct SpecConstant {
+  std::uint32_t id = 0;
+  std::uint32_t value = 0;
+};
+
+/// Specialization constants of a lighting pipeline that includes csm.glsl.
+inline constexpr std::uint32_t kLightingSpecConstantCount = 3;
+
+/// The lighting pipeline's specialization constants for `settings`: the kernel
+/// (CSM_SPEC_KERNEL = settings.kernel), the blend (CSM_SPEC_BLEND: 1 when settings.blendBand
+/// > 0, else 0, the hard switch) and the PCSS taps (CSM_SPEC_PCSS_TAPS = settings.pcssTaps).
+/// Settings that differ only in other fields give the same constants (the same pipeline).
+/// Vulkan hosts take them as a VkSpecializationInfo from csm::vk::LightingSpecialization.
+[[nodiscard]] std::array<SpecConstant, kLightingSpecConstantCount> lightingSpecConstants(
+    const ShadowSettings& settings) noexcept;
 
 /// The tint CSM_DEBUG_CASCADE paints cascade `index` with (CSM_TINT_i); black for -1 or out of
 /// range. Tests map a pixel back to its cascade with it.

@@ -15,7 +15,7 @@ namespace csm {
 /// Quality tiers, cheapest first, each the most accurate configuration of the measured
 /// speed/accuracy sweep (csm_tradeoff on the sample world's forest path) within a budget of
 /// shadow-map memory (tools/tradeoff/README.md, "Presets"). kHigh is the
-/// module's default (ShadowSettings{} with PcfKernel::kTent3).
+/// module's default (ShadowSettings{}, whose kernel is PcfKernel::kTent3).
 enum class Preset : std::uint8_t {
   /// 6 cascades of 512^2 (6 MiB at D32), PCF tent 3x3: within 8 MiB.
   kLow = 0,
@@ -31,16 +31,15 @@ enum class Preset : std::uint8_t {
 inline constexpr std::array<Preset, 4> kAllPresets{Preset::kLow, Preset::kMedium, Preset::kHigh,
                                                    Preset::kUltra};
 
-/// What a preset chooses: the settings and the lighting pipeline's PCF kernel (its
-/// specialization constant CSM_SPEC_KERNEL).
+/// What a preset chooses: the settings, the PCF kernel among them (settings.kernel, which the
+/// lighting pipeline's specialization constants follow: csm::lightingSpecConstants).
 struct PresetConfig {
   ShadowSettings settings;
-  PcfKernel kernel = PcfKernel::kTent3;
 };
 
 /// The preset's choices on top of `base`: it sets the cascade count, the resolution and the
 /// kernel, and keeps every other field of `base` (shadow distance, splits, bias, ladder, light
-/// steps: the host's). A preset outside Preset gives `base` with the default kernel. The result
+/// steps, PCSS taps: the host's). A preset outside Preset gives `base` unchanged. The result
 /// passes validate() whenever `base` does.
 [[nodiscard]] PresetConfig presetConfig(Preset preset, const ShadowSettings& base = {}) noexcept;
 

@@ -62,6 +62,19 @@ enum class ReceiverSplitScheme : std::uint8_t {
   kHistogram = 1,
 };
 
+/// PCF kernels of csm.glsl (values of CSM_KERNEL_* in csm/shared_constants.h); chosen by
+/// ShadowSettings::kernel, which sets the lighting pipeline's specialization constant
+/// CSM_SPEC_KERNEL (csm::lightingSpecConstants).
+enum class PcfKernel : std::uint32_t {
+  k1Tap = CSM_KERNEL_1TAP,
+  kTent3 = CSM_KERNEL_TENT3,
+  kTent5 = CSM_KERNEL_TENT5,
+  kTent7 = CSM_KERNEL_TENT7,
+  kPoisson16 = CSM_KERNEL_POISSON16,
+  /// Percentage-closer soft shadows (penumbra from ShadowSettings::lightAngularDiameterDeg).
+  kPcss = CSM_KERNEL_PCSS,
+};
+
 /// What a host sets once and changes rarely. Every field is checked by validate(); nothing is
 /// clamped silently.
 struct ShadowSettings {
@@ -167,6 +180,21 @@ struct ShadowSettings {
   /// surely and shows more noise). 0.5 m: a 0.53 degree sun 54 m above the receiver. 0 gives
   /// hard shadows.
   double maxPenumbraM = 0.5;
+
+  // ---- The filter of the lighting shader ----
+  // These set the lighting pipeline's specialization constants: build it with the view's
+  // (csm::vk::ShadowView::lightingSpecialization, or csm::lightingSpecConstants), so that the
+  // CPU and the shader cannot disagree; rebuild it when they change. The cascade blend follows
+  // blendBand (0: the hard switch, no band to sample).
+  /// The PCF kernel (CSM_SPEC_KERNEL), one of PcfKernel.
+  PcfKernel kernel = PcfKernel::kTent3;
+  /// PCSS only: gathers of its blocker search and comparison taps of its filter
+  /// (CSM_SPEC_PCSS_TAPS), [1, CSM_PCSS_MAX_TAPS = 64].
+  std::uint32_t pcssTaps = CSM_PCSS_DEFAULT_TAPS;
+  /// Keep the PCF kernel the same size in metres in every cascade (that of cascade 0): tap
+  /// spacing in cascade i becomes texel_0 / texel_i texels (CsmCascadeGpu::kernelScale). Off:
+  /// the same size in texels.
+  bool worldSpaceKernel = false;
 };
 
 /// Receiver pixels counted per view-depth bin, log-spaced: bin i covers view depths

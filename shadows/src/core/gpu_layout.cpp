@@ -109,7 +109,7 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
     const double farM = frame.splitsM[i + 1];
     const double texel = c.texelSizeM();
     double scale = 1.0;
-    if (options.worldSpaceKernel && texel > 0.0 && texel0 > 0.0) scale = texel0 / texel;
+    if (settings.worldSpaceKernel && texel > 0.0 && texel0 > 0.0) scale = texel0 / texel;
     g.viewProjCr = c.viewProjCr;
     g.splitNearM = finiteOr0(nearM);
     g.splitFarM = finiteOr0(farM);
@@ -143,6 +143,13 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
     u.invFadeLengthM = finiteOr0(1.0 / frame.fadeLengthM);
   }
   return u;
+}
+
+std::array<SpecConstant, kLightingSpecConstantCount> lightingSpecConstants(
+    const ShadowSettings& settings) noexcept {
+  return {{{CSM_SPEC_KERNEL, static_cast<std::uint32_t>(settings.kernel)},
+           {CSM_SPEC_BLEND, settings.blendBand > 0.0 ? 1u : 0u},
+           {CSM_SPEC_PCSS_TAPS, settings.pcssTaps}}};
 }
 
 glm::vec3 cascadeTint(int index) noexcept {

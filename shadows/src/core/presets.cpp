@@ -25,12 +25,12 @@ static_assert(std::size(kTiers) == kAllPresets.size());
 }  // namespace
 
 PresetConfig presetConfig(Preset preset, const ShadowSettings& base) noexcept {
-  PresetConfig c{base, PcfKernel::kTent3};
+  PresetConfig c{base};
   for (const Tier& t : kTiers) {
     if (t.preset != preset) continue;
     c.settings.cascadeCount = t.cascadeCount;
     c.settings.resolution = t.resolution;
-    c.kernel = t.kernel;
+    c.settings.kernel = t.kernel;
   }
   return c;
 }

@@ -5,6 +5,7 @@
 #include <optional>
 #include <string>
 
+#include "csm/names.hpp"
 #include "csm/types.hpp"
 
 namespace csm {
@@ -135,6 +136,15 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
   }
   if (!(s.maxPenumbraM >= 0.0 && s.maxPenumbraM <= 100.0)) {
     return refuse("settings.maxPenumbraM", s.maxPenumbraM, "a width in metres in [0, 100]");
+  }
+  if (!(static_cast<std::uint32_t>(s.kernel) < CSM_KERNEL_COUNT)) {
+    return refuse(
+        "settings.kernel", static_cast<double>(static_cast<std::uint32_t>(s.kernel)),
+        "a PcfKernel in [0, " + std::to_string(CSM_KERNEL_COUNT - 1) + "] (" + kernelNames() + ")");
+  }
+  if (!(s.pcssTaps >= 1 && s.pcssTaps <= CSM_PCSS_MAX_TAPS)) {
+    return refuse("settings.pcssTaps", s.pcssTaps,
+                  "a number of taps in [1, " + std::to_string(CSM_PCSS_MAX_TAPS) + "]");
   }
   return std::nullopt;
 }

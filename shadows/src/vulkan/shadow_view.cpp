@@ -7,6 +7,27 @@
 
 namespace csm::vk {
 
+LightingSpecialization::LightingSpecialization(const ShadowSettings& settings) noexcept
+    : constants_(lightingSpecConstants(settings)) {
+  for (std::uint32_t i = 0; i < kLightingSpecConstantCount; ++i) {
+    values_[i] = constants_[i].value;
+    entries_[i] = {constants_[i].id, i * static_cast<std::uint32_t>(sizeof(std::uint32_t)),
+                   sizeof(std::uint32_t)};
+  }
+}
+
+VkSpecializationInfo LightingSpecialization::info() const noexcept {
+  return {kLightingSpecConstantCount, entries_.data(), sizeof(values_), values_.data()};
+}
+
+std::uint32_t LightingSpecialization::value(std::uint32_t id,
+                                            std::uint32_t fallback) const noexcept {
+  for (const SpecConstant& c : constants_) {
+    if (c.id == id) return c.value;
+  }
+  return fallback;
+}
+
 namespace {
 
 bool sameInstance(const CasterInstance& a, const CasterInstance& b) {
@@ -31,6 +52,7 @@ std::unique_ptr<ShadowView> ShadowView::create(const DeviceInfo& device, const V
   view->renderer_ = ShadowRenderer::create(device, layout, status);
   if (!view->renderer_) return nullptr;
   view->device_ = device;
+  view->specInfo_ = view->spec_.info();
   return view;
 }
 
@@ -66,6 +88,8 @@ Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOpt
   settings_ = settings;
   options_ = options;
   hasSettings_ = true;
+  spec_ = LightingSpecialization(settings_);
+  specInfo_ = spec_.info();
   applyThinMargins();
   // A frame compute() made before stays recordable only if it agrees with the new settings in
   // what the pass and the shader read (the renderer checks and names any difference).

@@ -7,6 +7,8 @@
 //   view->setCasters(meshes, instances, bounds);           // once, and when casters change
 //   view->setSceneBounds(&sceneBounds);                    // optional (recommended)
 //   each frame:  view->record(cmd, camera, light);         // then bind view->lightingSet()
+//   the lighting pipeline: built with view->lightingSpecialization() (the kernel and blend of
+//   the settings), rebuilt when that changes
 //
 // With the receiver fit on (RendererOptions::receiverFit), the host also hands the view its
 // depth buffer once a frame, after drawing it, and the next frames' cascades fit the receivers
@@ -22,6 +24,7 @@
 // buffer. Lifetime and threading are those of ShadowRenderer (shadow_renderer.hpp).
 #pragma once
 
+#include <array>
 #include <memory>
 #include <optional>
 #include <span>
@@ -50,6 +53,40 @@ struct ReceiverDepthInput {
   float clearDepth = 1.0f;
 };
 
+/// The lighting pipeline's specialization constants (csm::lightingSpecConstants: kernel, blend,
+/// PCSS taps) as Vulkan takes them. Copyable; info() points into this object, so keep it alive
+/// until the pipeline is created:
+///
+///   fragmentStage.pSpecializationInfo = view->lightingSpecializationInfo();
+///
+/// or, from a copy that outlives the view's next setSettings():
+///
+///   const csm::vk::LightingSpecialization spec = view->lightingSpecialization();
+///   const VkSpecializationInfo specInfo = spec.info();
+///   fragmentStage.pSpecializationInfo = &specInfo;
+///
+/// Two equal specializations build the same pipeline (a host's pipeline cache key).
+class LightingSpecialization {
+ public:
+  explicit LightingSpecialization(const ShadowSettings& settings) noexcept;
+  [[nodiscard]] VkSpecializationInfo info() const noexcept;
+  [[nodiscard]] const std::array<SpecConstant, kLightingSpecConstantCount>& constants()
+      const noexcept {
+    return constants_;
+  }
+  /// The value of constant `id` (CSM_SPEC_*), or `fallback` when it is not one of these.
+  [[nodiscard]] std::uint32_t value(std::uint32_t id, std::uint32_t fallback = 0) const noexcept;
+  friend bool operator==(const LightingSpecialization& a,
+                         const LightingSpecialization& b) noexcept {
+    return a.values_ == b.values_;
+  }
+
+ private:
+  std::array<SpecConstant, kLightingSpecConstantCount> constants_{};
+  std::array<VkSpecializationMapEntry, kLightingSpecConstantCount> entries_{};
+  std::array<std::uint32_t, kLightingSpecConstantCount> values_{};
+};
+
 /// A caster of a ShadowView by handle (ShadowView::addCaster, casterHandle): valid until that
 /// caster is removed or setCasters() replaces the set; a stale handle is refused by name, never
 /// taken for another caster that reuses its slot.
@@ -75,7 +112,7 @@ class ShadowView {
   /// The same with the current options() kept (the defaults before the first call), so that a
   /// settings change does not reset the cache, the depth format or the LOD choices.
   Status setSettings(const ShadowSettings& settings) { return setSettings(settings, options_); }
-  /// Debug output and world-space kernel of the lighting shader (checked at the next record).
+  /// Debug output of the lighting shader (checked at the next record).
   void setUniformOptions(const UniformOptions& options) noexcept {
     renderer_->setUniformOptions(options);
   }
@@ -181,6 +218,17 @@ class ShadowView {
   /// Per-cascade hook of the pass (GPU timestamps, labels): see CascadeHook.
   void setCascadeHook(CascadeHook hook) { renderer_->setCascadeHook(std::move(hook)); }
 
+  /// The specialization the lighting pipeline is built with (settings().kernel, blend band, PCSS
+  /// taps): build it with this and rebuild it when this changes after setSettings(), so that the
+  /// pipeline and the view's settings cannot disagree.
+  [[nodiscard]] const LightingSpecialization& lightingSpecialization() const noexcept {
+    return spec_;
+  }
+  /// The same as Vulkan takes it, for a shader stage's pSpecializationInfo: valid (and
+  /// unchanged) until the next setSettings() or the view's destruction.
+  [[nodiscard]] const VkSpecializationInfo* lightingSpecializationInfo() const noexcept {
+    return &specInfo_;
+  }
   /// The set layout the lighting pipeline declares at CSM_SET, and the set to bind (it changes
   /// when setSettings() recreates the image: fetch it each frame).
   [[nodiscard]] VkDescriptorSetLayout lightingSetLayout() const noexcept {
@@ -220,6 +268,8 @@ class ShadowView {
   std::uint32_t reducerSlot_ = 0;               // the slot the next recordReceiverDepth fills
   ShadowSettings settings_{};
   RendererOptions options_{};
+  LightingSpecialization spec_{ShadowSettings{}};  // of settings_, for the lighting pipeline
+  VkSpecializationInfo specInfo_{};                // spec_.info(): points into spec_
   bool hasSettings_ = false;
   CasterSet casterSet_;
   std::vector<MeshDraw> meshes_;
