@@ -24,6 +24,8 @@ add_custom_target(csm_depth_range_shader DEPENDS ${_csm_range_hdr})
 
 add_library(csm_vulkan STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer_pass.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer_update.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_view.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/depth_range.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_cache.cpp

@@ -27,6 +27,7 @@
 
 #include "csm/light_space.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
+#include "shadow_renderer_impl.hpp"
 #include "vk_util.hpp"
 
 namespace csm::vk {
@@ -83,7 +84,7 @@ constexpr VkAccessFlags2 kDepthAccess =
     VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
 
 // The light-space point a window's block (mx, my) is projected about, and the scale to clip
-// space (`Window`: ShadowRenderer::CacheWindow, a private type deduced here): layer pixel x =
+// space (`Window`: ShadowRenderer::Impl::CacheWindow, a private type deduced here): layer pixel x =
 // world texel index - anchorX - mx * R. Every block is drawn with the same viewport [0, R)^2;
 // its geometry is shifted in light space (in double) instead, so what a block draws lies inside
 // the clip volume (a viewport shifted off the attachment would rely on fragments outside the
@@ -230,8 +231,8 @@ std::string cascadeLabel(std::uint32_t cascade, const char* what) {
 
 }  // namespace
 
-Status ShadowRenderer::checkCacheOptions(const ShadowSettings& settings,
-                                         const RendererOptions& options) {
+Status ShadowRenderer::Impl::checkCacheOptions(const ShadowSettings& settings,
+                                               const RendererOptions& options) {
   const std::uint64_t layer = std::uint64_t(settings.resolution) * settings.resolution;
   if (options.cacheBudgetTexels != 0 && options.cacheBudgetTexels < layer) {
     return Status(ErrorCode::kInvalidArgument,
@@ -251,12 +252,12 @@ Status ShadowRenderer::checkCacheOptions(const ShadowSettings& settings,
 // ---------------------------------------------------------------------------------------------
 // Windows
 
-bool ShadowRenderer::windowedFor(const ShadowSettings& settings, const RendererOptions& options,
-                                 RenderMode mode) noexcept {
+bool ShadowRenderer::Impl::windowedFor(const ShadowSettings& settings,
+                                       const RendererOptions& options, RenderMode mode) noexcept {
   return options.cache || (settings.stabilize && mode == RenderMode::kPerLayer);
 }
 
-void ShadowRenderer::applyCacheWindows(CascadeFrame& frame) {
+void ShadowRenderer::Impl::applyCacheWindows(CascadeFrame& frame) {
   if (!windowed() || frame.resolution != resolution_) return;
   const std::int64_t res = resolution_;
   const glm::dmat3& basis = frame.lightBasisWs;
@@ -303,7 +304,8 @@ void ShadowRenderer::applyCacheWindows(CascadeFrame& frame) {
 // Whether what the layer of cascade `i` shows covers this frame's slice `c` (before its depth
 // window is applied): its box holds the box the slice needs (the sphere, across a change of
 // light), its depth window the sphere.
-bool ShadowRenderer::shownCovers(std::uint32_t i, const Cascade& c, const glm::dmat3& basis) const {
+bool ShadowRenderer::Impl::shownCovers(std::uint32_t i, const Cascade& c,
+                                       const glm::dmat3& basis) const {
   const CacheShown& sh = shown_[i];
   if (!sh.valid) return false;
   const glm::dvec3 centerLs = glm::transpose(basis) * c.boxCenterWs;
@@ -325,8 +327,8 @@ bool ShadowRenderer::shownCovers(std::uint32_t i, const Cascade& c, const glm::d
 // The budget: the exact cascades, and those never shown, are refreshed whatever they cost; the
 // others in order of staleness while their refresh fits what is left of the budget. A deferred
 // cascade shows its last refresh.
-void ShadowRenderer::applyCacheBudget(CascadeFrame& frame,
-                                      const std::array<bool, kMaxCascades>& covered) {
+void ShadowRenderer::Impl::applyCacheBudget(CascadeFrame& frame,
+                                            const std::array<bool, kMaxCascades>& covered) {
   const glm::dmat3& basis = frame.lightBasisWs;
   const std::uint64_t budget = options_.cache ? options_.cacheBudgetTexels : 0;
   std::vector<std::uint32_t> order;
@@ -372,7 +374,7 @@ void ShadowRenderer::applyCacheBudget(CascadeFrame& frame,
   }
 }
 
-Status ShadowRenderer::invalidate(const AabbWs& boxWs) {
+Status ShadowRenderer::Impl::invalidate(const AabbWs& boxWs) {
   if (auto e = csm::validate(boxWs, "invalidate box")) {
     return Status(ErrorCode::kInvalidArgument, e->message());
   }
@@ -389,7 +391,7 @@ Status ShadowRenderer::invalidate(const AabbWs& boxWs) {
   return {};
 }
 
-void ShadowRenderer::invalidateAll() noexcept {
+void ShadowRenderer::Impl::invalidateAll() noexcept {
   for (CacheWindow& w : windows_) {
     w.staticValid = false;
     w.pending.clear();
@@ -399,8 +401,8 @@ void ShadowRenderer::invalidateAll() noexcept {
 // ---------------------------------------------------------------------------------------------
 // The static-depth image
 
-Status ShadowRenderer::buildStaticImage(const ShadowSettings& settings, VkFormat format,
-                                        Retired& out, VkDeviceSize& bytes) {
+Status ShadowRenderer::Impl::buildStaticImage(const ShadowSettings& settings, VkFormat format,
+                                              Retired& out, VkDeviceSize& bytes) {
   VkDevice dev = device_.device;
   auto ci = vkInit<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
   ci.imageType = VK_IMAGE_TYPE_2D;
@@ -442,7 +444,7 @@ Status ShadowRenderer::buildStaticImage(const ShadowSettings& settings, VkFormat
   return {};
 }
 
-void ShadowRenderer::installStaticImage(Retired& built, VkDeviceSize bytes) noexcept {
+void ShadowRenderer::Impl::installStaticImage(Retired& built, VkDeviceSize bytes) noexcept {
   retireStaticImage();
   staticImage_ = built.image;
   staticMemory_ = built.memory;
@@ -452,7 +454,7 @@ void ShadowRenderer::installStaticImage(Retired& built, VkDeviceSize bytes) noex
   built = Retired{};
 }
 
-void ShadowRenderer::retireStaticImage() noexcept {
+void ShadowRenderer::Impl::retireStaticImage() noexcept {
   if (staticImage_ == VK_NULL_HANDLE && staticMemory_ == VK_NULL_HANDLE) return;
   Retired old;
   old.afterRecord = records_;
@@ -472,12 +474,12 @@ void ShadowRenderer::retireStaticImage() noexcept {
 
 // The cached pass's drawing state: the casters' light-space texel rectangles in the cascade
 // being drawn, its light basis, the bound mesh buffers and per-cascade scratch.
-struct ShadowRenderer::CachedPass {
-  CachedPass(ShadowRenderer& renderer, VkCommandBuffer commands, const CasterList& list,
+struct ShadowRenderer::Impl::CachedPass {
+  CachedPass(ShadowRenderer::Impl& renderer, VkCommandBuffer commands, const CasterList& list,
              std::int64_t resolution)
       : r(renderer), cmd(commands), casters(list), res(resolution) {}
 
-  ShadowRenderer& r;
+  ShadowRenderer::Impl& r;
   VkCommandBuffer cmd;
   const CasterList& casters;
   std::int64_t res;
@@ -596,7 +598,7 @@ struct ShadowRenderer::CachedPass {
 
 // The frame must carry the windows (applyCacheWindows before culling). Each cascade is drawn in
 // the window and light basis its layer shows (shown_: this frame's unless deferred).
-Status ShadowRenderer::checkCacheWindows(const CascadeFrame& frame) const {
+Status ShadowRenderer::Impl::checkCacheWindows(const CascadeFrame& frame) const {
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     const Cascade& c = frame.cascades[i];
     if (c.empty) continue;
@@ -617,7 +619,7 @@ Status ShadowRenderer::checkCacheWindows(const CascadeFrame& frame) const {
 
 // The uniform block of the cached pass (toroidal addressing: each cascade's wrap offset) and
 // each cascade's box in the window it shows.
-void ShadowRenderer::packCachedUniforms(const CascadeFrame& frame, CachedPass& pass) {
+void ShadowRenderer::Impl::packCachedUniforms(const CascadeFrame& frame, CachedPass& pass) {
   const std::int64_t res = resolution_;
   uniforms_ = packFrameUniforms(frame);
   uniforms_.wrappedLayers = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
@@ -645,7 +647,7 @@ void ShadowRenderer::packCachedUniforms(const CascadeFrame& frame, CachedPass& p
 
 // The cached pass's start: its label, the uniform block (write after the previous frame's
 // reads), the static image after last frame's copies, and a new sampled image.
-void ShadowRenderer::recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined) {
+void ShadowRenderer::Impl::recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined) {
   VkImageMemoryBarrier2 img[2] = {
       vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
       vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
@@ -681,8 +683,8 @@ void ShadowRenderer::recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined) {
 // One cascade of the cached pass: its stale static texels re-rendered, the sampled layer
 // restored to the static depth and the dynamic casters drawn over it. Returns whether the
 // sampled layer was written (false: it already holds this frame's depth).
-bool ShadowRenderer::recordCachedCascade(CachedPass& pass, std::uint32_t i,
-                                         const std::vector<std::uint32_t>& list) {
+bool ShadowRenderer::Impl::recordCachedCascade(CachedPass& pass, std::uint32_t i,
+                                               const std::vector<std::uint32_t>& list) {
   const std::int64_t res = resolution_;
   CacheWindow& w = windows_[i];        // the static layer's state
   CacheShown& sh = shown_[i];          // what the sampled layer shows (drawn in its window)
@@ -728,8 +730,8 @@ bool ShadowRenderer::recordCachedCascade(CachedPass& pass, std::uint32_t i,
 
 // The stale rectangles of the static layer (pass.dirty): cleared (unless `full`: the whole
 // layer, cleared on load) and drawn with the static casters.
-void ShadowRenderer::recordStaticRects(CachedPass& pass, std::uint32_t i,
-                                       const std::vector<std::uint32_t>& list, bool full) {
+void ShadowRenderer::Impl::recordStaticRects(CachedPass& pass, std::uint32_t i,
+                                             const std::vector<std::uint32_t>& list, bool full) {
   const CacheWindow& win = shown_[i].window;
   CascadeCacheStats& st = cacheStats_[i];
   // Both images are DEPTH_ATTACHMENT_OPTIMAL while drawn (see recordStaticCopy).
@@ -753,7 +755,7 @@ void ShadowRenderer::recordStaticRects(CachedPass& pass, std::uint32_t i,
 // rectangles are restored, copied (kCopyRects: pass.copyRegions) or cleared and redrawn with
 // the static casters (kRedraw: pass.redrawParts); the whole layer is copied on a full render,
 // when they are most of it, or with kWholeLayer. Returns whether the whole layer is copied.
-bool ShadowRenderer::planRestore(CachedPass& pass, std::uint32_t i, bool full) {
+bool ShadowRenderer::Impl::planRestore(CachedPass& pass, std::uint32_t i, bool full) {
   const std::int64_t res = resolution_;
   const CacheShown& sh = shown_[i];
   CascadeCacheStats& st = cacheStats_[i];
@@ -803,8 +805,8 @@ bool ShadowRenderer::planRestore(CachedPass& pass, std::uint32_t i, bool full) {
 }
 
 // The layer rectangles this frame's dynamic casters in `list` cover (restored next time).
-void ShadowRenderer::rememberDynamicRects(CachedPass& pass, std::uint32_t i,
-                                          const std::vector<std::uint32_t>& list) {
+void ShadowRenderer::Impl::rememberDynamicRects(CachedPass& pass, std::uint32_t i,
+                                                const std::vector<std::uint32_t>& list) {
   CacheShown& sh = shown_[i];
   sh.dynamicRects.clear();
   std::vector<TexelRect> parts;
@@ -832,8 +834,8 @@ void ShadowRenderer::rememberDynamicRects(CachedPass& pass, std::uint32_t i,
 // Static layer `i` -> the sampled layer `i` (`regions`; `whole`: the whole layer, so its old
 // content is discarded), leaving both as depth attachments. No regions (nothing to restore,
 // dynamic casters appear): the sampled layer straight to the attachment.
-void ShadowRenderer::recordStaticCopy(VkCommandBuffer cmd, std::uint32_t i,
-                                      std::span<const VkImageCopy> regions, bool whole) {
+void ShadowRenderer::Impl::recordStaticCopy(VkCommandBuffer cmd, std::uint32_t i,
+                                            std::span<const VkImageCopy> regions, bool whole) {
   VkImageMemoryBarrier2 b[2] = {
       vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
       vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
@@ -891,8 +893,8 @@ void ShadowRenderer::recordStaticCopy(VkCommandBuffer cmd, std::uint32_t i,
 
 // The sampled layer's dynamic pass: the rectangles restored by redrawing (pass.redrawParts)
 // cleared and drawn with the static casters, then the dynamic casters over the box.
-void ShadowRenderer::recordDynamicPass(CachedPass& pass, std::uint32_t i,
-                                       const std::vector<std::uint32_t>& list) {
+void ShadowRenderer::Impl::recordDynamicPass(CachedPass& pass, std::uint32_t i,
+                                             const std::vector<std::uint32_t>& list) {
   const CacheWindow& win = shown_[i].window;
   CascadeCacheStats& st = cacheStats_[i];
   beginDepthRendering(pass.cmd, layerViews_[i], 1, false, cascadeLabel(i, "dynamic"), pipeline_);
@@ -908,7 +910,7 @@ void ShadowRenderer::recordDynamicPass(CachedPass& pass, std::uint32_t i,
 }
 
 // The cached pass's end: layers written this frame -> the sampled layout.
-void ShadowRenderer::recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMask) {
+void ShadowRenderer::Impl::recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMask) {
   // The others stayed sampleable.
   std::vector<VkImageMemoryBarrier2> toSampled;
   for (std::uint32_t i = 0; i < layerCount_; ++i) {
@@ -937,7 +939,8 @@ void ShadowRenderer::recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMa
 // does before culling), else `own`, a windowed copy (uncached: the host culled the frame as
 // computed; the windows only deepen the depth range, so its lists hold every caster the
 // windowed box can show). Null when the cache needs the windows before culling.
-const CascadeFrame* ShadowRenderer::windowedFrame(const CascadeFrame& frame, CascadeFrame& own) {
+const CascadeFrame* ShadowRenderer::Impl::windowedFrame(const CascadeFrame& frame,
+                                                        CascadeFrame& own) {
   if (checkCacheWindows(frame).ok()) return &frame;
   if (options_.cache) return nullptr;
   own = frame;
@@ -948,8 +951,8 @@ const CascadeFrame* ShadowRenderer::windowedFrame(const CascadeFrame& frame, Cas
 // Every texel of cascade `i` rendered into the sampled layer (windowed, uncached): the box's
 // blocks, each caster drawn over the blocks its bounds touch, static and dynamic alike. The same
 // vertices, viewport and tiles as the cached pass, so the same depth in every texel.
-void ShadowRenderer::recordFullCascade(CachedPass& pass, std::uint32_t i,
-                                       const std::vector<std::uint32_t>& list) {
+void ShadowRenderer::Impl::recordFullCascade(CachedPass& pass, std::uint32_t i,
+                                             const std::vector<std::uint32_t>& list) {
   const CacheWindow& win = shown_[i].window;
   CascadeCacheStats& st = cacheStats_[i];
   pass.basisT = glm::transpose(shown_[i].basis);
@@ -969,8 +972,9 @@ void ShadowRenderer::recordFullCascade(CachedPass& pass, std::uint32_t i,
   endLayer(pass.cmd);
 }
 
-Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frameIn,
-                                        const CasterList& casters, const CullResult* visible) {
+Status ShadowRenderer::Impl::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frameIn,
+                                              const CasterList& casters,
+                                              const CullResult* visible) {
   CascadeFrame own;
   const CascadeFrame* framePtr = windowedFrame(frameIn, own);
   if (framePtr == nullptr) return checkCacheWindows(frameIn);
@@ -1020,9 +1024,10 @@ Status ShadowRenderer::recordCachedPass(VkCommandBuffer cmd, const CascadeFrame&
 
 // The callback form with windowed cascades: the host's draws once per block of each cascade's
 // box, projected about the block (CascadeDrawContext::setTransform), viewport and scissor set.
-Status ShadowRenderer::recordWindowedCallbackPass(VkCommandBuffer cmd, const CascadeFrame& frameIn,
-                                                  const CascadeDrawCallback& draw,
-                                                  const CullResult* visible) {
+Status ShadowRenderer::Impl::recordWindowedCallbackPass(VkCommandBuffer cmd,
+                                                        const CascadeFrame& frameIn,
+                                                        const CascadeDrawCallback& draw,
+                                                        const CullResult* visible) {
   CascadeFrame own;
   const CascadeFrame& frame = *windowedFrame(frameIn, own);  // uncached: never null
   countRecord();

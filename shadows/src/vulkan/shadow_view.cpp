@@ -5,6 +5,8 @@
 #include <span>
 #include <string>
 
+#include "shadow_renderer_impl.hpp"
+
 namespace csm::vk {
 
 LightingSpecialization::LightingSpecialization(const ShadowSettings& settings) noexcept
@@ -295,12 +297,12 @@ void ShadowView::applyThinMargins() {
 // was rendered with: its (dynamic) casters are culled in that basis.
 void ShadowView::cullDeferred(const CascadeFrame& frame) {
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
-    if (frame.cascades[i].empty || !renderer_->cacheDeferred(i) ||
-        renderer_->cacheLightBasis(i) == frame.lightBasisWs) {
+    if (frame.cascades[i].empty || !renderer_->impl_->cacheDeferred(i) ||
+        renderer_->impl_->cacheLightBasis(i) == frame.lightBasisWs) {
       continue;
     }
     CascadeFrame old = frame;
-    old.lightBasisWs = renderer_->cacheLightBasis(i);
+    old.lightBasisWs = renderer_->impl_->cacheLightBasis(i);
     old.lightDirectionWs = old.lightBasisWs[2];
     for (std::uint32_t j = 0; j < old.cascadeCount; ++j) old.cascades[j].empty = j != i;
     CullResult one;
@@ -339,8 +341,8 @@ Status ShadowView::record(VkCommandBuffer cmd, const CascadeFrame& frame) {
   CascadeFrame windowed = frame;
   renderer_->applyCacheWindows(windowed);  // cached cascades: the depth windows (else no-op)
   cullInto(windowed);
-  Status s = renderer_->recordValidatedPass(cmd, windowed,
-                                            CasterList{meshes_, instances_, boundsWs_}, &cull_);
+  Status s = renderer_->impl_->recordValidatedPass(
+      cmd, windowed, CasterList{meshes_, instances_, boundsWs_}, &cull_);
   if (!s.ok()) return s;
   frame_ = windowed;
   return {};
@@ -375,8 +377,8 @@ Status ShadowView::recordPass(VkCommandBuffer cmd) {
     return Status(ErrorCode::kWrongOrder, "ShadowView::recordPass without a compute() before it");
   }
   if (castersChanged_) cullInto(frame_);  // setCasters() since compute()
-  return renderer_->recordValidatedPass(cmd, frame_, CasterList{meshes_, instances_, boundsWs_},
-                                        &cull_);
+  return renderer_->impl_->recordValidatedPass(cmd, frame_,
+                                               CasterList{meshes_, instances_, boundsWs_}, &cull_);
 }
 
 Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,

@@ -13,6 +13,7 @@
 #include <string>
 
 #include "csm/vulkan/shadow_renderer.hpp"
+#include "shadow_renderer_impl.hpp"
 #include "vk_util.hpp"
 
 // The embedded SPIR-V (after <cstdint>: it declares uint32_t arrays).
@@ -20,7 +21,7 @@
 
 namespace csm::vk {
 
-Status ShadowRenderer::checkThinOptions(const RendererOptions& options) {
+Status ShadowRenderer::Impl::checkThinOptions(const RendererOptions& options) {
   if (!(options.thinCasterWidenTexels >= 0.0f && options.thinCasterWidenTexels <= 4.0f)) {
     return Status(ErrorCode::kInvalidArgument,
                   fmt("options.thinCasterWidenTexels = %g is invalid: allowed [0, 4] texels "
@@ -30,7 +31,7 @@ Status ShadowRenderer::checkThinOptions(const RendererOptions& options) {
   return {};
 }
 
-void ShadowRenderer::destroyThinPipeline() noexcept {
+void ShadowRenderer::Impl::destroyThinPipeline() noexcept {
   vkDestroyPipeline(device_.device, thinPipeline_, nullptr);
   thinPipeline_ = VK_NULL_HANDLE;
   vkDestroyPipeline(device_.device, thinLayeredPipeline_, nullptr);
@@ -40,8 +41,8 @@ void ShadowRenderer::destroyThinPipeline() noexcept {
   thinResolution_ = 0;
 }
 
-ShadowRenderer::ThinPlan ShadowRenderer::planThinPipeline(std::uint32_t resolution,
-                                                          const RendererOptions& options) const {
+ShadowRenderer::Impl::ThinPlan ShadowRenderer::Impl::planThinPipeline(
+    std::uint32_t resolution, const RendererOptions& options) const {
   const float widen = options.thinCasterWidenTexels;
   ThinPlan plan;
   // Overestimation widens by about half a texel on its own: under that, the geometry stage (where
@@ -57,8 +58,9 @@ ShadowRenderer::ThinPlan ShadowRenderer::planThinPipeline(std::uint32_t resoluti
   return plan;
 }
 
-Status ShadowRenderer::buildThinPipelines(std::uint32_t resolution, const RendererOptions& options,
-                                          bool conservative, Retired& out) {
+Status ShadowRenderer::Impl::buildThinPipelines(std::uint32_t resolution,
+                                                const RendererOptions& options, bool conservative,
+                                                Retired& out) {
   const float widen = options.thinCasterWidenTexels;
   if (!conservative && thinGeometryModule_ == VK_NULL_HANDLE) {
     auto ci = vkInit<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
@@ -132,9 +134,9 @@ Status ShadowRenderer::buildThinPipelines(std::uint32_t resolution, const Render
   return {};
 }
 
-void ShadowRenderer::installThinPipelines(const ThinPlan& plan, Retired& built,
-                                          std::uint32_t resolution,
-                                          const RendererOptions& options) noexcept {
+void ShadowRenderer::Impl::installThinPipelines(const ThinPlan& plan, Retired& built,
+                                                std::uint32_t resolution,
+                                                const RendererOptions& options) noexcept {
   if (plan.keep) return;
   if (thinPipeline_ != VK_NULL_HANDLE) {  // in use by recorded frames: retire them
     Retired old;
@@ -155,15 +157,15 @@ void ShadowRenderer::installThinPipelines(const ThinPlan& plan, Retired& built,
   built = Retired{};
 }
 
-float ShadowRenderer::thinMarginTexels() const noexcept {
+float ShadowRenderer::Impl::thinMarginTexels() const noexcept {
   if (thinPipeline_ == VK_NULL_HANDLE) return 0.0f;
   // The geometry stage's rim reaches texel centres within thinWidenTexels_ of the triangle;
   // overestimation covers any texel the widened triangle touches (half a diagonal more).
   return thinWidenTexels_ + (thinConservative_ ? 0.5f : 0.0f);
 }
 
-void ShadowRenderer::drawIndexedCaster(VkCommandBuffer cmd, const CasterInstance& instance,
-                                       const MeshDraw& mesh, std::uint32_t copies) {
+void ShadowRenderer::Impl::drawIndexedCaster(VkCommandBuffer cmd, const CasterInstance& instance,
+                                             const MeshDraw& mesh, std::uint32_t copies) {
   // The cached pass draws per layer (the cache refuses kLayered), so the render mode says which
   // pipeline is bound and which widens.
   const bool layered = resolvedMode_ == RenderMode::kLayered;

@@ -1,0 +1,299 @@
+// The renderer's state and steps behind csm::vk::ShadowRenderer's public interface (private to
+// the module: shadow_renderer.cpp, shadow_cache.cpp, thin_casters.cpp and shadow_view.cpp, which
+// reads the cache's light bases to cull deferred cascades). The public methods of
+// ShadowRenderer forward here one to one; their documentation is in shadow_renderer.hpp.
+#pragma once
+
+#include "csm/vulkan/shadow_renderer.hpp"
+
+namespace csm::vk {
+
+class ShadowRenderer::Impl {
+ public:
+  // ShadowRenderer's interface (documented in shadow_renderer.hpp), then the view's cache
+  // queries.
+  ~Impl();
+  Impl() = default;
+  Impl(const Impl&) = delete;
+  Impl& operator=(const Impl&) = delete;
+
+  Status update(const ShadowSettings& settings, const RendererOptions& options);
+  Status update(const ShadowSettings& settings) { return update(settings, options_); }
+
+  void failNextUpdateAt(UpdateStep step) noexcept { failAt_ = step; }
+
+  Status prepare(VkCommandBuffer cmd);
+  [[nodiscard]] bool needsPrepare() const noexcept { return pendingClear_; }
+
+  void setUniformOptions(const UniformOptions& options) noexcept { uniformOptions_ = options; }
+  void setCascadeHook(CascadeHook hook) { cascadeHook_ = std::move(hook); }
+
+  Status recordShadowPass(VkCommandBuffer cmd, const CascadeFrame& frame, const CasterList& casters,
+                          const CullResult* visible);
+
+  Status recordShadowPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                          const CascadeDrawCallback& draw, const CullResult* visible = nullptr);
+
+  [[nodiscard]] bool ready() const noexcept { return image_ != VK_NULL_HANDLE; }
+  [[nodiscard]] VkImageView arrayView() const noexcept { return arrayView_; }
+  [[nodiscard]] VkSampler comparisonSampler() const noexcept { return compareSampler_; }
+  [[nodiscard]] VkSampler depthSampler() const noexcept { return depthSampler_; }
+  [[nodiscard]] float thinMarginTexels() const noexcept;
+  [[nodiscard]] static constexpr VkImageLayout sampledLayout() noexcept {
+    return VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+  }
+  [[nodiscard]] VkImage image() const noexcept { return image_; }
+  [[nodiscard]] VkFormat depthFormat() const noexcept { return options_.depthFormat; }
+  [[nodiscard]] RenderMode renderMode() const noexcept { return resolvedMode_; }
+  [[nodiscard]] const CsmUniforms& uniforms() const noexcept { return uniforms_; }
+  [[nodiscard]] VkBuffer uniformBuffer() const noexcept { return uniformBuffer_; }
+
+  // --- Cached cascades (RendererOptions::cache) -------------------------------------------------
+  void applyCacheWindows(CascadeFrame& frame);
+  Status invalidate(const AabbWs& boxWs);
+  void invalidateAll() noexcept;
+  [[nodiscard]] const std::array<CascadeCacheStats, kMaxCascades>& cacheStats() const noexcept {
+    return cacheStats_;
+  }
+  /// The light basis the content of cascade `i` was rendered with (the frame's, unless the
+  /// cascade is deferred by the budget across a change of light direction); ShadowView culls a
+  /// deferred cascade's casters with it.
+  [[nodiscard]] const glm::dmat3& cacheLightBasis(std::uint32_t i) const noexcept {
+    return shown_[std::min<std::uint32_t>(i, kMaxCascades - 1)].basis;
+  }
+  [[nodiscard]] bool cacheDeferred(std::uint32_t i) const noexcept {
+    return i < kMaxCascades && shown_[i].deferred;
+  }
+  [[nodiscard]] VkDeviceSize cacheBytes() const noexcept { return cacheBytes_; }
+  [[nodiscard]] VkImage staticImage() const noexcept { return staticImage_; }
+
+  [[nodiscard]] VkDescriptorSetLayout lightingSetLayout() const noexcept { return lightingLayout_; }
+  [[nodiscard]] VkDescriptorSet lightingSet() const noexcept { return lightingSet_; }
+  Status writeLightingSet(VkDescriptorSet set) const;
+
+  // ---- Below: not part of ShadowRenderer's interface ----
+  // recordShadowPass with the instances already validated by the caller (ShadowView validates
+  // each caster when it is given, so its frames do not pay O(casters) for it).
+  Status recordValidatedPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                             const CasterList& casters, const CullResult* visible);
+  Status recordCasterListPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                              const CasterList& casters, const CullResult* visible,
+                              bool instancesValidated);
+  Status init(const DeviceInfo& device, const VertexLayout& layout);
+  // init()'s steps, in order: debug-utils entry points, the depth and lighting set layouts,
+  // the depth pipeline layout, the depth pass's descriptor set, the one-time clear's pool and
+  // fence, the samplers, the uniform buffer, the vertex shader modules.
+  void loadDebugUtils();
+  Status createSetLayouts();
+  Status createPipelineLayout();
+  Status createDepthSet();
+  Status createClearResources();
+  Status createSamplers();
+  Status createUniformBuffer();
+  Status createShaderModules();
+  Status allocate(const VkMemoryRequirements& req, VkDeviceMemory* memory, const char* name) const;
+  Status checkFormat(VkFormat format) const;
+  Status resolveOptions(const ShadowSettings& settings, const RendererOptions& options,
+                        RenderMode* resolved) const;
+  // update() builds what new settings need (build*: may fail, installs nothing), then installs
+  // it all (install*: cannot fail, retires what it replaces). Objects travel in a Retired.
+  struct Retired;
+  Status buildImage(const ShadowSettings& settings, VkFormat format, Retired& out,
+                    VkDescriptorSet& lightingSet);
+  void installImage(Retired& built, VkDescriptorSet lightingSet,
+                    const ShadowSettings& settings) noexcept;
+  Status buildPipelines(VkFormat format, Retired& out);
+  void installPipelines(Retired& built) noexcept;
+  /// Destroys objects at once (never recorded, or retired long enough ago).
+  void destroyNow(Retired& objects) noexcept;
+  // Thin casters (thin_casters.cpp).
+  static Status checkThinOptions(const RendererOptions& options);
+  struct ThinPlan {
+    bool wanted = false;        // the options and device call for a thin pipeline
+    bool conservative = false;  // overestimating rasterisation, no geometry stage
+    bool keep = false;          // the current one fits
+    bool build = false;         // a new one is needed
+  };
+  [[nodiscard]] ThinPlan planThinPipeline(std::uint32_t resolution,
+                                          const RendererOptions& options) const;
+  Status buildThinPipelines(std::uint32_t resolution, const RendererOptions& options,
+                            bool conservative, Retired& out);
+  void installThinPipelines(const ThinPlan& plan, Retired& built, std::uint32_t resolution,
+                            const RendererOptions& options) noexcept;
+  void destroyThinPipeline() noexcept;
+  void drawIndexedCaster(VkCommandBuffer cmd, const CasterInstance& instance, const MeshDraw& mesh,
+                         std::uint32_t copies);
+  void setCasterCull(VkCommandBuffer cmd, const CasterInstance& instance);
+  void destroyImage() noexcept;
+  void destroyPipelines() noexcept;
+  Status checkFrame(const CascadeFrame& frame) const;
+  Status submitClear();
+  void recordClear(VkCommandBuffer cmd);
+  void collectRetired(bool all) noexcept;
+  bool countRecord();
+  CsmUniforms packFrameUniforms(const CascadeFrame& frame) const;
+  void recordPassStart(VkCommandBuffer cmd, const char* label,
+                       std::span<const VkImageMemoryBarrier2> images);
+  void recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame);
+  void recordDiscardingStart(VkCommandBuffer cmd, const char* label);
+  void recordEnd(VkCommandBuffer cmd);
+  void beginDepthRendering(VkCommandBuffer cmd, VkImageView view, std::uint32_t layers, bool clear,
+                           const std::string& label, VkPipeline pipeline);
+  void beginLayer(VkCommandBuffer cmd, std::uint32_t cascade, bool layered);
+  void endLayer(VkCommandBuffer cmd);
+  void setName(std::uint64_t handle, VkObjectType type, const char* name) const;
+  Status buildStaticImage(const ShadowSettings& settings, VkFormat format, Retired& out,
+                          VkDeviceSize& bytes);
+  void installStaticImage(Retired& built, VkDeviceSize bytes) noexcept;
+  void retireStaticImage() noexcept;
+  // Windowed addressing (shadow_cache.cpp): stabilised per-layer cascades are drawn about
+  // world-anchored windows, cached or not, so that the cache changes the cost, never the depth.
+  [[nodiscard]] static bool windowedFor(const ShadowSettings& settings,
+                                        const RendererOptions& options, RenderMode mode) noexcept;
+  [[nodiscard]] bool windowed() const noexcept {
+    return windowedFor(settings_, options_, resolvedMode_);
+  }
+  Status recordCachedPass(VkCommandBuffer cmd, const CascadeFrame& frame, const CasterList& casters,
+                          const CullResult* visible);
+  Status recordWindowedCallbackPass(VkCommandBuffer cmd, const CascadeFrame& frame,
+                                    const CascadeDrawCallback& draw, const CullResult* visible);
+  /// What the callback form hands the host for cascade `cascade` of `frame` (not anchored).
+  CascadeDrawContext drawContext(VkCommandBuffer cmd, const CascadeFrame& frame,
+                                 std::uint32_t cascade, const CullResult* visible) const;
+  const CascadeFrame* windowedFrame(const CascadeFrame& frame, CascadeFrame& own);
+  // applyCacheWindows()'s steps (shadow_cache.cpp).
+  bool shownCovers(std::uint32_t cascade, const Cascade& c, const glm::dmat3& basis) const;
+  void applyCacheBudget(CascadeFrame& frame, const std::array<bool, kMaxCascades>& covered);
+  // recordCachedPass()'s steps (shadow_cache.cpp). CachedPass: the pass's drawing state.
+  struct CachedPass;
+  Status checkCacheWindows(const CascadeFrame& frame) const;
+  void packCachedUniforms(const CascadeFrame& frame, CachedPass& pass);
+  void recordCachedBegin(VkCommandBuffer cmd, bool wasUndefined);
+  void recordFullCascade(CachedPass& pass, std::uint32_t cascade,
+                         const std::vector<std::uint32_t>& list);
+  bool recordCachedCascade(CachedPass& pass, std::uint32_t cascade,
+                           const std::vector<std::uint32_t>& list);
+  void recordStaticRects(CachedPass& pass, std::uint32_t cascade,
+                         const std::vector<std::uint32_t>& list, bool full);
+  bool planRestore(CachedPass& pass, std::uint32_t cascade, bool full);
+  void rememberDynamicRects(CachedPass& pass, std::uint32_t cascade,
+                            const std::vector<std::uint32_t>& list);
+  void recordStaticCopy(VkCommandBuffer cmd, std::uint32_t cascade,
+                        std::span<const VkImageCopy> regions, bool whole);
+  void recordDynamicPass(CachedPass& pass, std::uint32_t cascade,
+                         const std::vector<std::uint32_t>& list);
+  void recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMask);
+
+  DeviceInfo device_{};
+  VertexLayout layout_{};
+  VkPhysicalDeviceProperties properties_{};
+  VkPhysicalDeviceMemoryProperties memory_{};
+  PFN_vkSetDebugUtilsObjectNameEXT setObjectName_ = nullptr;
+  PFN_vkCmdBeginDebugUtilsLabelEXT beginLabel_ = nullptr;
+  PFN_vkCmdEndDebugUtilsLabelEXT endLabel_ = nullptr;
+
+  ShadowSettings settings_{};
+  RendererOptions options_{};
+  RenderMode resolvedMode_ = RenderMode::kPerLayer;
+  // The cull mode and front face set in the command buffer being recorded (closed casters
+  // change them per draw; beginDepthRendering sets the options' again).
+  VkCullModeFlags drawCull_ = VK_CULL_MODE_NONE;
+  VkFrontFace drawFront_ = VK_FRONT_FACE_COUNTER_CLOCKWISE;
+  UniformOptions uniformOptions_{};
+  CascadeHook cascadeHook_;
+  CsmUniforms uniforms_{};
+  bool pipelinesBuilt_ = false;
+  UpdateStep failAt_ = UpdateStep::kNone;  // failNextUpdateAt
+
+  // Settings-independent objects.
+  VkDescriptorSetLayout depthSetLayout_ = VK_NULL_HANDLE;
+  VkDescriptorSetLayout lightingLayout_ = VK_NULL_HANDLE;
+  VkPipelineLayout pipelineLayout_ = VK_NULL_HANDLE;
+  VkDescriptorPool pool_ = VK_NULL_HANDLE;
+  VkDescriptorSet depthSet_ = VK_NULL_HANDLE;
+  VkDescriptorSet lightingSet_ = VK_NULL_HANDLE;
+  VkSampler compareSampler_ = VK_NULL_HANDLE;
+  VkSampler depthSampler_ = VK_NULL_HANDLE;
+  VkBuffer uniformBuffer_ = VK_NULL_HANDLE;
+  VkDeviceMemory uniformMemory_ = VK_NULL_HANDLE;
+  VkShaderModule vertexModule_ = VK_NULL_HANDLE;
+  VkShaderModule layeredModule_ = VK_NULL_HANDLE;
+  VkShaderModule thinGeometryModule_ = VK_NULL_HANDLE;  // csm_depth_thin.geom
+  VkPipeline thinPipeline_ = VK_NULL_HANDLE;            // per-layer, widening thin casters
+  VkPipeline thinLayeredPipeline_ = VK_NULL_HANDLE;     // layered, widening thin casters
+  std::uint32_t thinResolution_ = 0;
+  float thinWidenTexels_ = 0.0f;
+  VkFormat thinFormat_ = VK_FORMAT_UNDEFINED;
+  bool thinConservative_ = false;  // overestimating rasterisation, no geometry stage
+
+  // Lifetime: the one-time clear and what update() replaced, destroyed after framesInFlight
+  // further records (afterRecord = records_ when retired).
+  VkCommandPool clearPool_ = VK_NULL_HANDLE;
+  VkFence clearFence_ = VK_NULL_HANDLE;
+  bool pendingClear_ = false;
+  bool uniformsCleared_ = false;
+  std::uint64_t records_ = 0;
+  struct Retired {
+    std::uint64_t afterRecord = 0;
+    VkImage image = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    VkImageView views[kMaxCascades + 1] = {};
+    VkDescriptorPool pool = VK_NULL_HANDLE;
+    VkPipeline pipelines[2] = {};
+  };
+  std::vector<Retired> retired_;
+
+  // Settings-dependent objects.
+  VkDescriptorPool lightingPool_ = VK_NULL_HANDLE;  // holds lightingSet_
+  VkImage image_ = VK_NULL_HANDLE;
+  VkDeviceMemory imageMemory_ = VK_NULL_HANDLE;
+  VkImageView arrayView_ = VK_NULL_HANDLE;
+  VkImageView layerViews_[kMaxCascades] = {};
+  std::uint32_t layerCount_ = 0;
+  std::uint32_t resolution_ = 0;
+  VkPipeline pipeline_ = VK_NULL_HANDLE;         // per-layer
+  VkPipeline layeredPipeline_ = VK_NULL_HANDLE;  // layered (when supported)
+
+  // Cached cascades: the static-depth image, per-cascade windows, pending invalidated boxes.
+  struct CacheWindow {
+    bool valid = false;
+    double texel = 0.0;
+    glm::dvec3 lightDirection{0.0};
+    std::int64_t anchorX = 0, anchorY = 0;  // world texel index drawn at layer texel (0, 0)
+    double zNear = 0.0, zFar = 0.0;         // absolute light-space depth window
+    bool staticValid = false;               // the static layer holds box (boxX, boxY)
+    std::int64_t boxX = 0, boxY = 0;
+    std::vector<AabbWs> pending;  // invalidated boxes not yet re-rendered in this cascade
+  };
+  // What the sampled layer of a cascade shows (its last refresh): the window, box and basis it
+  // was rendered with; a cascade deferred by the budget keeps showing it.
+  struct CacheShown {
+    bool valid = false;
+    bool deferred = false;  // deferred this frame
+    std::uint32_t lag = 0;  // frames since its last refresh
+    CacheWindow window;     // anchor, texel, depth window (pending/dynamicRects unused)
+    Cascade cascade;
+    glm::dmat3 basis{1.0};
+    std::uint64_t wanted = 0;  // static texels its refresh costs this frame
+    bool dynamicLast = false;  // dynamic casters were drawn into the sampled layer last time
+    // Layer rectangles ([x0, y0, x1, y1) texels) dynamic casters were drawn into last time.
+    std::vector<std::array<std::int32_t, 4>> dynamicRects;
+  };
+  static Status checkCacheOptions(const ShadowSettings& settings, const RendererOptions& options);
+  std::array<CacheWindow, kMaxCascades> windows_{};
+  std::array<CacheShown, kMaxCascades> shown_{};
+  std::array<CascadeCacheStats, kMaxCascades> cacheStats_{};
+  VkImage staticImage_ = VK_NULL_HANDLE;
+  VkDeviceMemory staticMemory_ = VK_NULL_HANDLE;
+  VkImageView staticViews_[kMaxCascades] = {};
+  bool staticInitialised_ = false;
+  VkDeviceSize cacheBytes_ = 0;
+  bool wrapSampling_ = false;  // the lighting set uses the REPEAT samplers (cache on)
+  VkSampler wrapCompareSampler_ = VK_NULL_HANDLE;
+  VkSampler wrapDepthSampler_ = VK_NULL_HANDLE;
+
+  // Scratch for the layered mode (cascade mask per caster), reused across frames.
+  std::vector<std::uint32_t> casterMasks_;
+};
+
+}  // namespace csm::vk
