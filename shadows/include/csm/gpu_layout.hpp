@@ -103,6 +103,10 @@ struct CsmUniforms {
   /// inverse of its length (1 / fadeLengthM; 0: no fade).
   float fadeEndM = 0.0f;
   float invFadeLengthM = 0.0f;
+  /// The prefiltered filters: the light-bleeding reduction, MSM's moment bias, EVSM's positive
+  /// and negative exponents (ShadowSettings::momentBleedReduction, msmMomentBias,
+  /// evsmPositiveExponent, evsmNegativeExponent).
+  glm::vec4 moments{0.0f};
 };
 
 /// Per-frame choices that go into the block besides the cascades and the settings.

@@ -2,13 +2,13 @@
 // Pure (no Vulkan): the tables live in names.cpp, in the order of the CSM_* values, and every
 // lookup goes through them (no index casts that depend on the enum's order).
 //
-// Kernels: "1tap", "tent3x3", "tent5x5", "tent7x7", "poisson16", "pcss" (the README's names,
-// without the space). parseKernel() also accepts "tent3", "tent5" and "tent7", the fly-through's
-// spelling before the names were unified, so that existing configs and command lines still work.
-// Debug modes: "none", "normal", "shadow", "lightcoords", "depth", "depthdiff", "cascade".
-// Shadow-map depth formats: "d32" (D32_SFLOAT), "d16" (D16_UNORM). parseDepthFormat() also
-// accepts "D32" and "D16", the CSV reports' spelling before the names were unified.
-// Presets: "low", "medium", "high", "ultra".
+// Kernels: "1tap", "tent3x3", "tent5x5", "tent7x7", "poisson16", "pcss", and the prefiltered
+// "vsm", "evsm", "msm" (the README's names, without the space). parseKernel() also accepts "tent3",
+// "tent5" and "tent7", the fly-through's spelling before the names were unified, so that existing
+// configs and command lines still work. Debug modes: "none", "normal", "shadow", "lightcoords",
+// "depth", "depthdiff", "cascade". Shadow-map depth formats: "d32" (D32_SFLOAT), "d16" (D16_UNORM).
+// parseDepthFormat() also accepts "D32" and "D16", the CSV reports' spelling before the names were
+// unified. Presets: "low", "medium", "high", "ultra".
 #pragma once
 
 #include <array>
@@ -23,10 +23,20 @@
 
 namespace csm {
 
-/// Every PCF kernel, in the order of CSM_KERNEL_*: iterate this for menus, sweeps and tests.
+/// Every percentage-closer kernel (they compare depths), in the order of CSM_KERNEL_*.
 inline constexpr std::array<PcfKernel, CSM_KERNEL_COUNT> kAllKernels{
     PcfKernel::k1Tap,  PcfKernel::kTent3,     PcfKernel::kTent5,
     PcfKernel::kTent7, PcfKernel::kPoisson16, PcfKernel::kPcss};
+
+/// The prefiltered filters (isPrefiltered()), in the order of CSM_KERNEL_*.
+inline constexpr std::array<PcfKernel, CSM_FILTER_COUNT - CSM_KERNEL_COUNT> kPrefilteredKernels{
+    PcfKernel::kVsm, PcfKernel::kEvsm, PcfKernel::kMsm};
+
+/// Every filter, percentage-closer then prefiltered: iterate this for menus and parsing.
+inline constexpr std::array<PcfKernel, CSM_FILTER_COUNT> kAllFilters{
+    PcfKernel::k1Tap,  PcfKernel::kTent3,     PcfKernel::kTent5,
+    PcfKernel::kTent7, PcfKernel::kPoisson16, PcfKernel::kPcss,
+    PcfKernel::kVsm,   PcfKernel::kEvsm,      PcfKernel::kMsm};
 
 /// Every debug output, in the order of CSM_DEBUG_*.
 inline constexpr std::array<DebugMode, CSM_DEBUG_COUNT> kAllDebugModes{
@@ -40,7 +50,8 @@ inline constexpr std::array<DebugMode, CSM_DEBUG_COUNT> kAllDebugModes{
 /// a ValidationError: field `field`, "'<name>' is not a kernel" and the allowed names.
 [[nodiscard]] Result<PcfKernel> parseKernel(std::string_view name,
                                             std::string_view field = "kernel");
-/// "1tap, tent3x3, tent5x5, tent7x7, poisson16, pcss": the names parseKernel() documents.
+/// "1tap, tent3x3, tent5x5, tent7x7, poisson16, pcss, vsm, evsm, msm": the names parseKernel()
+/// documents.
 [[nodiscard]] std::string kernelNames();
 
 /// The one spelling of a debug mode ("depthdiff"); "unknown" for a value outside DebugMode.

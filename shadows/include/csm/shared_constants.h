@@ -14,6 +14,7 @@
 #define CSM_DEFAULT_SET 1
 #define CSM_BINDING_UNIFORMS 0    // CsmUniforms block
 #define CSM_BINDING_SHADOW_MAP 1  // sampler2DArrayShadow (comparison sampler + 2D-array view)
+#define CSM_BINDING_MOMENTS 3     // sampler2DArray: the prefiltered filters' moments (trilinear)
 
 // PCF kernels (specialisation constant CSM_SPEC_KERNEL). Tent kernels are built from bilinear
 // comparison taps, so an NxN tent costs ((N+1)/2)^2 taps instead of N^2.
@@ -26,7 +27,16 @@
 // angular diameter by similar triangles (in metres, the same in every cascade), then a disk of
 // comparison taps that wide. Taps: CSM_SPEC_PCSS_TAPS.
 #define CSM_KERNEL_PCSS 5
+// The percentage-closer kernels above compare depths; CSM_KERNEL_COUNT of them.
 #define CSM_KERNEL_COUNT 6
+// Prefiltered filters: the map's depths become moments (a second 2D-array image, one layer per
+// cascade, blurred and mip-mapped by csm_moments.comp after each shadow pass), which filter like
+// colours; one trilinear tap per cascade then bounds the lit fraction from the filtered moments.
+#define CSM_KERNEL_VSM 6   // variance: (z, z^2), Chebyshev's upper bound
+#define CSM_KERNEL_EVSM 7  // exponential variance: (e^(c+ w), e^(2 c+ w), -e^(-c- w), e^(-2 c- w))
+#define CSM_KERNEL_MSM 8   // four power moments of 2z - 1, Hamburger reconstruction
+// Every filter, percentage-closer and prefiltered.
+#define CSM_FILTER_COUNT 9
 // How far (texels of the kernel's own cascade) each kernel reads from its centre: the texels
 // whose comparison result carries any weight. Each bilinear comparison tap blends the 2x2 texels
 // about it, so a kernel reads one texel beyond its taps' centres: a single tap reads 1; the
@@ -42,6 +52,17 @@
 #define CSM_KERNEL_RADIUS_TENT7 4.0
 #define CSM_KERNEL_RADIUS_POISSON16 3.0
 #define CSM_KERNEL_RADIUS_PCSS 1.25
+// The prefiltered filters read one bilinear tap of the blurred moments: one texel, plus the blur.
+#define CSM_KERNEL_RADIUS_MOMENTS 1.0
+
+// Prefiltered filters: the moment blur's largest radius in texels of a cascade (its width is set
+// in metres, ShadowSettings::momentBlurM, so it spans more texels in finer cascades; beyond this
+// the blur is cut to keep the resolve's cost bounded), and the largest EVSM exponent: e^(2 c)
+// must stay finite in a 32-bit float (e^88.7 overflows), with the blur's sums, so c <= 42.
+#define CSM_MOMENT_MAX_BLUR_TEXELS 12
+#define CSM_EVSM_MAX_EXPONENT 42.0
+// Local size of csm_moments.comp (each invocation one texel of one layer).
+#define CSM_MOMENT_GROUP 8
 
 // Specialisation constant ids used by csm.glsl.
 #define CSM_SPEC_KERNEL 0

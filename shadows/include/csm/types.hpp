@@ -73,7 +73,19 @@ enum class PcfKernel : std::uint32_t {
   kPoisson16 = CSM_KERNEL_POISSON16,
   /// Percentage-closer soft shadows (penumbra from ShadowSettings::lightAngularDiameterDeg).
   kPcss = CSM_KERNEL_PCSS,
+  /// Prefiltered (isPrefiltered()): variance shadow maps, two moments, Chebyshev's bound.
+  kVsm = CSM_KERNEL_VSM,
+  /// Prefiltered: exponential variance shadow maps, four exponential moments.
+  kEvsm = CSM_KERNEL_EVSM,
+  /// Prefiltered: moment shadow maps, four power moments (Peters and Klein 2015).
+  kMsm = CSM_KERNEL_MSM,
 };
+
+/// Whether a filter reads the blurred, mip-mapped moments instead of comparing depths (vsm,
+/// evsm, msm): the renderer then keeps a moment image beside the depth array.
+[[nodiscard]] constexpr bool isPrefiltered(PcfKernel k) noexcept {
+  return k == PcfKernel::kVsm || k == PcfKernel::kEvsm || k == PcfKernel::kMsm;
+}
 
 /// What a host sets once and changes rarely. Every field is checked by validate(); nothing is
 /// clamped silently.
@@ -195,6 +207,25 @@ struct ShadowSettings {
   /// spacing in cascade i becomes texel_0 / texel_i texels (CsmCascadeGpu::kernelScale). Off:
   /// the same size in texels.
   bool worldSpaceKernel = false;
+
+  // ---- Prefiltered filters (kernel vsm, evsm or msm) ----
+  /// Width of the moment blur in metres (its Gaussian's 2-sigma radius), the same in every
+  /// cascade so that a shadow's softness does not jump at a split; capped at
+  /// CSM_MOMENT_MAX_BLUR_TEXELS texels of a cascade, and below a texel the bilinear tap is the
+  /// filter. [0, 10].
+  double momentBlurM = 0.1;
+  /// Light-bleeding reduction: lit fractions below it read 0 and the rest is rescaled to [0, 1]
+  /// (vsm, evsm and msm alike). Cuts the bleeding of stacked occluders at the cost of narrower
+  /// penumbrae. [0, 0.95].
+  float momentBleedReduction = 0.2f;
+  /// EVSM's exponents for depth warped to [-1, 1]: positive e^(c+ w), negative -e^(-c- w).
+  /// (0, CSM_EVSM_MAX_EXPONENT = 42]: beyond it e^(2c) overflows a 32-bit float.
+  float evsmPositiveExponent = 40.0f;
+  float evsmNegativeExponent = 10.0f;
+  /// MSM's moment bias: the filtered moments are mixed with those of a uniform depth
+  /// distribution by this weight, so the reconstruction never divides by a vanishing variance
+  /// (32-bit float moments). [1e-7, 0.01].
+  float msmMomentBias = 3e-5f;
 };
 
 /// Receiver pixels counted per view-depth bin, log-spaced: bin i covers view depths

@@ -37,7 +37,8 @@ static_assert(offsetof(CsmUniforms, tanHalfLightAngle) == 112 * CSM_MAX_CASCADES
 static_assert(offsetof(CsmUniforms, maxPenumbraRadiusM) == 112 * CSM_MAX_CASCADES + 84);
 static_assert(offsetof(CsmUniforms, fadeEndM) == 112 * CSM_MAX_CASCADES + 88);
 static_assert(offsetof(CsmUniforms, invFadeLengthM) == 112 * CSM_MAX_CASCADES + 92);
-static_assert(sizeof(CsmUniforms) == 112 * CSM_MAX_CASCADES + 96);
+static_assert(offsetof(CsmUniforms, moments) == 112 * CSM_MAX_CASCADES + 96);
+static_assert(sizeof(CsmUniforms) == 112 * CSM_MAX_CASCADES + 112);
 static_assert(sizeof(CsmUniforms) <= 16384, "must fit the minimum maxUniformBufferRange");
 static_assert(sizeof(CsmUniforms) % 4 == 0, "vkCmdUpdateBuffer needs a multiple of 4 bytes");
 static_assert(CSM_MAX_CASCADES <= 32, "the non-empty mask is one 32-bit word");
@@ -56,6 +57,10 @@ float kernelRadiusTexels(PcfKernel kernel) noexcept {
       return float(CSM_KERNEL_RADIUS_POISSON16);
     case PcfKernel::kPcss:
       return float(CSM_KERNEL_RADIUS_PCSS);
+    case PcfKernel::kVsm:
+    case PcfKernel::kEvsm:
+    case PcfKernel::kMsm:
+      return float(CSM_KERNEL_RADIUS_MOMENTS);
   }
   return float(CSM_KERNEL_RADIUS_1TAP);
 }
@@ -142,6 +147,8 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
     u.fadeEndM = finiteOr0(frame.fadeEndM);
     u.invFadeLengthM = finiteOr0(1.0 / frame.fadeLengthM);
   }
+  u.moments = glm::vec4(settings.momentBleedReduction, settings.msmMomentBias,
+                        settings.evsmPositiveExponent, settings.evsmNegativeExponent);
   return u;
 }
 

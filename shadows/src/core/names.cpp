@@ -14,9 +14,15 @@ struct Named {
 
 // The canonical names first, in the enum's order; then the accepted older spellings.
 constexpr Named<PcfKernel> kKernelNames[] = {
-    {"1tap", PcfKernel::k1Tap},           {"tent3x3", PcfKernel::kTent3},
-    {"tent5x5", PcfKernel::kTent5},       {"tent7x7", PcfKernel::kTent7},
-    {"poisson16", PcfKernel::kPoisson16}, {"pcss", PcfKernel::kPcss},
+    {"1tap", PcfKernel::k1Tap},
+    {"tent3x3", PcfKernel::kTent3},
+    {"tent5x5", PcfKernel::kTent5},
+    {"tent7x7", PcfKernel::kTent7},
+    {"poisson16", PcfKernel::kPoisson16},
+    {"pcss", PcfKernel::kPcss},
+    {"vsm", PcfKernel::kVsm},
+    {"evsm", PcfKernel::kEvsm},
+    {"msm", PcfKernel::kMsm},
 };
 constexpr Named<PcfKernel> kKernelCompatNames[] = {
     {"tent3", PcfKernel::kTent3}, {"tent5", PcfKernel::kTent5}, {"tent7", PcfKernel::kTent7}};
@@ -43,7 +49,7 @@ constexpr Named<Preset> kPresetNames[] = {
 };
 
 static_assert(std::size(kPresetNames) == kAllPresets.size());
-static_assert(std::size(kKernelNames) == kAllKernels.size());
+static_assert(std::size(kKernelNames) == kAllFilters.size());
 static_assert(std::size(kDepthFormatNames) == kAllDepthFormats.size());
 static_assert(std::size(kDebugModeNames) == kAllDebugModes.size());
 

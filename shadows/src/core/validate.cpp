@@ -137,14 +137,33 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
   if (!(s.maxPenumbraM >= 0.0 && s.maxPenumbraM <= 100.0)) {
     return refuse("settings.maxPenumbraM", s.maxPenumbraM, "a width in metres in [0, 100]");
   }
-  if (!(static_cast<std::uint32_t>(s.kernel) < CSM_KERNEL_COUNT)) {
+  if (!(static_cast<std::uint32_t>(s.kernel) < CSM_FILTER_COUNT)) {
     return refuse(
         "settings.kernel", static_cast<double>(static_cast<std::uint32_t>(s.kernel)),
-        "a PcfKernel in [0, " + std::to_string(CSM_KERNEL_COUNT - 1) + "] (" + kernelNames() + ")");
+        "a PcfKernel in [0, " + std::to_string(CSM_FILTER_COUNT - 1) + "] (" + kernelNames() + ")");
   }
   if (!(s.pcssTaps >= 1 && s.pcssTaps <= CSM_PCSS_MAX_TAPS)) {
     return refuse("settings.pcssTaps", s.pcssTaps,
                   "a number of taps in [1, " + std::to_string(CSM_PCSS_MAX_TAPS) + "]");
+  }
+  if (!(s.momentBlurM >= 0.0 && s.momentBlurM <= 10.0)) {
+    return refuse("settings.momentBlurM", s.momentBlurM, "a width in metres in [0, 10]");
+  }
+  if (!(s.momentBleedReduction >= 0.0f && s.momentBleedReduction <= 0.95f)) {
+    return refuse("settings.momentBleedReduction", s.momentBleedReduction,
+                  "a fraction in [0, 0.95]");
+  }
+  const std::string exponentRange = "an exponent in (0, " +
+                                    std::to_string(int(CSM_EVSM_MAX_EXPONENT)) +
+                                    "] (e^(2c) must stay finite in a 32-bit float)";
+  if (!(s.evsmPositiveExponent > 0.0f && s.evsmPositiveExponent <= CSM_EVSM_MAX_EXPONENT)) {
+    return refuse("settings.evsmPositiveExponent", s.evsmPositiveExponent, exponentRange);
+  }
+  if (!(s.evsmNegativeExponent > 0.0f && s.evsmNegativeExponent <= CSM_EVSM_MAX_EXPONENT)) {
+    return refuse("settings.evsmNegativeExponent", s.evsmNegativeExponent, exponentRange);
+  }
+  if (!(s.msmMomentBias >= 1e-7f && s.msmMomentBias <= 0.01f)) {
+    return refuse("settings.msmMomentBias", s.msmMomentBias, "a weight in [1e-7, 0.01]");
   }
   return std::nullopt;
 }
