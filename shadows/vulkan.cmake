@@ -20,7 +20,17 @@ add_custom_command(OUTPUT ${_csm_range_hdr}
   DEPENDS ${CSM_MODULE_SHADER_DIR}/csm_depth_range.comp
           ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
   COMMENT "glslang csm_depth_range.comp" VERBATIM)
-add_custom_target(csm_depth_range_shader DEPENDS ${_csm_range_hdr})
+# The prefiltered filters' resolve (depth -> moments, separable blur), the same target env.
+set(_csm_moments_hdr ${CSM_SHADER_OUT}/csm_shaders/csm_moments.comp.spv.h)
+add_custom_command(OUTPUT ${_csm_moments_hdr}
+  COMMAND ${GLSLANG_VALIDATOR} --quiet --target-env vulkan1.2 -I${CSM_MODULE_SHADER_DIR}
+          -I${CSM_SHARED_INCLUDE_DIR} --vn csm_moments_comp_spv -o ${_csm_moments_hdr}
+          ${CSM_MODULE_SHADER_DIR}/csm_moments.comp
+  DEPENDS ${CSM_MODULE_SHADER_DIR}/csm_moments.comp ${CSM_MODULE_SHADER_DIR}/csm.glsl
+          ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
+          ${CSM_SHARED_INCLUDE_DIR}/csm/gpu_shared.h
+  COMMENT "glslang csm_moments.comp" VERBATIM)
+add_custom_target(csm_depth_range_shader DEPENDS ${_csm_range_hdr} ${_csm_moments_hdr})
 
 add_library(csm_vulkan STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer.cpp
@@ -30,7 +40,8 @@ add_library(csm_vulkan STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/depth_range.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_cache.cpp
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/thin_casters.cpp
-  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/vk_util.cpp)
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/vk_util.cpp
+  ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/moments.cpp)
 add_library(csm::vulkan ALIAS csm_vulkan)
 target_link_libraries(csm_vulkan PUBLIC csm::core Vulkan::Vulkan)
 # The embedded shaders are a build-time dependency only (no link or install interface).

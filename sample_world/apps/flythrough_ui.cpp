@@ -189,7 +189,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   float blend = static_cast<float>(s.shadow.blendBand);
   changed |= ImGui::SliderFloat("blend band", &blend, 0.0f, 0.5f);
   s.shadow.blendBand = blend;
-  changed |= world::enumCombo("PCF kernel", s.shadow.kernel, csm::kAllKernels, csm::kernelName);
+  changed |= world::enumCombo("Filter", s.shadow.kernel, csm::kAllFilters, csm::kernelName);
   float lightAngle = static_cast<float>(s.shadow.lightAngularDiameterDeg);
   changed |= ImGui::SliderFloat("light angle (PCSS)", &lightAngle, 0.0f, 20.0f, "%.2f deg");
   s.shadow.lightAngularDiameterDeg = lightAngle;

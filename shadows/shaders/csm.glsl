@@ -65,12 +65,16 @@ layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniform
   float maxPenumbraRadiusM;  // PCSS: largest penumbra radius (m)
   float fadeEndM;            // the fade to lit ends here (view depth, m)
   float invFadeLengthM;      // 1 / the fade's length (m); 0: no fade
+  vec4 moments;              // prefiltered: bleeding reduction, MSM bias, EVSM c+, EVSM c-
 } csmU;
 
 #ifndef CSM_UNIFORMS_ONLY
 
 layout(set = CSM_SET, binding = CSM_BINDING_SHADOW_MAP) uniform sampler2DArrayShadow csmShadowMap;
 layout(set = CSM_SET, binding = CSM_BINDING_SHADOW_DEPTH) uniform sampler2DArray csmDepthMap;
+// The prefiltered filters' blurred, mip-mapped moments (trilinear); with a percentage-closer
+// kernel the renderer binds the depth map here (never read).
+layout(set = CSM_SET, binding = CSM_BINDING_MOMENTS) uniform sampler2DArray csmMomentMap;
 
 layout(constant_id = CSM_SPEC_KERNEL) const int csmKernel = CSM_KERNEL_TENT3;
 layout(constant_id = CSM_SPEC_BLEND) const int csmBlend = 1;
@@ -130,6 +134,7 @@ float csmKernelRadius() {
   if (csmKernel == CSM_KERNEL_TENT7) return CSM_KERNEL_RADIUS_TENT7;
   if (csmKernel == CSM_KERNEL_POISSON16) return CSM_KERNEL_RADIUS_POISSON16;
   if (csmKernel == CSM_KERNEL_PCSS) return CSM_KERNEL_RADIUS_PCSS;
+  if (csmKernel >= CSM_KERNEL_VSM) return CSM_KERNEL_RADIUS_MOMENTS;
   return CSM_KERNEL_RADIUS_1TAP;
 }
 
@@ -483,8 +488,94 @@ vec3 csmGeometricNormal(vec3 dPdx, vec3 dPdy, vec3 shadingNormal) {
   return dot(ng, shadingNormal) < 0.0 ? -ng : ng;
 }
 
-/// Filtered shadow factor of cascade i at a receiver: 1 lit, 0 in shadow.
-float csmSampleCascade(int i, vec3 posCr, vec3 normalWs, vec2 pixel) {
+// ---- Prefiltered filters: VSM, EVSM, MSM ------------------------------------------------------
+// The map's depths were turned into moments, blurred and mip-mapped (csm_moments.comp); one
+// trilinear tap of them per cascade bounds the lit fraction. Each function mirrors its C++
+// twin in csm/moments.hpp. The receiver's depth is csmShadowCoord's (normal offset and depth
+// floor): the same bias as the percentage-closer kernels, no per-scene tuning.
+
+/// Mirror of csm::chebyshevUpperBound.
+float csmChebyshev(float mean, float meanSquare, float depth, float minVariance) {
+  if (!(depth > mean)) return 1.0;
+  const float variance = max(meanSquare - mean * mean, minVariance);
+  const float d = depth - mean;
+  return clamp(variance / (variance + d * d), 0.0, 1.0);
+}
+
+/// Mirror of csm::hamburgerShadowIntensity: MSM's occluded fraction from four biased moments.
+float csmHamburger(vec4 b, float zf) {
+  const float d22 = b.y - b.x * b.x;
+  if (!(d22 > 0.0)) return 0.0;
+  const float l32 = (b.z - b.x * b.y) / d22;
+  const float d33 = b.w - b.y * b.y - l32 * l32 * d22;
+  if (!(d33 > 0.0)) return 0.0;
+  const float y2 = zf - b.x;
+  const float y3 = zf * zf - b.y - l32 * y2;
+  const float c3 = y3 / d33;
+  const float c2 = y2 / d22 - l32 * c3;
+  const float c1 = 1.0 - b.x * c2 - b.y * c3;
+  if (c3 == 0.0) return 0.0;
+  const float p = c2 / c3;
+  const float q = c1 / c3;
+  const float r = sqrt(max(0.25 * p * p - q, 0.0));
+  const float z2 = -0.5 * p - r;
+  const float z3 = -0.5 * p + r;
+  float g = 0.0;
+  if (zf <= z2) {
+    g = 0.0;
+  } else if (zf <= z3) {
+    g = (zf * z3 - b.x * (zf + z3) + b.y) / ((z3 - z2) * (zf - z2));
+  } else {
+    g = 1.0 - (z2 * z3 - b.x * (z2 + z3) + b.y) / ((zf - z2) * (zf - z3));
+  }
+  return clamp(g, 0.0, 1.0);
+}
+
+/// Mirror of csm::momentLitFraction (the kernel is csmKernel).
+float csmMomentLit(vec4 moments, float depth, float minVariance) {
+  const float z = clamp(depth, 0.0, 1.0);
+  float lit = 1.0;
+  if (csmKernel == CSM_KERNEL_VSM) {
+    lit = csmChebyshev(moments.x, moments.y, z, minVariance);
+  } else if (csmKernel == CSM_KERNEL_EVSM) {
+    const float w = 2.0 * z - 1.0;
+    const float cp = csmU.moments.z;
+    const float cn = csmU.moments.w;
+    const float pos = exp(cp * w);
+    const float neg = -exp(-cn * w);
+    const float posSlope = 2.0 * cp * pos;
+    const float negSlope = 2.0 * cn * neg;
+    lit = min(csmChebyshev(moments.x, moments.y, pos, minVariance * posSlope * posSlope),
+              csmChebyshev(moments.z, moments.w, neg, minVariance * negSlope * negSlope));
+  } else {
+    const float a = csmU.moments.y;
+    const vec4 biased = (1.0 - a) * moments + a * vec4(0.0, 1.0 / 3.0, 0.0, 0.2);
+    lit = 1.0 - csmHamburger(biased, 2.0 * z - 1.0);
+  }
+  const float reduction = csmU.moments.x;
+  return clamp((lit - reduction) / (1.0 - reduction), 0.0, 1.0);
+}
+
+/// Prefiltered shadow factor of cascade i: one trilinear tap of the moments. dPdx, dPdy: the
+/// receiver's screen-space derivatives (zero outside a fragment shader: level 0, bilinear), so
+/// a far or grazing receiver reads the mip its footprint covers instead of aliasing.
+float csmMomentShadow(int i, vec3 posCr, vec3 normalWs, vec3 dPdx, vec3 dPdy) {
+  const vec3 c = csmShadowCoord(i, posCr, normalWs);
+  const mat4 m = csmU.cascades[i].viewProjCr;
+  const vec2 gx = (m * vec4(dPdx, 0.0)).xy * 0.5;
+  const vec2 gy = (m * vec4(dPdy, 0.0)).xy * 0.5;
+  const vec4 moments =
+      textureGrad(csmMomentMap, vec3(csmWrapUv(c.xy, i), float(i)), gx, gy);
+  // The variance floor: a quarter texel of depth at 45 degrees (units of stored depth).
+  const float texelDepth =
+      0.5 * csmU.cascades[i].texelSizeM / max(csmU.cascades[i].depthRangeM, 1e-6);
+  return csmMomentLit(moments, c.z, texelDepth * texelDepth);
+}
+
+/// Filtered shadow factor of cascade i at a receiver: 1 lit, 0 in shadow. dPdx, dPdy: see
+/// csmMomentShadow (only the prefiltered filters read them).
+float csmSampleCascade(int i, vec3 posCr, vec3 normalWs, vec2 pixel, vec3 dPdx, vec3 dPdy) {
+  if (csmKernel >= CSM_KERNEL_VSM) return csmMomentShadow(i, posCr, normalWs, dPdx, dPdy);
   if (csmKernel == CSM_KERNEL_PCSS) return csmPcss(i, posCr, normalWs);
   const vec3 c = csmShadowCoord(i, posCr, normalWs);
   const float layer = float(i);
@@ -508,15 +599,24 @@ float csmShadow(vec3 posCr, vec3 normalWs, vec2 pixel) {
   // no light): lit, whatever the normal.
   // Toward the shadow distance the factor fades to lit (ShadowSettings::fadeFraction), so the
   // shadows end without a line.
+#ifdef CSM_IMPLICIT_LOD
+  // Before any branch: derivatives are defined in uniform control flow only.
+  const vec3 dPdx = dFdx(posCr);
+  const vec3 dPdy = dFdy(posCr);
+#else
+  const vec3 dPdx = vec3(0.0);
+  const vec3 dPdy = vec3(0.0);
+#endif
   const float viewDepth = csmViewDepth(posCr);
   const CsmSelection sel = csmSelectCascade(viewDepth);
   if (sel.index < 0) return 1.0;
   if (!(dot(normalWs, -csmU.lightDirection.xyz) > 0.0)) return 0.0;
   const float fade = csmFade(viewDepth);
   if (fade >= 1.0) return 1.0;
-  float s = csmSampleCascade(sel.index, posCr, normalWs, pixel);
+  float s = csmSampleCascade(sel.index, posCr, normalWs, pixel, dPdx, dPdy);
   if (csmBlend != 0 && sel.blendIndex >= 0 && sel.blendWeight > 0.0) {
-    s = mix(s, csmSampleCascade(sel.blendIndex, posCr, normalWs, pixel), sel.blendWeight);
+    s = mix(s, csmSampleCascade(sel.blendIndex, posCr, normalWs, pixel, dPdx, dPdy),
+            sel.blendWeight);
   }
   return mix(s, 1.0, fade);
 }

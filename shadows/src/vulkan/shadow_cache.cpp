@@ -932,6 +932,7 @@ void ShadowRenderer::Impl::recordCachedEnd(VkCommandBuffer cmd, std::uint32_t co
   dep.imageMemoryBarrierCount = static_cast<std::uint32_t>(toSampled.size());
   dep.pImageMemoryBarriers = toSampled.data();
   if (!toSampled.empty()) vkCmdPipelineBarrier2(cmd, &dep);
+  recordMomentResolve(cmd);
   if (endLabel_) endLabel_(cmd);
 }
 

@@ -188,6 +188,7 @@ Status ShadowRenderer::Impl::init(const DeviceInfo& device, const VertexLayout& 
   if (s.ok()) s = createSamplers();
   if (s.ok()) s = createUniformBuffer();
   if (s.ok()) s = createShaderModules();
+  if (s.ok()) s = createMomentResources();
   return s;
 }
 
@@ -224,14 +225,15 @@ Status ShadowRenderer::Impl::createSetLayouts() {
   }
   {
     const VkShaderStageFlags stages = VK_SHADER_STAGE_FRAGMENT_BIT | VK_SHADER_STAGE_COMPUTE_BIT;
-    VkDescriptorSetLayoutBinding b[3]{};
+    VkDescriptorSetLayoutBinding b[4]{};
     b[0] = {CSM_BINDING_UNIFORMS, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, stages, nullptr};
     b[1] = {CSM_BINDING_SHADOW_MAP, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, stages, nullptr};
     b[2] = {CSM_BINDING_SHADOW_DEPTH, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, stages,
             nullptr};
+    b[3] = {CSM_BINDING_MOMENTS, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, stages, nullptr};
     auto ci = vkInit<VkDescriptorSetLayoutCreateInfo>(
         VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
-    ci.bindingCount = 3;
+    ci.bindingCount = 4;
     ci.pBindings = b;
     CSM_VK_TRY(vkCreateDescriptorSetLayout(dev, &ci, nullptr, &lightingLayout_));
     setName(handleBits(lightingLayout_), VK_OBJECT_TYPE_DESCRIPTOR_SET_LAYOUT,
@@ -406,6 +408,7 @@ ShadowRenderer::Impl::~Impl() {
   destroyImage();
   retireStaticImage();
   collectRetired(true);
+  destroyMomentResources();
   vkDestroySampler(dev, wrapCompareSampler_, nullptr);
   vkDestroySampler(dev, wrapDepthSampler_, nullptr);
   vkDestroyCommandPool(dev, clearPool_, nullptr);
@@ -431,6 +434,7 @@ void ShadowRenderer::Impl::destroyImage() noexcept {
   vkDestroyImageView(dev, arrayView_, nullptr);
   vkDestroyImage(dev, image_, nullptr);
   vkFreeMemory(dev, imageMemory_, nullptr);
+  destroyMomentImages(moments_);
   vkDestroyDescriptorPool(dev, lightingPool_, nullptr);
   lightingPool_ = VK_NULL_HANDLE;
   lightingSet_ = VK_NULL_HANDLE;

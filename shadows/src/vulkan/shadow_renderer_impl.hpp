@@ -233,8 +233,38 @@ class ShadowRenderer::Impl {
   bool pendingClear_ = false;
   bool uniformsCleared_ = false;
   std::uint64_t records_ = 0;
+  // The prefiltered filters' moment image, its blur scratch and the resolve's set (moments.cpp);
+  // all null with a percentage-closer kernel.
+  struct MomentImages {
+    VkImage image = VK_NULL_HANDLE;  // RGBA32F, mip-mapped, one layer per cascade
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    VkImage scratch = VK_NULL_HANDLE;  // RGBA32F, level 0 only: the blur along x
+    VkDeviceMemory scratchMemory = VK_NULL_HANDLE;
+    VkImageView sampledView = VK_NULL_HANDLE;  // every level (the lighting set)
+    VkImageView storageView = VK_NULL_HANDLE;  // level 0 (the resolve writes it)
+    VkImageView scratchView = VK_NULL_HANDLE;
+    VkDescriptorSet set = VK_NULL_HANDLE;  // the resolve's, in the lighting pool
+    std::uint32_t levels = 0;
+    PcfKernel kernel = PcfKernel::kTent3;
+  };
+  Status createMomentResources();
+  void destroyMomentResources() noexcept;
+  Status buildMomentImages(const ShadowSettings& settings, VkDescriptorPool pool,
+                           MomentImages& out);
+  void destroyMomentImages(MomentImages& m) noexcept;
+  void writeMomentSet() const;
+  void recordMomentClear(VkCommandBuffer cmd);
+  void recordMomentResolve(VkCommandBuffer cmd);
+  MomentImages moments_{};
+  VkDescriptorSetLayout momentSetLayout_ = VK_NULL_HANDLE;
+  VkPipelineLayout momentPipelineLayout_ = VK_NULL_HANDLE;
+  VkPipeline momentPipeline_ = VK_NULL_HANDLE;
+  VkSampler momentSampler_ = VK_NULL_HANDLE;
+  VkSampler wrapMomentSampler_ = VK_NULL_HANDLE;
+
   struct Retired {
     std::uint64_t afterRecord = 0;
+    MomentImages moments{};
     VkImage image = VK_NULL_HANDLE;
     VkDeviceMemory memory = VK_NULL_HANDLE;
     VkImageView views[kMaxCascades + 1] = {};

@@ -223,6 +223,7 @@ void ShadowRenderer::Impl::recordEnd(VkCommandBuffer cmd) {
   dep.imageMemoryBarrierCount = 1;
   dep.pImageMemoryBarriers = &toSampled;
   vkCmdPipelineBarrier2(cmd, &dep);
+  recordMomentResolve(cmd);
   if (endLabel_) endLabel_(cmd);
 }
 

@@ -151,7 +151,10 @@ Status ShadowRenderer::Impl::update(const ShadowSettings& settings,
   const bool newImage = image_ == VK_NULL_HANDLE || settings.resolution != resolution_ ||
                         settings.cascadeCount != layerCount_ ||
                         options.depthFormat != options_.depthFormat ||
-                        options.cache != options_.cache || wrap != wrapSampling_;
+                        options.cache != options_.cache || wrap != wrapSampling_ ||
+                        // the moment image and the lighting set's binding follow the filter
+                        ((isPrefiltered(settings.kernel) || isPrefiltered(settings_.kernel)) &&
+                         settings.kernel != settings_.kernel);
   const bool newPipelines = !pipelinesBuilt_ || options.depthFormat != options_.depthFormat;
   const ThinPlan thin = planThinPipeline(settings.resolution, options);
 
@@ -229,6 +232,7 @@ Status ShadowRenderer::Impl::update(const ShadowSettings& settings,
 
 void ShadowRenderer::Impl::destroyNow(Retired& objects) noexcept {
   VkDevice dev = device_.device;
+  destroyMomentImages(objects.moments);
   for (VkImageView& v : objects.views) {
     vkDestroyImageView(dev, v, nullptr);
     v = VK_NULL_HANDLE;
@@ -275,6 +279,7 @@ void ShadowRenderer::Impl::recordClear(VkCommandBuffer cmd) {
   const VkClearDepthStencilValue one{1.0f, 0};
   const VkImageSubresourceRange range{VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layerCount_};
   vkCmdClearDepthStencilImage(cmd, image_, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &one, 1, &range);
+  recordMomentClear(cmd);
   auto buf = vkInit<VkBufferMemoryBarrier2>(VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER_2);
   if (!uniformsCleared_) {
     vkCmdFillBuffer(cmd, uniformBuffer_, 0, VK_WHOLE_SIZE, 0u);
@@ -395,11 +400,13 @@ Status ShadowRenderer::Impl::buildImage(const ShadowSettings& settings, VkFormat
   VkDescriptorPool pool = VK_NULL_HANDLE;
   VkDescriptorSet set = VK_NULL_HANDLE;
   {
-    VkDescriptorPoolSize sizes[2] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-                                     {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2}};
+    // The lighting set, and the moment resolve's (prefiltered kernels).
+    VkDescriptorPoolSize sizes[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2},
+                                     {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 4},
+                                     {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2}};
     auto pci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    pci.maxSets = 1;
-    pci.poolSizeCount = 2;
+    pci.maxSets = 2;
+    pci.poolSizeCount = 3;
     pci.pPoolSizes = sizes;
     r = vkCreateDescriptorPool(dev, &pci, nullptr, &pool);
     if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateDescriptorPool(csm lighting)"));
@@ -414,6 +421,13 @@ Status ShadowRenderer::Impl::buildImage(const ShadowSettings& settings, VkFormat
       return fail(vkError(r, "vkAllocateDescriptorSets(csm lighting)"));
     }
     setName(handleBits(set), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm lighting set");
+    if (isPrefiltered(settings.kernel)) {
+      Status ms = buildMomentImages(settings, pool, out.moments);
+      if (!ms.ok()) {
+        vkDestroyDescriptorPool(dev, pool, nullptr);
+        return fail(ms);
+      }
+    }
   }
 
   out.image = image;
@@ -435,8 +449,10 @@ void ShadowRenderer::Impl::installImage(Retired& built, VkDescriptorSet lighting
     old.views[0] = arrayView_;
     std::copy(std::begin(layerViews_), std::end(layerViews_), old.views + 1);
     old.pool = lightingPool_;
+    old.moments = moments_;
     retired_.push_back(old);
   }
+  moments_ = built.moments;
   lightingPool_ = built.pool;
   lightingSet_ = lightingSet;
   image_ = built.image;
@@ -447,6 +463,7 @@ void ShadowRenderer::Impl::installImage(Retired& built, VkDescriptorSet lighting
   resolution_ = settings.resolution;
   built = Retired{};
   (void)writeLightingSet(lightingSet_);  // fails only without an image or set: both are here
+  writeMomentSet();
 }
 
 Status ShadowRenderer::Impl::buildPipelines(VkFormat format, Retired& out) {
@@ -503,7 +520,13 @@ Status ShadowRenderer::Impl::writeLightingSet(VkDescriptorSet set) const {
                                 sampledLayout()};
   VkDescriptorImageInfo depth{wrapSampling_ ? wrapDepthSampler_ : depthSampler_, arrayView_,
                               sampledLayout()};
-  VkWriteDescriptorSet w[3]{};
+  // The moments (prefiltered kernels), else the depth map again: the binding is never read.
+  VkDescriptorImageInfo moments =
+      moments_.image != VK_NULL_HANDLE
+          ? VkDescriptorImageInfo{wrapSampling_ ? wrapMomentSampler_ : momentSampler_,
+                                  moments_.sampledView, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL}
+          : depth;
+  VkWriteDescriptorSet w[4]{};
   for (auto& x : w) {
     x.sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
     x.dstSet = set;
@@ -518,7 +541,10 @@ Status ShadowRenderer::Impl::writeLightingSet(VkDescriptorSet set) const {
   w[2].dstBinding = CSM_BINDING_SHADOW_DEPTH;
   w[2].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   w[2].pImageInfo = &depth;
-  vkUpdateDescriptorSets(device_.device, 3, w, 0, nullptr);
+  w[3].dstBinding = CSM_BINDING_MOMENTS;
+  w[3].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  w[3].pImageInfo = &moments;
+  vkUpdateDescriptorSets(device_.device, 4, w, 0, nullptr);
   return {};
 }
 
