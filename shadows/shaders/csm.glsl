@@ -536,7 +536,7 @@ float csmMomentLit(vec4 moments, float depth, float minVariance) {
   const float z = clamp(depth, 0.0, 1.0);
   float lit = 1.0;
   if (csmKernel == CSM_KERNEL_VSM) {
-    lit = csmChebyshev(moments.x, moments.y, z, minVariance);
+    lit = csmChebyshev(moments.x, moments.y, z, max(minVariance, CSM_VSM_MIN_VARIANCE));
   } else if (csmKernel == CSM_KERNEL_EVSM) {
     const float w = 2.0 * z - 1.0;
     const float cp = csmU.moments.z;

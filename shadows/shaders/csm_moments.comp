@@ -5,7 +5,8 @@
 // momentBlurM / texel texels in each cascade (capped at CSM_MOMENT_MAX_BLUR_TEXELS), so that a
 // shadow's softness does not jump at a split. Pass 0 converts and blurs along x into the scratch
 // image; pass 1 blurs the scratch along y into level 0 of the moment image (the renderer then
-// builds its mips by blits). One invocation per texel of one layer (z = the cascade).
+// builds its mips by blits). One invocation per texel of layer `layer`; the renderer resolves the
+// layers one after the other through a one-layer scratch.
 // The blur works in the cascade's box coordinates: a cached cascade's layer is addressed
 // toroidally (wrapOffset), and texels beyond the box's edge read as the far plane (depth 1, lit),
 // as the comparison samplers' border does, never as the opposite edge of the layer.
@@ -24,7 +25,7 @@ layout(push_constant) uniform Push {
   uint pass;    // 0: depth -> moments, blur along x; 1: blur along y
   uint kernel;  // CSM_KERNEL_VSM, _EVSM or _MSM
   float blurM;  // ShadowSettings::momentBlurM
-  uint unused;
+  uint layer;   // the cascade
 } pc;
 
 /// Mirror of csm::depthMoments.
@@ -44,9 +45,9 @@ vec4 momentsOf(float depth) {
 
 void main() {
   const int res = int(csmU.resolution);
-  const ivec3 id = ivec3(gl_GlobalInvocationID);
+  const int layer = int(pc.layer);
+  const ivec3 id = ivec3(gl_GlobalInvocationID.xy, layer);
   if (id.x >= res || id.y >= res) return;
-  const int layer = id.z;
   // Layer texel -> box texel (toroidal addressing of cached cascades).
   const ivec2 offset =
       csmU.wrappedLayers != 0u
@@ -75,11 +76,11 @@ void main() {
     ivec2 t = id.xy;
     t[axis] = (b + offset[axis]) % res;
     sum += w * (pc.pass == 0u ? momentsOf(texelFetch(depthMap, ivec3(t, layer), 0).r)
-                              : imageLoad(scratch, ivec3(t, layer)));
+                              : imageLoad(scratch, ivec3(t, 0)));
   }
   const vec4 result = sum / weights;
   if (pc.pass == 0u) {
-    imageStore(scratch, id, result);
+    imageStore(scratch, ivec3(id.xy, 0), result);
   } else {
     imageStore(momentsOut, id, result);
   }

@@ -706,5 +706,57 @@ TEST(ShadowView, SetSettingsIsAllOrNothingUnderFaultsAtEachStep) {
   EXPECT_EQ(validationMessages(), 0u);
 }
 
+namespace {
+
+// Pixels of `a` and `b` whose red channel differs by more than `tolerance` (8-bit).
+std::size_t differingPixels(const engine::CpuImage& a, const engine::CpuImage& b, int tolerance) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i + 3 < a.rgba.size() && i + 3 < b.rgba.size(); i += 4) {
+    if (std::abs(int(a.rgba[i]) - int(b.rgba[i])) > tolerance) ++n;
+  }
+  return n;
+}
+
+}  // namespace
+
+// The prefiltered filters through the view, cached and not: a change of kernel to, between and
+// from vsm, evsm and msm makes (and retires) the moment image with the frames in flight, and
+// every frame renders validation-clean. Each prefiltered image differs from the 3x3 tent's
+// (the moments are read, not the depth binding) but puts its shadows where the tent does (few
+// pixels differ by more than a penumbra's grey); the same frame twice is the same image (the
+// resolve is deterministic); back on the tent, the first image again, bit for bit.
+TEST(ShadowView, PrefilteredKernelsSwitchWithFramesInFlight) {
+  for (bool cache : {false, true}) {
+    SCOPED_TRACE(cache ? "cache on" : "cache off");
+    ShadowScene scene;
+    csm::vk::RendererOptions options;
+    options.cache = cache;
+    csm::ShadowSettings settings = testSettings(2, 512);
+    CSM_ASSERT_OK(scene.update(settings, options));
+    ShadowScene::FrameHooks byView;
+    byView.viewSpecialization = true;
+    const Rendered tent = scene.renderFrame(csm::PcfKernel::kTent3, byView);
+    const std::size_t pixels = tent.image.rgba.size() / 4;
+    for (csm::PcfKernel k : {csm::PcfKernel::kVsm, csm::PcfKernel::kEvsm, csm::PcfKernel::kMsm,
+                             csm::PcfKernel::kVsm}) {
+      SCOPED_TRACE(csm::kernelName(k));
+      settings.kernel = k;
+      CSM_ASSERT_OK(scene.update(settings, options));
+      const Rendered first = scene.renderFrame(csm::PcfKernel::kTent3, byView);
+      const Rendered again = scene.renderFrame(csm::PcfKernel::kTent3, byView);
+      EXPECT_TRUE(first.image.rgba == again.image.rgba);
+      const std::size_t changed = differingPixels(first.image, tent.image, 0);
+      const std::size_t far = differingPixels(first.image, tent.image, 96);
+      EXPECT_GT(changed, 50u) << "the moments must be read";
+      EXPECT_LT(far, pixels / 50) << "shadows where the tent puts them";
+    }
+    settings.kernel = csm::PcfKernel::kTent3;
+    CSM_ASSERT_OK(scene.update(settings, options));
+    const Rendered back = scene.renderFrame(csm::PcfKernel::kTent3, byView);
+    EXPECT_TRUE(back.image.rgba == tent.image.rgba);
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
 }  // namespace
 }  // namespace csm_test

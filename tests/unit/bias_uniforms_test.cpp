@@ -16,7 +16,10 @@ TEST(BiasUniforms, BiasParamsIsAppendedAfterCountsAndSoftParamsCanFollow) {
             offsetof(csm::CsmUniforms, cascadeCount) + 16);
   EXPECT_EQ(offsetof(csm::CsmUniforms, tanHalfLightAngle),
             offsetof(csm::CsmUniforms, depthFloorTexels) + 16);
-  EXPECT_EQ(sizeof(csm::CsmUniforms), offsetof(csm::CsmUniforms, tanHalfLightAngle) + 16);
+  // The prefiltered filters' parameters follow the soft ones, one vec4.
+  EXPECT_EQ(offsetof(csm::CsmUniforms, moments),
+            offsetof(csm::CsmUniforms, tanHalfLightAngle) + 16);
+  EXPECT_EQ(sizeof(csm::CsmUniforms), offsetof(csm::CsmUniforms, moments) + 16);
 }
 
 TEST(BiasUniforms, DepthQuantumIsOneD16StepAndSixteenD32UlpsAtDepthOne) {

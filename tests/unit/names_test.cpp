@@ -14,19 +14,20 @@ namespace {
 
 TEST(Names, EveryKernelRoundTripsThroughItsName) {
   std::set<std::string> seen;
-  for (csm::PcfKernel k : csm::kAllKernels) {
+  for (csm::PcfKernel k : csm::kAllFilters) {
     const std::string name = csm::kernelName(k);
     EXPECT_TRUE(seen.insert(name).second) << name;
     const csm::Result<csm::PcfKernel> parsed = csm::parseKernel(name);
     ASSERT_TRUE(parsed.ok()) << name;
     EXPECT_EQ(parsed.value(), k) << name;
   }
-  EXPECT_EQ(seen.size(), std::size_t(CSM_KERNEL_COUNT));
+  EXPECT_EQ(seen.size(), std::size_t(CSM_FILTER_COUNT));
   // The README's names (without the space) and the order of CSM_KERNEL_*.
-  EXPECT_EQ(csm::kernelNames(), "1tap, tent3x3, tent5x5, tent7x7, poisson16, pcss");
-  for (std::size_t i = 0; i < csm::kAllKernels.size(); ++i) {
-    EXPECT_EQ(static_cast<std::uint32_t>(csm::kAllKernels[i]), i);
+  EXPECT_EQ(csm::kernelNames(), "1tap, tent3x3, tent5x5, tent7x7, poisson16, pcss, vsm, evsm, msm");
+  for (std::size_t i = 0; i < csm::kAllFilters.size(); ++i) {
+    EXPECT_EQ(static_cast<std::uint32_t>(csm::kAllFilters[i]), i);
   }
+  EXPECT_EQ(csm::kAllKernels.size(), std::size_t(CSM_KERNEL_COUNT));
   EXPECT_STREQ(csm::kernelName(static_cast<csm::PcfKernel>(99)), "unknown");
 }
 
@@ -42,7 +43,7 @@ TEST(Names, UnknownKernelIsRefusedNamingFieldValueAndNames) {
     ASSERT_FALSE(r.ok()) << bad;
     EXPECT_EQ(r.error().message(), std::string("shadow.kernel = '") + bad +
                                        "' is invalid: allowed one of 1tap, tent3x3, tent5x5, "
-                                       "tent7x7, poisson16, pcss");
+                                       "tent7x7, poisson16, pcss, vsm, evsm, msm");
   }
 }
 

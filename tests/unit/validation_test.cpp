@@ -89,7 +89,7 @@ const Case kCases[] = {
     {"penumbraNeg", "settings.maxPenumbraM", [](auto& s, auto&, auto&) { s.maxPenumbraM = -1.0; }},
     {"penumbraInf", "settings.maxPenumbraM", [](auto& s, auto&, auto&) { s.maxPenumbraM = kInf; }},
     {"kernelUnknown", "settings.kernel",
-     [](auto& s, auto&, auto&) { s.kernel = static_cast<PcfKernel>(CSM_KERNEL_COUNT); }},
+     [](auto& s, auto&, auto&) { s.kernel = static_cast<PcfKernel>(CSM_FILTER_COUNT); }},
     {"pcssTaps0", "settings.pcssTaps", [](auto& s, auto&, auto&) { s.pcssTaps = 0; }},
     {"pcssTapsOver", "settings.pcssTaps",
      [](auto& s, auto&, auto&) { s.pcssTaps = CSM_PCSS_MAX_TAPS + 1; }},

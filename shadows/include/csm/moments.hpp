@@ -31,7 +31,8 @@ namespace csm {
 
 /// The lit fraction in [0, 1] a receiver at `depth` reads from filtered `moments` (bleeding
 /// reduction applied). `minVariance`: the variance floor in units of stored depth squared
-/// (vsm and evsm; csm.glsl uses a quarter texel of the cascade's depth slope). Never NaN.
+/// (vsm and evsm; csm.glsl uses a quarter texel of the cascade's depth slope; vsm takes at least
+/// CSM_VSM_MIN_VARIANCE). Never NaN.
 [[nodiscard]] float momentLitFraction(PcfKernel kernel, const glm::vec4& moments, float depth,
                                       float minVariance, const ShadowSettings& settings) noexcept;
 
@@ -48,7 +49,7 @@ namespace csm {
 [[nodiscard]] float momentBlurRadiusTexels(double momentBlurM, double texelM) noexcept;
 
 /// Device memory of the moment images for `settings` (0 when the kernel is not prefiltered):
-/// the mip-mapped moment array and the blur's one-level scratch, RGBA32F each.
+/// the mip-mapped moment array and the blur's scratch (level 0 of one layer), RGBA32F each.
 [[nodiscard]] std::uint64_t momentImageBytes(const ShadowSettings& settings) noexcept;
 
 }  // namespace csm

@@ -87,7 +87,8 @@ float momentLitFraction(PcfKernel kernel, const glm::vec4& moments, float depth,
   float lit = 1.0f;
   switch (kernel) {
     case PcfKernel::kVsm:
-      lit = chebyshevUpperBound(moments.x, moments.y, z, minVariance);
+      lit = chebyshevUpperBound(moments.x, moments.y, z,
+                                std::max(minVariance, float(CSM_VSM_MIN_VARIANCE)));
       break;
     case PcfKernel::kEvsm: {
       const float w = 2.0f * z - 1.0f;
@@ -123,13 +124,16 @@ float momentBlurRadiusTexels(double momentBlurM, double texelM) noexcept {
 
 std::uint64_t momentImageBytes(const ShadowSettings& settings) noexcept {
   if (!isPrefiltered(settings.kernel)) return 0;
+  if (settings.cascadeCount == 0) return 0;
   const std::uint64_t level0 =
       std::uint64_t(settings.resolution) * settings.resolution * settings.cascadeCount * 16u;
   std::uint64_t mips = 0;
   for (std::uint64_t side = settings.resolution; side >= 1; side /= 2) {
     mips += side * side * settings.cascadeCount * 16u;
   }
-  return mips + level0;  // the moments with their mips, and the blur's scratch (level 0 only)
+  // The moments with their mips, and the blur's scratch (level 0 of one layer: the layers are
+  // resolved one after the other).
+  return mips + level0 / settings.cascadeCount;
 }
 
 }  // namespace csm

@@ -28,7 +28,7 @@ struct MomentPush {
   std::uint32_t pass = 0;
   std::uint32_t kernel = 0;
   float blurM = 0.0f;
-  std::uint32_t unused = 0;
+  std::uint32_t layer = 0;
 };
 
 VkImageMemoryBarrier2 imageBarrier(VkImage image, std::uint32_t baseLevel, std::uint32_t levels,
@@ -190,6 +190,7 @@ Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
   if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImage(csm moments)"));
   setName(handleBits(m.image), VK_OBJECT_TYPE_IMAGE, "csm moments");
   ci.mipLevels = 1;
+  ci.arrayLayers = 1;  // the layers are resolved one after the other
   ci.usage = VK_IMAGE_USAGE_STORAGE_BIT;
   r = vkCreateImage(dev, &ci, nullptr, &m.scratch);
   if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImage(csm moment scratch)"));
@@ -217,6 +218,7 @@ Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
   r = vkCreateImageView(dev, &vi, nullptr, &m.storageView);
   if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImageView(csm moments level 0)"));
   vi.image = m.scratch;
+  vi.subresourceRange.layerCount = 1;
   r = vkCreateImageView(dev, &vi, nullptr, &m.scratchView);
   if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImageView(csm moment scratch)"));
 
@@ -303,7 +305,7 @@ void ShadowRenderer::Impl::recordMomentResolve(VkCommandBuffer cmd) {
   mem.dstAccessMask = VK_ACCESS_2_UNIFORM_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
   VkImageMemoryBarrier2 start[3] = {imageBarrier(moments_.image, 0, 1, layers),
                                     imageBarrier(moments_.image, 1, moments_.levels - 1, layers),
-                                    imageBarrier(moments_.scratch, 0, 1, layers)};
+                                    imageBarrier(moments_.scratch, 0, 1, 1)};
   start[0].srcStageMask = options_.consumerStages;
   start[0].dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   start[0].dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
@@ -328,20 +330,26 @@ void ShadowRenderer::Impl::recordMomentResolve(VkCommandBuffer cmd) {
   MomentPush push;
   push.kernel = static_cast<std::uint32_t>(moments_.kernel);
   push.blurM = static_cast<float>(settings_.momentBlurM);
-  for (std::uint32_t pass = 0; pass < 2; ++pass) {
-    push.pass = pass;
-    vkCmdPushConstants(cmd, momentPipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push),
-                       &push);
-    vkCmdDispatch(cmd, groups, groups, layers);
-    if (pass == 0) {
-      VkImageMemoryBarrier2 s = imageBarrier(moments_.scratch, 0, 1, layers);
-      s.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-      s.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-      s.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-      s.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
-      s.oldLayout = VK_IMAGE_LAYOUT_GENERAL;
-      s.newLayout = VK_IMAGE_LAYOUT_GENERAL;
-      barrier(cmd, {&s, 1});
+  // Per layer: x into the scratch, then y into level 0; the scratch's reads finish before the
+  // next layer overwrites it.
+  VkImageMemoryBarrier2 s = imageBarrier(moments_.scratch, 0, 1, 1);
+  s.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  s.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  s.oldLayout = VK_IMAGE_LAYOUT_GENERAL;
+  s.newLayout = VK_IMAGE_LAYOUT_GENERAL;
+  for (std::uint32_t layer = 0; layer < layers; ++layer) {
+    push.layer = layer;
+    for (std::uint32_t pass = 0; pass < 2; ++pass) {
+      push.pass = pass;
+      vkCmdPushConstants(cmd, momentPipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push),
+                         &push);
+      vkCmdDispatch(cmd, groups, groups, 1);
+      // After x: its writes before y reads; after y: its reads before the next x writes.
+      s.srcAccessMask =
+          pass == 0 ? VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT : VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
+      s.dstAccessMask =
+          pass == 0 ? VK_ACCESS_2_SHADER_STORAGE_READ_BIT : VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+      if (pass == 0 || layer + 1 < layers) barrier(cmd, {&s, 1});
     }
   }
 
