@@ -51,6 +51,7 @@ json cascadesJson(const world::FrameStats& st) {
                    {"casters", st.casters[c]},
                    {"triangles", st.triangles[c]},
                    {"texels_rendered", st.texelsRendered[c]},
+                   {"moment_texels", st.momentTexels[c]},
                    {"lag_frames", st.lagFrames[c]}});
   }
   return arr;

@@ -620,10 +620,12 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
   if (!s.ok()) throw std::runtime_error("ShadowView::recordPass: " + s.message());
   // What was drawn: with the cache only the re-rendered texels and their casters' triangles.
   stats.texelsRendered = {};
+  stats.momentTexels = {};
   stats.lagFrames = {};
   stats.cacheBytes = shadow_->renderer().cacheBytes();
   for (std::uint32_t c = 0; c < cascades.cascadeCount; ++c) {
     if (cascades.cascades[c].empty) continue;
+    stats.momentTexels[c] = shadow_->renderer().cacheStats()[c].momentTexels;
     if (shadow_->options().cache) {
       const csm::vk::CascadeCacheStats& cs = shadow_->renderer().cacheStats()[c];
       stats.texelsRendered[c] = cs.staticTexels;

@@ -5,8 +5,9 @@
 // momentBlurM / texel texels in each cascade (capped at CSM_MOMENT_MAX_BLUR_TEXELS), so that a
 // shadow's softness does not jump at a split. Pass 0 converts and blurs along x into the scratch
 // image; pass 1 blurs the scratch along y into level 0 of the moment image (the renderer then
-// builds its mips by blits). One invocation per texel of layer `layer`; the renderer resolves the
-// layers one after the other through a one-layer scratch.
+// builds its mips with pass 2, 2x2 means level by level). One invocation per texel of a
+// rectangle of layer `layer` (the whole layer, or after a cached pass the tiles it changed); the
+// renderer resolves the layers one after the other through a one-layer scratch.
 // The blur works in the cascade's box coordinates: a cached cascade's layer is addressed
 // toroidally (wrapOffset), and texels beyond the box's edge read as the far plane (depth 1, lit),
 // as the comparison samplers' border does, never as the opposite edge of the layer.
@@ -22,10 +23,12 @@ layout(set = 0, binding = 2, rgba32f) uniform image2DArray scratch;
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2DArray momentsOut;
 
 layout(push_constant) uniform Push {
-  uint pass;    // 0: depth -> moments, blur along x; 1: blur along y
+  uint pass;    // 0: depth -> moments, blur along x; 1: blur along y; 2: a mip level
   uint kernel;  // CSM_KERNEL_VSM, _EVSM or _MSM
   float blurM;  // ShadowSettings::momentBlurM
   uint layer;   // the cascade
+  ivec2 origin;  // the rectangle of the layer this dispatch covers (all of it, or the tiles a
+  ivec2 extent;  // cached pass changed: each texel is computed alike either way)
 } pc;
 
 /// Mirror of csm::depthMoments.
@@ -46,7 +49,19 @@ vec4 momentsOf(float depth) {
 void main() {
   const int res = int(csmU.resolution);
   const int layer = int(pc.layer);
-  const ivec3 id = ivec3(gl_GlobalInvocationID.xy, layer);
+  if (any(greaterThanEqual(ivec2(gl_GlobalInvocationID.xy), pc.extent))) return;
+  if (pc.pass == 2u) {
+    // Mip level k from level k - 1 (bound as `scratch`, every layer): the mean of 2x2 texels.
+    const ivec3 dst = ivec3(pc.origin + ivec2(gl_GlobalInvocationID.xy), int(pc.layer));
+    const ivec3 src = ivec3(2 * dst.xy, dst.z);
+    const vec4 top = imageLoad(scratch, src) + imageLoad(scratch, src + ivec3(1, 0, 0));
+    const vec4 bottom = imageLoad(scratch, src + ivec3(0, 1, 0)) +
+                        imageLoad(scratch, src + ivec3(1, 1, 0));
+    const vec4 sum = top + bottom;
+    imageStore(momentsOut, dst, 0.25 * sum);
+    return;
+  }
+  const ivec3 id = ivec3(pc.origin + ivec2(gl_GlobalInvocationID.xy), layer);
   if (id.x >= res || id.y >= res) return;
   // Layer texel -> box texel (toroidal addressing of cached cascades).
   const ivec2 offset =

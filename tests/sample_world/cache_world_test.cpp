@@ -4,14 +4,17 @@
 // lockstep. Every frame, the sampled depth layers of every non-empty cascade, the uniform block
 // the lighting pass reads and the lit image must be bit-identical: turning the cache on changes
 // the cost, never the image. Also with a texel budget (a deferred cascade lags by design: it is
-// compared on the frames it refreshes, and its lag is bounded), with receiver-driven splits and
-// with PCSS. Validation (with synchronization) stays silent.
+// compared on the frames it refreshes, and its lag is bounded), with receiver-driven splits,
+// with PCSS and with the prefiltered filters, whose moment images (every mip level) must be
+// bit-identical too: the cached side resolves only the tiles its passes changed, the uncached
+// side every texel. Validation (with synchronization) stays silent.
 //
 // The test that would have caught the lost shadows of the fly-through (cached blocks drawn with
 // a viewport off the attachment): on that code, forest frame 2 already differs in thousands of
 // texels.
 #include <gtest/gtest.h>
 
+#include <csm/names.hpp>
 #include <csm/vulkan/shadow_view.hpp>
 #include <engine/context.hpp>
 #include <engine/debug.hpp>
@@ -50,7 +53,8 @@ int flightFrames() {
 struct Side {
   std::unique_ptr<world::WorldRenderer> renderer;
   std::unique_ptr<engine::Buffer> layers;
-  std::vector<std::uint8_t> image;  // the lit frame (RGBA8)
+  std::unique_ptr<engine::Buffer> moments;  // prefiltered kernels: every level of every layer
+  std::vector<std::uint8_t> image;          // the lit frame (RGBA8)
 };
 
 class WorldRig {
@@ -84,7 +88,21 @@ class WorldRig {
       side.layers =
           std::make_unique<engine::Buffer>(*ctx_, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                            engine::MemoryUsage::Readback, "cache world readback");
+      if (csm::isPrefiltered(settings.shadow.kernel)) {
+        side.moments = std::make_unique<engine::Buffer>(
+            *ctx_, momentBytes(), VK_BUFFER_USAGE_TRANSFER_DST_BIT, engine::MemoryUsage::Readback,
+            "cache world moment readback");
+      }
     }
+  }
+
+  /// Bytes of every level of every moment layer (RGBA32F), level after level.
+  VkDeviceSize momentBytes() const {
+    VkDeviceSize bytes = 0;
+    for (std::uint32_t side = kResolution; side >= 1; side /= 2) {
+      bytes += VkDeviceSize(side) * side * 16 * settings_.shadow.cascadeCount;
+    }
+    return bytes;
   }
 
   ~WorldRig() {
@@ -92,6 +110,7 @@ class WorldRig {
     for (Side& s : sides_) {
       s.renderer.reset();
       s.layers.reset();
+      s.moments.reset();
     }
     timer_.reset();
     target_.reset();
@@ -125,7 +144,42 @@ class WorldRig {
       const engine::CpuImage img = target_->readback();
       side.image = img.rgba;
       readLayers(side);
+      if (side.moments) readMoments(side);
     }
+  }
+
+  /// Moment texels (any level, any channel: 32-bit words) where the two renderers differ
+  /// bitwise; the first in `first`. The cached side resolved only what its passes changed, the
+  /// uncached side everything.
+  std::uint64_t momentDifferences(std::uint32_t layerMask, std::string* first) {
+    const auto* a = static_cast<const std::uint32_t*>(sides_[0].moments->mapped());
+    const auto* b = static_cast<const std::uint32_t*>(sides_[1].moments->mapped());
+    const std::size_t words = momentBytes() / 4;
+    std::uint64_t n = 0;
+    for (std::size_t t = 0; t < words; ++t) {
+      if (a[t] == b[t]) continue;
+      // Which level, layer and texel.
+      std::size_t rest = t / 4, level = 0;
+      std::uint32_t side = kResolution;
+      while (rest >= std::size_t(side) * side * settings_.shadow.cascadeCount) {
+        rest -= std::size_t(side) * side * settings_.shadow.cascadeCount;
+        side /= 2;
+        ++level;
+      }
+      const std::size_t layer = rest / (std::size_t(side) * side);
+      if (((layerMask >> layer) & 1u) == 0) continue;
+      if (n++ == 0 && first != nullptr) {
+        const std::size_t texel = rest % (std::size_t(side) * side);
+        float x, y;
+        std::memcpy(&x, &a[t], 4);
+        std::memcpy(&y, &b[t], 4);
+        *first = "level " + std::to_string(level) + " layer " + std::to_string(layer) + " texel (" +
+                 std::to_string(texel % side) + ", " + std::to_string(texel / side) + ") channel " +
+                 std::to_string(t % 4) + ": cached " + std::to_string(x) + ", full " +
+                 std::to_string(y);
+      }
+    }
+    return n;
   }
 
   /// Texels of cascade c where the two renderers' layers differ (bitwise); the first in `first`.
@@ -184,6 +238,51 @@ class WorldRig {
     });
   }
 
+  void readMoments(Side& side) {
+    csm::vk::ShadowRenderer& r = side.renderer->shadowRenderer();
+    const std::uint32_t layers = settings_.shadow.cascadeCount;
+    const std::uint32_t levels = r.momentLevels();
+    ASSERT_NE(r.momentImage(), VK_NULL_HANDLE);
+    ctx_->submitAndWait([&](VkCommandBuffer cmd) {
+      VkImageMemoryBarrier2 b{};
+      b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
+      b.srcStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+      b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+      b.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
+      b.oldLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+      b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+      b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+      b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+      b.image = r.momentImage();
+      b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, levels, 0, layers};
+      VkDependencyInfo dep{};
+      dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+      dep.imageMemoryBarrierCount = 1;
+      dep.pImageMemoryBarriers = &b;
+      vkCmdPipelineBarrier2(cmd, &dep);
+      std::vector<VkBufferImageCopy> regions;
+      VkDeviceSize offset = 0;
+      for (std::uint32_t level = 0; level < levels; ++level) {
+        const std::uint32_t side = std::max(kResolution >> level, 1u);
+        VkBufferImageCopy region{};
+        region.bufferOffset = offset;
+        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level, 0, layers};
+        region.imageExtent = {side, side, 1};
+        regions.push_back(region);
+        offset += VkDeviceSize(side) * side * 16 * layers;
+      }
+      vkCmdCopyImageToBuffer(cmd, r.momentImage(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                             side.moments->handle(), std::uint32_t(regions.size()), regions.data());
+      b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+      b.srcAccessMask = VK_ACCESS_2_NONE;
+      b.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+      b.dstAccessMask = VK_ACCESS_2_NONE;
+      b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+      b.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+      vkCmdPipelineBarrier2(cmd, &dep);
+    });
+  }
+
   world::AppSettings settings_;
   std::unique_ptr<engine::Context> ctx_;
   std::unique_ptr<world::World> world_;
@@ -220,6 +319,12 @@ world::AppSettings flightSettings(const std::string& config) {
   if (config == "budget") s.cacheBudgetTexels = std::uint64_t(kResolution) * kResolution;
   if (config == "receivers") s.receiverSplits = true;
   if (config == "pcss") s.shadow.kernel = csm::PcfKernel::kPcss;
+  if (config == "vsm") s.shadow.kernel = csm::PcfKernel::kVsm;
+  if (config == "evsm") s.shadow.kernel = csm::PcfKernel::kEvsm;
+  if (config == "msm") s.shadow.kernel = csm::PcfKernel::kMsm;
+  // A blur wide enough at these resolutions (512^2 texels of 0.1 m to metres) to reach across
+  // the partial resolve's 32-texel tiles in every cascade.
+  if (csm::isPrefiltered(s.shadow.kernel)) s.shadow.momentBlurM = 1.5;
   return s;
 }
 
@@ -231,6 +336,8 @@ TEST_P(CacheWorld, EveryFrameSampledLayersBitIdenticalToFullRender) {
   WorldRig rig(flight.path, settings);
   const int frames = flightFrames();
   const bool budget = settings.cacheBudgetTexels != 0;
+  const bool prefiltered = csm::isPrefiltered(settings.shadow.kernel);
+  std::uint64_t momentTexels = 0, momentFullTexels = 0;
   std::uint64_t compared = 0, deferredFrames = 0, cachedTexels = 0, fullTexels = 0;
   std::uint32_t maxLag = 0;
   for (int i = 0; i < frames; ++i) {
@@ -252,6 +359,8 @@ TEST_P(CacheWorld, EveryFrameSampledLayersBitIdenticalToFullRender) {
       cachedTexels += st.staticTexels;
       fullTexels += std::uint64_t(kResolution) * kResolution;
       maxLag = std::max(maxLag, st.lagFrames);
+      momentTexels += st.momentTexels;
+      momentFullTexels += std::uint64_t(kResolution) * kResolution;
       if (st.deferred) {
         // A deferred cascade shows its last refresh by design; compared when it refreshes.
         ASSERT_TRUE(budget) << "frame " << i << " cascade " << c << " deferred without a budget";
@@ -267,6 +376,17 @@ TEST_P(CacheWorld, EveryFrameSampledLayersBitIdenticalToFullRender) {
       ++compared;
     }
     deferredFrames += anyDeferred ? 1 : 0;
+    if (prefiltered) {
+      // The cached side's partial resolves against the full ones, every level.
+      std::string first;
+      std::uint32_t layers = 0;  // empty cascades' layers are not drawn, sampled nor compared
+      for (std::uint32_t c = 0; c < fc.cascadeCount; ++c) {
+        if (!fc.cascades[c].empty) layers |= 1u << c;
+      }
+      const std::uint64_t n = rig.momentDifferences(layers, &first);
+      ASSERT_EQ(n, 0u) << flight.path << "/" << flight.config << " frame " << i << ": " << n
+                       << " moment words differ, first " << first;
+    }
     if (!anyDeferred) {
       ASSERT_EQ(std::memcmp(&uc, &uf, sizeof(uc)), 0) << "frame " << i << ": uniforms differ";
       ASSERT_TRUE(rig.side(0).image == rig.side(1).image)
@@ -274,6 +394,15 @@ TEST_P(CacheWorld, EveryFrameSampledLayersBitIdenticalToFullRender) {
     }
   }
   EXPECT_GT(compared, std::uint64_t(frames));
+  if (prefiltered) {
+    // The partial resolve must be partial somewhere (else the case tests nothing) and never
+    // more than the full one.
+    EXPECT_LT(momentTexels, momentFullTexels);
+    EXPECT_GT(momentTexels, 0u);
+    std::printf("[cache world] %s/%s: moment texels resolved cached %.2f%% of full\n",
+                flight.path.c_str(), flight.config.c_str(),
+                100.0 * double(momentTexels) / double(momentFullTexels));
+  }
   if (budget) {
     // The far cascades wait their turn, but not for long (the most stale refreshes first).
     EXPECT_LE(maxLag, 8u);
@@ -296,7 +425,9 @@ INSTANTIATE_TEST_SUITE_P(Paths, CacheWorld,
                                            Flight{"far", "default"}, Flight{"cables", "default"},
                                            Flight{"day", "default"}, Flight{"cut", "default"},
                                            Flight{"fast", "budget"}, Flight{"forest", "receivers"},
-                                           Flight{"fast", "pcss"}),
+                                           Flight{"fast", "pcss"}, Flight{"forest", "msm"},
+                                           Flight{"fast", "evsm"}, Flight{"day", "vsm"},
+                                           Flight{"cut", "msm"}),
                          flightName);
 
 }  // namespace

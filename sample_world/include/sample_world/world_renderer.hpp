@@ -40,6 +40,9 @@ struct FrameStats {
   std::array<std::uint64_t, csm::kMaxCascades> triangles{};  ///< drawn this frame
   /// Shadow-map texels re-rendered this frame (the whole layer without the cache).
   std::array<std::uint64_t, csm::kMaxCascades> texelsRendered{};
+  /// Prefiltered filters: moment texels (level 0) resolved this frame (the whole layer without
+  /// the cache; with it, the tiles the pass changed); 0 with a percentage-closer kernel.
+  std::array<std::uint64_t, csm::kMaxCascades> momentTexels{};
   /// Frames the cascade's content lags the camera (the cache's texel budget deferred it).
   std::array<std::uint32_t, csm::kMaxCascades> lagFrames{};
   /// Device memory of the static-depth cache (0 without it).

@@ -1,12 +1,15 @@
 // The prefiltered filters' moment image (ShadowSettings::kernel vsm, evsm or msm): a mip-mapped
 // RGBA32F 2D array beside the depth array, one layer per cascade, and its resolve after every
 // shadow pass: csm_moments.comp turns depths into moments and blurs them separably (x into a
-// one-level scratch image, y into level 0), then blits build the mips. The lighting set binds it
-// at CSM_BINDING_MOMENTS through a trilinear sampler (clamped, or REPEAT for cached cascades,
-// whose layers are addressed toroidally like the depth layers).
+// one-level scratch image, y into level 0), then a third pass builds the mips (2x2 means). The
+// lighting set binds it at CSM_BINDING_MOMENTS through a trilinear sampler (clamped, or REPEAT for
+// cached cascades, whose layers are addressed toroidally like the depth layers).
 //
-// The resolve is full: every texel of every layer, every shadow pass (with the cache on too; a
-// resolve of only the rectangles the pass changed is not built yet).
+// After a cached pass the resolve is partial: only the tiles (kMomentTile texels square) that
+// the rectangles the pass changed touch, widened by the blur, are converted, blurred and
+// re-mipped; every other texel already holds what a full resolve would write (the shader computes
+// each texel from the depths and uniforms alone, so the two agree bit for bit: test
+// CacheWorld.*). Otherwise (uncached passes, a new image, new blur or exponents) it is full.
 #include <algorithm>
 #include <bit>
 #include <span>
@@ -29,7 +32,78 @@ struct MomentPush {
   std::uint32_t kernel = 0;
   float blurM = 0.0f;
   std::uint32_t layer = 0;
+  std::int32_t origin[2] = {0, 0};  // the rectangle of the layer this dispatch covers
+  std::int32_t extent[2] = {0, 0};
 };
+
+// The partial resolve's granularity: the changed texels are rounded out to tiles this wide (a
+// power of two, a multiple of CSM_MOMENT_GROUP, larger than CSM_MOMENT_MAX_BLUR_TEXELS so that
+// pass 0 covers pass 1's blur by one tile row each side). Levels 1..log2(kMomentTile) of a tile
+// are exact sub-rectangles; the levels below are rebuilt whole for a changed layer.
+constexpr std::int32_t kMomentTile = 32;
+static_assert(kMomentTile % CSM_MOMENT_GROUP == 0 && kMomentTile > CSM_MOMENT_MAX_BLUR_TEXELS);
+constexpr std::uint32_t kMomentTileLevels = 5;  // log2(kMomentTile)
+
+std::int32_t floorDiv32(std::int32_t a, std::int32_t b) noexcept {
+  const std::int32_t q = a / b;
+  return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;
+}
+
+// Marks the tiles of the texels [x0, x1) x [y0, y1) of a toroidal layer of `tiles` tiles a side
+// (coordinates may run past its edges: they wrap).
+void markTiles(std::vector<std::uint8_t>& mark, std::int32_t tiles, std::int32_t x0,
+               std::int32_t y0, std::int32_t x1, std::int32_t y1) {
+  if (x0 >= x1 || y0 >= y1) return;
+  std::int32_t tx0 = floorDiv32(x0, kMomentTile), tx1 = floorDiv32(x1 - 1, kMomentTile) + 1;
+  std::int32_t ty0 = floorDiv32(y0, kMomentTile), ty1 = floorDiv32(y1 - 1, kMomentTile) + 1;
+  if (tx1 - tx0 >= tiles) tx0 = 0, tx1 = tiles;
+  if (ty1 - ty0 >= tiles) ty0 = 0, ty1 = tiles;
+  for (std::int32_t ty = ty0; ty < ty1; ++ty) {
+    const std::int32_t row = ((ty % tiles) + tiles) % tiles;
+    for (std::int32_t tx = tx0; tx < tx1; ++tx) {
+      mark[std::size_t(row) * tiles + std::size_t(((tx % tiles) + tiles) % tiles)] = 1;
+    }
+  }
+}
+
+// The marked tiles as texel rectangles: runs along each row, merged with the same run of the
+// rows below.
+void tileRects(const std::vector<std::uint8_t>& mark, std::int32_t tiles,
+               std::vector<std::array<std::int32_t, 4>>& out) {
+  out.clear();
+  std::vector<std::size_t> open;  // rectangles of `out` that end at the previous row
+  std::vector<std::size_t> next;
+  for (std::int32_t ty = 0; ty < tiles; ++ty) {
+    next.clear();
+    for (std::int32_t tx = 0; tx < tiles;) {
+      if (mark[std::size_t(ty) * tiles + tx] == 0) {
+        ++tx;
+        continue;
+      }
+      std::int32_t end = tx;
+      while (end < tiles && mark[std::size_t(ty) * tiles + end] != 0) ++end;
+      const std::int32_t x0 = tx * kMomentTile, x1 = end * kMomentTile;
+      const auto same = std::find_if(open.begin(), open.end(), [&](std::size_t k) {
+        return out[k][0] == x0 && out[k][2] == x1;
+      });
+      if (same != open.end()) {
+        out[*same][3] += kMomentTile;
+        next.push_back(*same);
+      } else {
+        out.push_back({x0, ty * kMomentTile, x1, (ty + 1) * kMomentTile});
+        next.push_back(out.size() - 1);
+      }
+      tx = end;
+    }
+    std::swap(open, next);
+  }
+}
+
+std::uint64_t rectArea(const std::vector<std::array<std::int32_t, 4>>& rects) noexcept {
+  std::uint64_t sum = 0;
+  for (const auto& r : rects) sum += std::uint64_t(r[2] - r[0]) * std::uint64_t(r[3] - r[1]);
+  return sum;
+}
 
 VkImageMemoryBarrier2 imageBarrier(VkImage image, std::uint32_t baseLevel, std::uint32_t levels,
                                    std::uint32_t layers) {
@@ -141,6 +215,7 @@ void ShadowRenderer::Impl::destroyMomentImages(MomentImages& m) noexcept {
   for (VkImageView v : {m.sampledView, m.storageView, m.scratchView}) {
     vkDestroyImageView(dev, v, nullptr);
   }
+  for (VkImageView v : m.levelViews) vkDestroyImageView(dev, v, nullptr);
   vkDestroyImage(dev, m.image, nullptr);
   vkDestroyImage(dev, m.scratch, nullptr);
   vkFreeMemory(dev, m.memory, nullptr);
@@ -157,13 +232,12 @@ Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
   vkGetPhysicalDeviceFormatProperties(device_.physicalDevice, kMomentFormat, &fp);
   const VkFormatFeatureFlags need = VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
                                     VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT |
-                                    VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT |
-                                    VK_FORMAT_FEATURE_BLIT_SRC_BIT | VK_FORMAT_FEATURE_BLIT_DST_BIT;
+                                    VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT;
   if ((fp.optimalTilingFeatures & need) != need) {
     return Status(
         ErrorCode::kUnsupportedFormat,
         fmt("settings.kernel = %s needs VK_FORMAT_R32G32B32A32_SFLOAT with linear "
-            "filtering, storage and blits (features 0x%x of 0x%x): allowed a "
+            "filtering and storage (features 0x%x of 0x%x): allowed a "
             "percentage-closer kernel on this device",
             kernelName(settings.kernel), unsigned(fp.optimalTilingFeatures), unsigned(need)));
   }
@@ -217,6 +291,12 @@ Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
   vi.subresourceRange.levelCount = 1;
   r = vkCreateImageView(dev, &vi, nullptr, &m.storageView);
   if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImageView(csm moments level 0)"));
+  for (std::uint32_t level = 1; level < m.levels; ++level) {
+    vi.subresourceRange.baseMipLevel = level;
+    r = vkCreateImageView(dev, &vi, nullptr, &m.levelViews[level]);
+    if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImageView(csm moments level)"));
+  }
+  vi.subresourceRange.baseMipLevel = 0;
   vi.image = m.scratch;
   vi.subresourceRange.layerCount = 1;
   r = vkCreateImageView(dev, &vi, nullptr, &m.scratchView);
@@ -229,6 +309,11 @@ Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
   r = vkAllocateDescriptorSets(dev, &ai, &m.set);
   if (r != VK_SUCCESS) return fail(vkError(r, "vkAllocateDescriptorSets(csm moments)"));
   setName(handleBits(m.set), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm moment set");
+  for (std::uint32_t level = 1; level < m.levels; ++level) {
+    r = vkAllocateDescriptorSets(dev, &ai, &m.mipSets[level]);
+    if (r != VK_SUCCESS) return fail(vkError(r, "vkAllocateDescriptorSets(csm moment mips)"));
+    setName(handleBits(m.mipSets[level]), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm moment mip set");
+  }
   out = m;
   return {};
 }
@@ -256,6 +341,19 @@ void ShadowRenderer::Impl::writeMomentSet() const {
   w[3].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
   w[3].pImageInfo = &level0;
   vkUpdateDescriptorSets(device_.device, 4, w, 0, nullptr);
+  // The mip sets: the same uniform block and depth map (never read by the downsampling pass),
+  // level k - 1 as the source and level k as the destination.
+  for (std::uint32_t level = 1; level < moments_.levels; ++level) {
+    const VkDescriptorImageInfo src{
+        VK_NULL_HANDLE, level == 1 ? moments_.storageView : moments_.levelViews[level - 1],
+        VK_IMAGE_LAYOUT_GENERAL};
+    const VkDescriptorImageInfo dst{VK_NULL_HANDLE, moments_.levelViews[level],
+                                    VK_IMAGE_LAYOUT_GENERAL};
+    for (VkWriteDescriptorSet& x : w) x.dstSet = moments_.mipSets[level];
+    w[2].pImageInfo = &src;
+    w[3].pImageInfo = &dst;
+    vkUpdateDescriptorSets(device_.device, 4, w, 0, nullptr);
+  }
 }
 
 // With the depth map's one-time clear: every moment texel holds the far plane's moments (lit)
@@ -287,46 +385,87 @@ void ShadowRenderer::Impl::recordMomentClear(VkCommandBuffer cmd) {
   barrier(cmd, {&b, 1});
 }
 
-// After the shadow pass (the depth layers written and in the sampled layout, the uniform block
-// updated): depth -> moments, blur x, blur y, mips; then the sampled layout for the consumers.
-void ShadowRenderer::Impl::recordMomentResolve(VkCommandBuffer cmd) {
-  if (moments_.image == VK_NULL_HANDLE) return;
-  const std::uint32_t layers = layerCount_;
-  // The depth writes and the uniform update before the resolve reads them; earlier readers of
-  // the moments and of the scratch finish before they are overwritten (the content is discarded:
-  // the resolve is full).
-  auto mem = vkInit<VkMemoryBarrier2>(VK_STRUCTURE_TYPE_MEMORY_BARRIER_2);
-  mem.srcStageMask = VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT |
-                     VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT |
-                     VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT | options_.consumerStages;
-  mem.srcAccessMask =
-      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  mem.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  mem.dstAccessMask = VK_ACCESS_2_UNIFORM_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
-  VkImageMemoryBarrier2 start[3] = {imageBarrier(moments_.image, 0, 1, layers),
-                                    imageBarrier(moments_.image, 1, moments_.levels - 1, layers),
-                                    imageBarrier(moments_.scratch, 0, 1, 1)};
-  start[0].srcStageMask = options_.consumerStages;
-  start[0].dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  start[0].dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-  start[0].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  start[0].newLayout = VK_IMAGE_LAYOUT_GENERAL;
-  start[1].srcStageMask = options_.consumerStages;
-  start[1].dstStageMask = VK_PIPELINE_STAGE_2_BLIT_BIT;
-  start[1].dstAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-  start[1].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  start[1].newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  start[2].srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  start[2].dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  start[2].dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-  start[2].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  start[2].newLayout = VK_IMAGE_LAYOUT_GENERAL;
-  barrier(cmd, start, &mem);  // levels >= 9: the resolution is at least 256
+// The rectangles a resolve recomputes in each layer, tile-aligned: pass1 is blurred along y into
+// level 0 (and re-mipped), pass0 converted and blurred along x into the scratch (pass1 with one
+// tile row more on each side, what pass 1's blur reads). Empty: the layer is unchanged.
+struct ShadowRenderer::Impl::MomentRegions {
+  std::array<LayerRects, kMaxCascades> pass1{}, pass0{};
+  std::array<bool, kMaxCascades> whole{};
+};
 
+// The partial resolve's regions after a cached pass: what the pass changed (momentRects_),
+// widened by the blur's reach, and, where a layer's wrap offset moved (the box moved, so texels
+// near its edges now read other neighbours or the far plane), the bands along the box's edges.
+// Those bands lie within the reach of the rows and columns the move exposed (a toroidal layer's
+// opposite box edges are neighbours), so they add nothing today; they keep the resolve exact
+// should a box ever move without re-rendering what it exposes.
+// False: a full resolve is needed (first resolve of the image, new blur or exponents, an uncached
+// pass).
+bool ShadowRenderer::Impl::planMomentRegions(MomentRegions& plan) const {
+  const MomentImages& m = moments_;
+  if (!momentPartial_ || !m.resolved || m.blurM != float(settings_.momentBlurM) ||
+      m.evsmPositive != uniforms_.moments.z || m.evsmNegative != uniforms_.moments.w) {
+    return false;
+  }
+  const std::int32_t res = static_cast<std::int32_t>(resolution_);
+  const std::int32_t tiles = res / kMomentTile;
+  std::vector<std::uint8_t> mark(std::size_t(tiles) * tiles), grown(mark.size());
+  for (std::uint32_t i = 0; i < layerCount_; ++i) {
+    const CsmCascadeGpu& c = uniforms_.cascades[i];
+    const bool whole = ((momentWholeMask_ >> i) & 1u) != 0 || m.texelM[i] != c.texelSizeM;
+    if (whole) {
+      plan.whole[i] = true;
+      plan.pass1[i].assign(1, {0, 0, res, res});
+      plan.pass0[i] = plan.pass1[i];
+      continue;
+    }
+    // The blur's reach in texels (the shader's ceil(radius), and one more against rounding).
+    const float radius = momentBlurRadiusTexels(settings_.momentBlurM, c.texelSizeM);
+    const std::int32_t reach = radius > 0.0f ? static_cast<std::int32_t>(std::ceil(radius)) + 1 : 0;
+    std::fill(mark.begin(), mark.end(), std::uint8_t(0));
+    for (const auto& r : momentRects_[i]) {
+      markTiles(mark, tiles, r[0] - reach, r[1] - reach, r[2] + reach, r[3] + reach);
+    }
+    if (reach > 0 && c.wrapOffset.x != m.wrapOffset[i].x) {
+      const std::int32_t ox = static_cast<std::int32_t>(c.wrapOffset.x);
+      markTiles(mark, tiles, ox - reach, 0, ox + reach, res);
+    }
+    if (reach > 0 && c.wrapOffset.y != m.wrapOffset[i].y) {
+      const std::int32_t oy = static_cast<std::int32_t>(c.wrapOffset.y);
+      markTiles(mark, tiles, 0, oy - reach, res, oy + reach);
+    }
+    tileRects(mark, tiles, plan.pass1[i]);
+    if (rectArea(plan.pass1[i]) * 4 >= 3 * std::uint64_t(res) * std::uint64_t(res)) {
+      plan.whole[i] = true;  // most of the layer: one dispatch is cheaper
+      plan.pass1[i].assign(1, {0, 0, res, res});
+      plan.pass0[i] = plan.pass1[i];
+      continue;
+    }
+    if (reach == 0) {
+      plan.pass0[i] = plan.pass1[i];
+      continue;
+    }
+    grown = mark;
+    for (std::int32_t ty = 0; ty < tiles; ++ty) {
+      for (std::int32_t tx = 0; tx < tiles; ++tx) {
+        if (mark[std::size_t(ty) * tiles + tx] == 0) continue;
+        grown[std::size_t((ty + 1) % tiles) * tiles + tx] = 1;
+        grown[std::size_t((ty + tiles - 1) % tiles) * tiles + tx] = 1;
+      }
+    }
+    tileRects(grown, tiles, plan.pass0[i]);
+  }
+  return true;
+}
+
+// Pass 0 and pass 1 over each layer's rectangles (every texel without a plan).
+void ShadowRenderer::Impl::recordMomentDispatches(VkCommandBuffer cmd, const MomentRegions* plan) {
+  const std::uint32_t layers = layerCount_;
+  const std::int32_t res = static_cast<std::int32_t>(resolution_);
+  const LayerRects all(1, {0, 0, res, res});
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentPipeline_);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentPipelineLayout_, 0, 1,
                           &moments_.set, 0, nullptr);
-  const std::uint32_t groups = (resolution_ + CSM_MOMENT_GROUP - 1) / CSM_MOMENT_GROUP;
   MomentPush push;
   push.kernel = static_cast<std::uint32_t>(moments_.kernel);
   push.blurM = static_cast<float>(settings_.momentBlurM);
@@ -337,59 +476,155 @@ void ShadowRenderer::Impl::recordMomentResolve(VkCommandBuffer cmd) {
   s.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   s.oldLayout = VK_IMAGE_LAYOUT_GENERAL;
   s.newLayout = VK_IMAGE_LAYOUT_GENERAL;
+  bool first = true;
   for (std::uint32_t layer = 0; layer < layers; ++layer) {
+    const LayerRects& rects1 = plan != nullptr ? plan->pass1[layer] : all;
+    if (rects1.empty()) continue;
+    if (!first) {  // the previous layer's pass 1 read the scratch
+      s.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
+      s.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+      barrier(cmd, {&s, 1});
+    }
+    first = false;
     push.layer = layer;
     for (std::uint32_t pass = 0; pass < 2; ++pass) {
       push.pass = pass;
-      vkCmdPushConstants(cmd, momentPipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push),
-                         &push);
-      vkCmdDispatch(cmd, groups, groups, 1);
-      // After x: its writes before y reads; after y: its reads before the next x writes.
-      s.srcAccessMask =
-          pass == 0 ? VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT : VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
-      s.dstAccessMask =
-          pass == 0 ? VK_ACCESS_2_SHADER_STORAGE_READ_BIT : VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-      if (pass == 0 || layer + 1 < layers) barrier(cmd, {&s, 1});
+      const LayerRects& rects = pass == 0 && plan != nullptr ? plan->pass0[layer] : rects1;
+      for (const auto& r : rects) {
+        push.origin[0] = r[0];
+        push.origin[1] = r[1];
+        push.extent[0] = r[2] - r[0];
+        push.extent[1] = r[3] - r[1];
+        vkCmdPushConstants(cmd, momentPipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push),
+                           &push);
+        vkCmdDispatch(cmd, std::uint32_t(push.extent[0] + CSM_MOMENT_GROUP - 1) / CSM_MOMENT_GROUP,
+                      std::uint32_t(push.extent[1] + CSM_MOMENT_GROUP - 1) / CSM_MOMENT_GROUP, 1);
+      }
+      if (pass == 0) {  // x's writes before y reads them
+        s.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+        s.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
+        barrier(cmd, {&s, 1});
+      }
+    }
+    cacheStats_[layer].momentTexels = rectArea(rects1);
+  }
+}
+
+// The mips from level 0: each level from the one above it (pass 2: the mean of 2x2 texels), over
+// the changed tiles' texels on the levels where a tile is at least a texel, over the whole level
+// below that (for the changed layers; every layer without a plan). A compute pass rather than
+// blits: lavapipe's linear blit of a sub-rectangle rounds differently from the whole level's, and
+// the partial resolve must write what the full one writes, bit for bit.
+void ShadowRenderer::Impl::recordMomentMips(VkCommandBuffer cmd, const MomentRegions* plan) {
+  const std::uint32_t layers = layerCount_;
+  const std::int32_t res = static_cast<std::int32_t>(resolution_);
+  auto mem = vkInit<VkMemoryBarrier2>(VK_STRUCTURE_TYPE_MEMORY_BARRIER_2);
+  mem.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  mem.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+  mem.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  mem.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
+  MomentPush push;
+  push.pass = 2;
+  push.kernel = static_cast<std::uint32_t>(moments_.kernel);
+  auto dispatch = [&](std::uint32_t layer, std::int32_t x0, std::int32_t y0, std::int32_t x1,
+                      std::int32_t y1) {  // level texels
+    push.layer = layer;
+    push.origin[0] = x0;
+    push.origin[1] = y0;
+    push.extent[0] = x1 - x0;
+    push.extent[1] = y1 - y0;
+    vkCmdPushConstants(cmd, momentPipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push),
+                       &push);
+    vkCmdDispatch(cmd, std::uint32_t(push.extent[0] + CSM_MOMENT_GROUP - 1) / CSM_MOMENT_GROUP,
+                  std::uint32_t(push.extent[1] + CSM_MOMENT_GROUP - 1) / CSM_MOMENT_GROUP, 1);
+  };
+  for (std::uint32_t level = 1; level < moments_.levels; ++level) {
+    const std::int32_t side = std::max(res >> level, 1);
+    barrier(cmd, {}, &mem);  // the level above written before it is read
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentPipelineLayout_, 0, 1,
+                            &moments_.mipSets[level], 0, nullptr);
+    for (std::uint32_t layer = 0; layer < layers; ++layer) {
+      if (plan != nullptr && plan->pass1[layer].empty()) continue;
+      if (plan == nullptr || plan->whole[layer] || level > kMomentTileLevels) {
+        dispatch(layer, 0, 0, side, side);
+        continue;
+      }
+      for (const auto& r : plan->pass1[layer]) {
+        dispatch(layer, r[0] >> level, r[1] >> level, r[2] >> level, r[3] >> level);
+      }
     }
   }
+}
 
-  // Level 0 -> blit source; each level from the one above it, then a blit source itself.
-  VkImageMemoryBarrier2 b = imageBarrier(moments_.image, 0, 1, layers);
+// After the shadow pass (the depth layers written and in the sampled layout, the uniform block
+// updated): depth -> moments, blur x, blur y, mips (of what changed after a cached pass, else of
+// everything); then the sampled layout for the consumers.
+void ShadowRenderer::Impl::recordMomentResolve(VkCommandBuffer cmd) {
+  const bool partialPass = momentPartial_;
+  momentPartial_ = false;  // the next pass fills its own rectangles
+  for (CascadeCacheStats& st : cacheStats_) st.momentTexels = 0;
+  if (moments_.image == VK_NULL_HANDLE) return;
+  momentPartial_ = partialPass;
+  MomentRegions regions;
+  const bool partial = planMomentRegions(regions);
+  momentPartial_ = false;
+  const MomentRegions* plan = partial ? &regions : nullptr;
+  // What the image holds after this resolve was computed with these.
+  auto remember = [&] {
+    moments_.resolved = true;
+    moments_.blurM = static_cast<float>(settings_.momentBlurM);
+    moments_.evsmPositive = uniforms_.moments.z;
+    moments_.evsmNegative = uniforms_.moments.w;
+    for (std::uint32_t i = 0; i < layerCount_; ++i) {
+      moments_.texelM[i] = uniforms_.cascades[i].texelSizeM;
+      moments_.wrapOffset[i] = uniforms_.cascades[i].wrapOffset;
+    }
+  };
+  if (plan != nullptr && std::all_of(regions.pass1.begin(), regions.pass1.end(),
+                                     [](const LayerRects& r) { return r.empty(); })) {
+    remember();  // nothing changed: every moment texel is as a full resolve would write it
+    return;
+  }
+  const std::uint32_t layers = layerCount_;
+  // The depth writes and the uniform update before the resolve reads them; earlier readers of
+  // the moments and of the scratch finish before they are overwritten (a full resolve discards
+  // the content, a partial one keeps it).
+  auto mem = vkInit<VkMemoryBarrier2>(VK_STRUCTURE_TYPE_MEMORY_BARRIER_2);
+  mem.srcStageMask = VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT |
+                     VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT |
+                     VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT | options_.consumerStages;
+  mem.srcAccessMask =
+      VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_2_TRANSFER_WRITE_BIT;
+  mem.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  mem.dstAccessMask = VK_ACCESS_2_UNIFORM_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
+  const VkImageLayout kept =
+      plan != nullptr ? VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
+  VkImageMemoryBarrier2 start[2] = {imageBarrier(moments_.image, 0, moments_.levels, layers),
+                                    imageBarrier(moments_.scratch, 0, 1, 1)};
+  start[0].srcStageMask = options_.consumerStages;
+  start[0].dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  start[0].dstAccessMask =
+      VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
+  start[0].oldLayout = kept;
+  start[0].newLayout = VK_IMAGE_LAYOUT_GENERAL;
+  start[1].srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  start[1].dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  start[1].dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+  start[1].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  start[1].newLayout = VK_IMAGE_LAYOUT_GENERAL;
+  barrier(cmd, start, &mem);
+
+  recordMomentDispatches(cmd, plan);
+  recordMomentMips(cmd, plan);
+  VkImageMemoryBarrier2 b = imageBarrier(moments_.image, 0, moments_.levels, layers);
   b.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   b.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-  b.dstStageMask = VK_PIPELINE_STAGE_2_BLIT_BIT;
-  b.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-  b.oldLayout = VK_IMAGE_LAYOUT_GENERAL;
-  b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-  barrier(cmd, {&b, 1});
-  std::int32_t side = static_cast<std::int32_t>(resolution_);
-  for (std::uint32_t level = 1; level < moments_.levels; ++level) {
-    const std::int32_t next = std::max(side / 2, 1);
-    VkImageBlit blit{};
-    blit.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level - 1, 0, layers};
-    blit.srcOffsets[1] = {side, side, 1};
-    blit.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level, 0, layers};
-    blit.dstOffsets[1] = {next, next, 1};
-    vkCmdBlitImage(cmd, moments_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, moments_.image,
-                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &blit, VK_FILTER_LINEAR);
-    b = imageBarrier(moments_.image, level, 1, layers);
-    b.srcStageMask = VK_PIPELINE_STAGE_2_BLIT_BIT;
-    b.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
-    b.dstStageMask = VK_PIPELINE_STAGE_2_BLIT_BIT;
-    b.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-    b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-    barrier(cmd, {&b, 1});
-    side = next;
-  }
-  b = imageBarrier(moments_.image, 0, moments_.levels, layers);
-  b.srcStageMask = VK_PIPELINE_STAGE_2_BLIT_BIT;
-  b.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
   b.dstStageMask = options_.consumerStages;
   b.dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
-  b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  b.oldLayout = VK_IMAGE_LAYOUT_GENERAL;
   b.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
   barrier(cmd, {&b, 1});
+  remember();
 }
 
 }  // namespace csm::vk

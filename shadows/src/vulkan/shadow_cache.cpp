@@ -720,7 +720,22 @@ bool ShadowRenderer::Impl::recordCachedCascade(CachedPass& pass, std::uint32_t i
 
   if (!pass.dirty.empty()) recordStaticRects(pass, i, list, full);
   const bool whole = planRestore(pass, i, full);
+  // What the sampled layer changes in, for the moment resolve: the stale rectangles, where
+  // dynamic casters were drawn last time and where they are drawn now (elsewhere it holds the
+  // same static depth as before, whether restored by copy or redraw).
+  LayerRects& changed = momentRects_[i];
+  if (full) momentWholeMask_ |= 1u << i;
+  for (const TexelRect& r : pass.dirty) {
+    split(win, res, r, pass.layerRects);
+    for (const LayerRect& lr : pass.layerRects) {
+      const TexelRect t = layerTexels(lr);
+      changed.push_back(
+          {std::int32_t(t.x0), std::int32_t(t.y0), std::int32_t(t.x1), std::int32_t(t.y1)});
+    }
+  }
+  changed.insert(changed.end(), sh.dynamicRects.begin(), sh.dynamicRects.end());
   rememberDynamicRects(pass, i, list);  // none when !dynamicNow
+  changed.insert(changed.end(), sh.dynamicRects.begin(), sh.dynamicRects.end());
   recordStaticCopy(pass.cmd, i, pass.copyRegions, whole);
   st.copied = !pass.copyRegions.empty();
   if (dynamicNow || !pass.redrawParts.empty()) recordDynamicPass(pass, i, list);
@@ -1009,6 +1024,9 @@ Status ShadowRenderer::Impl::recordCachedPass(VkCommandBuffer cmd, const Cascade
   }
 
   recordCachedBegin(cmd, wasUndefined);
+  momentPartial_ = true;  // recordCachedCascade fills the changed rectangles
+  momentWholeMask_ = 0;
+  for (LayerRects& r : momentRects_) r.clear();
   bool any = false;
   std::uint32_t copiedMask = 0;
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {

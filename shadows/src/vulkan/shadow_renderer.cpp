@@ -549,6 +549,12 @@ VkDeviceSize ShadowRenderer::cacheBytes() const noexcept {
 VkImage ShadowRenderer::staticImage() const noexcept {
   return impl_->staticImage();
 }
+VkImage ShadowRenderer::momentImage() const noexcept {
+  return impl_->moments_.image;
+}
+std::uint32_t ShadowRenderer::momentLevels() const noexcept {
+  return impl_->moments_.levels;
+}
 VkDescriptorSetLayout ShadowRenderer::lightingSetLayout() const noexcept {
   return impl_->lightingSetLayout();
 }

@@ -235,6 +235,7 @@ class ShadowRenderer::Impl {
   std::uint64_t records_ = 0;
   // The prefiltered filters' moment image, its blur scratch and the resolve's set (moments.cpp);
   // all null with a percentage-closer kernel.
+  static constexpr std::uint32_t kMaxMomentLevels = 15;  // bit_width(kMaxResolution)
   struct MomentImages {
     VkImage image = VK_NULL_HANDLE;  // RGBA32F, mip-mapped, one layer per cascade
     VkDeviceMemory memory = VK_NULL_HANDLE;
@@ -244,9 +245,26 @@ class ShadowRenderer::Impl {
     VkImageView storageView = VK_NULL_HANDLE;  // level 0 (the resolve writes it)
     VkImageView scratchView = VK_NULL_HANDLE;
     VkDescriptorSet set = VK_NULL_HANDLE;  // the resolve's, in the lighting pool
+    // Storage views of levels 1.. (levelViews[0] unused: storageView) and the sets that build
+    // level k from level k - 1 (mipSets[k]: binding 2 level k - 1, binding 3 level k).
+    std::array<VkImageView, kMaxMomentLevels> levelViews{};
+    std::array<VkDescriptorSet, kMaxMomentLevels> mipSets{};
     std::uint32_t levels = 0;
     PcfKernel kernel = PcfKernel::kTent3;
+    // What the last resolve recorded into this image was computed with: a partial resolve
+    // (recordMomentResolve after a cached pass) is exact only where nothing else changed.
+    bool resolved = false;
+    float blurM = 0.0f, evsmPositive = 0.0f, evsmNegative = 0.0f;
+    std::array<float, kMaxCascades> texelM{};
+    std::array<glm::vec2, kMaxCascades> wrapOffset{};
   };
+  // The layer rectangles ([x0, y0, x1, y1) texels) of the sampled depth layers the cached pass
+  // changed this record, per cascade, and the cascades it changed whole: what the moment
+  // resolve after it recomputes (with the blur's margin). momentPartial_: the pass filled them.
+  using LayerRects = std::vector<std::array<std::int32_t, 4>>;
+  std::array<LayerRects, kMaxCascades> momentRects_{};
+  std::uint32_t momentWholeMask_ = 0;
+  bool momentPartial_ = false;
   Status createMomentResources();
   void destroyMomentResources() noexcept;
   Status buildMomentImages(const ShadowSettings& settings, VkDescriptorPool pool,
@@ -255,6 +273,11 @@ class ShadowRenderer::Impl {
   void writeMomentSet() const;
   void recordMomentClear(VkCommandBuffer cmd);
   void recordMomentResolve(VkCommandBuffer cmd);
+  // The resolve's per-layer regions (tile rectangles) when only part of it changed.
+  struct MomentRegions;
+  bool planMomentRegions(MomentRegions& plan) const;
+  void recordMomentDispatches(VkCommandBuffer cmd, const MomentRegions* plan);
+  void recordMomentMips(VkCommandBuffer cmd, const MomentRegions* plan);
   MomentImages moments_{};
   VkDescriptorSetLayout momentSetLayout_ = VK_NULL_HANDLE;
   VkPipelineLayout momentPipelineLayout_ = VK_NULL_HANDLE;

@@ -401,11 +401,13 @@ Status ShadowRenderer::Impl::buildImage(const ShadowSettings& settings, VkFormat
   VkDescriptorSet set = VK_NULL_HANDLE;
   {
     // The lighting set, and the moment resolve's (prefiltered kernels).
-    VkDescriptorPoolSize sizes[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2},
-                                     {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 4},
-                                     {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2}};
+    // The lighting set, the moment resolve's and its mip sets (one per level below 0).
+    constexpr std::uint32_t kMips = kMaxMomentLevels - 1;
+    VkDescriptorPoolSize sizes[3] = {{VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 2 + kMips},
+                                     {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 4 + kMips},
+                                     {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 2 + 2 * kMips}};
     auto pci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
-    pci.maxSets = 2;
+    pci.maxSets = 2 + kMips;
     pci.poolSizeCount = 3;
     pci.pPoolSizes = sizes;
     r = vkCreateDescriptorPool(dev, &pci, nullptr, &pool);

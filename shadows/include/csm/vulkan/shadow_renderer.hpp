@@ -340,6 +340,11 @@ struct CascadeCacheStats {
   /// Draws saved by drawing a caster over several stale rectangles of one block once, scissored
   /// to the bounding rectangle of its parts (where that is no larger than the parts together).
   std::uint64_t mergedDraws = 0;
+  /// Prefiltered kernels: texels of level 0 of the cascade's moment layer that the resolve after
+  /// the pass recomputed (converted, blurred, re-mipped): the rectangles the pass changed, widened
+  /// by the blur and rounded out to 32-texel tiles (the whole layer on a new window); 0 where
+  /// nothing changed.
+  std::uint64_t momentTexels = 0;
 };
 
 /// What a draw callback gets for one cascade: the command buffer inside the cascade's render
@@ -504,6 +509,11 @@ class ShadowRenderer {
   [[nodiscard]] VkDeviceSize cacheBytes() const noexcept;
   /// The static-depth image (DEPTH_ATTACHMENT_OPTIMAL after a cached record; null without cache).
   [[nodiscard]] VkImage staticImage() const noexcept;
+  /// Prefiltered kernels (vsm, evsm, msm): the moment image (RGBA32F, momentLevels() mips, one
+  /// layer per cascade, addressed like the depth layers; SHADER_READ_ONLY_OPTIMAL after a
+  /// record) that csm.glsl samples; null and 0 with a percentage-closer kernel.
+  [[nodiscard]] VkImage momentImage() const noexcept;
+  [[nodiscard]] std::uint32_t momentLevels() const noexcept;
 
   /// Descriptor set layout of csm.glsl's resources: CSM_BINDING_UNIFORMS (uniform buffer),
   /// CSM_BINDING_SHADOW_MAP (comparison sampler + array view), CSM_BINDING_SHADOW_DEPTH (depth
