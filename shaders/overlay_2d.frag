@@ -18,13 +18,17 @@
 // tree is a fraction of a pixel) and each is judged against its own ground, so that the slope
 // across a pixel is not read as height. Casters read dark by their height, the ground light,
 // toned by its height across the cascade's bounding sphere (the window the receivers lie in);
-// where nothing was drawn, white.
+// where nothing was drawn, white. With a prefiltered filter (vsm, evsm, msm) the thumbnail shows
+// the moment layer the lighting reads instead (level 0, blurred), its first moment turned back
+// into depth, so the casters' edges show the blur.
 #extension GL_GOOGLE_include_directive : require
 
 #define CSM_SET 0
 #include "csm.glsl"
 
 layout(location = 0) in vec2 inUv;  // thumbnails: uv across the cascade's box (0..1)
+// Thumbnails: rgb white, a = 1 for the depth layer, 2 + the kernel (CSM_KERNEL_VSM, _EVSM, _MSM)
+// for the moment layer.
 layout(location = 1) in vec4 inColor;
 // x: cascade (< 0: solid colour), y: world height (m) of box texel (0, 0) at stored depth 0 above
 // the bounding sphere's centre, z: the sphere's radius (m), w: the thumbnail's side in pixels.
@@ -46,14 +50,33 @@ const float kDarkAboveM = 4.0;
 const float kGroundAboveM = 0.5;
 const float kNothing = -1e30;
 
+// The filter whose moments the thumbnail shows, or -1 for the depth layer.
+int gMomentKernel = -1;
+
+// The depth stored at box texel `centre` of cascade c, and the far plane's value there: from the
+// depth layer, or the mean depth of the moment layer (inverting csm::depthMoments' first moment).
+float storedDepth(vec2 centre, int c, out float far) {
+  const vec3 uvw = vec3(csmWrapUv(centre, c), float(c));
+  far = 1.0;
+  if (gMomentKernel < 0) return textureLod(csmDepthMap, uvw, 0.0).r;
+  far = 0.9999;  // the blur and the exponential's rounding leave the far plane just below 1
+  const float m = textureLod(csmMomentMap, uvw, 0.0).x;
+  if (gMomentKernel == CSM_KERNEL_VSM) return m;
+  if (gMomentKernel == CSM_KERNEL_EVSM) {
+    return 0.5 * (log(max(m, 1e-30)) / max(csmU.moments.z, 1e-3) + 1.0);
+  }
+  return 0.5 * (m + 1.0);  // MSM: the centred depth 2 z - 1
+}
+
 // World height (m, above the sphere's centre) of the surface held at box texel t of cascade c
 // (the texel's centre), or kNothing outside the box or where nothing was drawn (the far plane).
 float boxHeight(vec2 t, int c) {
   const float res = csmU.resolution;
   if (any(lessThan(t, vec2(0.0))) || any(greaterThanEqual(t, vec2(res)))) return kNothing;
   const vec2 centre = floor(t) + 0.5;
-  const float d = textureLod(csmDepthMap, vec3(csmWrapUv(centre, c), float(c)), 0.0).r;
-  return d < 1.0 ? inThumb.y + dot(inRelief, vec3(centre, d)) : kNothing;
+  float far;
+  const float d = storedDepth(centre, c, far);
+  return d < far ? inThumb.y + dot(inRelief, vec3(centre, d)) : kNothing;
 }
 
 // How high the surface at box texel t stands above the ground around it (m), or -1 where nothing
@@ -82,6 +105,7 @@ void main() {
     return;
   }
   const int c = int(inThumb.x);
+  gMomentKernel = inColor.a > 1.5 ? int(round(inColor.a - 2.0)) : -1;
   const float res = csmU.resolution;
   const vec2 t = inUv * res;
   const float texelsPerPixel = res / max(inThumb.w, 1.0);

@@ -18,6 +18,7 @@
 #include <stdexcept>
 
 #include "csm/gpu_layout.hpp"
+#include "csm/names.hpp"
 #include "engine/debug.hpp"
 #include "engine/errors.hpp"
 #include "glue/camera.hpp"
@@ -100,7 +101,11 @@ void WorldRenderer::buildOverlay(VkExtent2D extent, std::vector<OverlayVertex>& 
                              static_cast<float>(toCr[2].y));
       const double base =
           toCr[3].y - toCr[0].y - toCr[1].y + cascades.cameraPositionWs.y - cs.sphereCenterWs.y;
-      quad(a, a + glm::vec2(size), glm::vec4(1.0f),
+      // The layer the lighting reads: with a prefiltered filter, the moment layer (its colour's
+      // alpha, 2 + the kernel, tells overlay_2d.frag which moments they are).
+      const csm::PcfKernel kernel = shadow_->settings().kernel;
+      const float source = csm::isPrefiltered(kernel) ? 2.0f + static_cast<float>(kernel) : 1.0f;
+      quad(a, a + glm::vec2(size), glm::vec4(glm::vec3(1.0f), source),
            {static_cast<float>(c), static_cast<float>(base), static_cast<float>(cs.sphereRadiusM),
             size},
            relief);

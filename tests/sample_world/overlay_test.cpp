@@ -217,6 +217,65 @@ TEST_P(FlythroughOverlay, ShowsWhatIsSampled) {
 INSTANTIATE_TEST_SUITE_P(Paths, FlythroughOverlay, ::testing::Values("forest", "fast"),
                          [](const auto& info) { return info.param; });
 
+// With a prefiltered filter the thumbnails show the moment layers the lighting reads: readable
+// as the depth ones are (casters dark on a light ground), and not the depth layers themselves
+// (the blur softens every caster's edge, so the same flight's thumbnails differ from the
+// tent's wherever the blur spans a texel or more; were they drawn from the depth layer they
+// would be identical). Where the blur is under half a texel there is none (csm_moments.comp),
+// and the two thumbnails agree.
+TEST(FlythroughOverlayMoments, ThumbnailsShowTheMomentLayers) {
+  const std::string flight =
+      "--frames 3 --shot-every 2 --path forest --set view.width=640 "
+      "--set view.height=360 --set shadow.momentBlur=0.5";
+  const fs::path depthOut = fs::path(CSM_TEST_ARTEFACT_DIR) / "overlay_moments_tent";
+  const fs::path momentOut = fs::path(CSM_TEST_ARTEFACT_DIR) / "overlay_moments_msm";
+  const json depthRep = runFlight(depthOut, flight + " --set shadow.kernel=tent3x3");
+  const json momentRep = runFlight(momentOut, flight + " --set shadow.kernel=msm");
+  ASSERT_EQ(momentRep["screenshots"].size(), 2u);
+  {
+    SCOPED_TRACE("msm thumbnails");
+    expectReadableThumbnails(momentRep, momentOut);
+  }
+  const int n = int(momentRep["settings"]["shadow.cascades"].get<std::uint32_t>());
+  const double pad = std::max(4.0, 0.01 * kHeight);
+  const double size = std::min(0.2 * kHeight, (0.55 * kWidth - pad * (n + 1)) / n);
+  constexpr double kBlurM = 0.5;
+  std::uint32_t blurred = 0;
+  for (std::size_t k = 0; k < 2; ++k) {
+    const json& shot = momentRep["screenshots"][k];
+    const std::string name = shot["overlay_file"].get<std::string>();
+    const json& cascades = momentRep["per_frame"][shot["frame"].get<std::size_t>()]["cascades"];
+    const Image a =
+        loadPng(depthOut / depthRep["screenshots"][k]["overlay_file"].get<std::string>());
+    const Image b = loadPng(momentOut / name);
+    ASSERT_EQ(a.width, b.width);
+    for (int c = 0; c < n; ++c) {
+      const int ax = int(pad + c * (size + pad)), ay = int(kHeight - pad - size);
+      std::uint64_t differ = 0, all = 0;
+      for (int y = ay + 1; y < ay + int(size) - 1; ++y) {
+        for (int x = ax + 1; x < ax + int(size) - 1; ++x) {
+          ++all;
+          if (std::abs(a.luma(x, y) - b.luma(x, y)) > 12.0 / 255.0) ++differ;
+        }
+      }
+      const double share = double(differ) / double(all);
+      const double blurTexels = kBlurM / cascades[std::size_t(c)]["texel_m"].get<double>();
+      std::printf(
+          "[overlay moments] %s cascade %d: blur %.2f texels, %.2f%% of thumbnail "
+          "pixels differ\n",
+          name.c_str(), c, blurTexels, 100.0 * share);
+      if (blurTexels >= 1.0) {
+        ++blurred;
+        EXPECT_GT(share, 0.005) << name << " cascade " << c
+                                << ": the msm thumbnail looks like the depth layer";
+      } else if (blurTexels < 0.5) {
+        EXPECT_LT(share, 0.005) << name << " cascade " << c << ": unblurred moments differ";
+      }
+    }
+  }
+  EXPECT_GE(blurred, 4u) << "too few cascades where the blur spans a texel: the case tests little";
+}
+
 // ---- The texel checker ------------------------------------------------------------------------
 
 /// Fraction of pixels of two overlay screenshots (checker on and off) that differ by more than
