@@ -32,6 +32,7 @@
 #include <cstring>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -206,6 +207,36 @@ class WorldRig {
   void readLayers(Side& side) {
     csm::vk::ShadowRenderer& r = side.renderer->shadowRenderer();
     const std::uint32_t layers = settings_.shadow.cascadeCount;
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 0, layers};
+    region.imageExtent = {kResolution, kResolution, 1};
+    readImage(r.image(), {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layers}, {&region, 1}, *side.layers);
+  }
+
+  /// Every level of every moment layer, level after level (momentBytes()).
+  void readMoments(Side& side) {
+    csm::vk::ShadowRenderer& r = side.renderer->shadowRenderer();
+    const std::uint32_t layers = settings_.shadow.cascadeCount;
+    const std::uint32_t levels = r.momentLevels();
+    ASSERT_NE(r.momentImage(), VK_NULL_HANDLE);
+    std::vector<VkBufferImageCopy> regions;
+    VkDeviceSize offset = 0;
+    for (std::uint32_t level = 0; level < levels; ++level) {
+      const std::uint32_t side = std::max(kResolution >> level, 1u);
+      VkBufferImageCopy region{};
+      region.bufferOffset = offset;
+      region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level, 0, layers};
+      region.imageExtent = {side, side, 1};
+      regions.push_back(region);
+      offset += VkDeviceSize(side) * side * 16 * layers;
+    }
+    readImage(r.momentImage(), {VK_IMAGE_ASPECT_COLOR_BIT, 0, levels, 0, layers}, regions,
+              *side.moments);
+  }
+
+  /// Copies `regions` of an image in the sampled layout into `buffer`, and back to that layout.
+  void readImage(VkImage image, const VkImageSubresourceRange& range,
+                 std::span<const VkBufferImageCopy> regions, engine::Buffer& buffer) {
     ctx_->submitAndWait([&](VkCommandBuffer cmd) {
       VkImageMemoryBarrier2 b{};
       b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
@@ -216,69 +247,21 @@ class WorldRig {
       b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
       b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
       b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-      b.image = r.image();
-      b.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layers};
+      b.image = image;
+      b.subresourceRange = range;
       VkDependencyInfo dep{};
       dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
       dep.imageMemoryBarrierCount = 1;
       dep.pImageMemoryBarriers = &b;
       vkCmdPipelineBarrier2(cmd, &dep);
-      VkBufferImageCopy region{};
-      region.imageSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 0, layers};
-      region.imageExtent = {kResolution, kResolution, 1};
-      vkCmdCopyImageToBuffer(cmd, r.image(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                             side.layers->handle(), 1, &region);
+      vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer.handle(),
+                             static_cast<std::uint32_t>(regions.size()), regions.data());
       b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
       b.srcAccessMask = VK_ACCESS_2_NONE;
       b.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
       b.dstAccessMask = VK_ACCESS_2_NONE;
       b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
       b.newLayout = csm::vk::ShadowRenderer::sampledLayout();
-      vkCmdPipelineBarrier2(cmd, &dep);
-    });
-  }
-
-  void readMoments(Side& side) {
-    csm::vk::ShadowRenderer& r = side.renderer->shadowRenderer();
-    const std::uint32_t layers = settings_.shadow.cascadeCount;
-    const std::uint32_t levels = r.momentLevels();
-    ASSERT_NE(r.momentImage(), VK_NULL_HANDLE);
-    ctx_->submitAndWait([&](VkCommandBuffer cmd) {
-      VkImageMemoryBarrier2 b{};
-      b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
-      b.srcStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-      b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-      b.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-      b.oldLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-      b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-      b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-      b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-      b.image = r.momentImage();
-      b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, levels, 0, layers};
-      VkDependencyInfo dep{};
-      dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-      dep.imageMemoryBarrierCount = 1;
-      dep.pImageMemoryBarriers = &b;
-      vkCmdPipelineBarrier2(cmd, &dep);
-      std::vector<VkBufferImageCopy> regions;
-      VkDeviceSize offset = 0;
-      for (std::uint32_t level = 0; level < levels; ++level) {
-        const std::uint32_t side = std::max(kResolution >> level, 1u);
-        VkBufferImageCopy region{};
-        region.bufferOffset = offset;
-        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level, 0, layers};
-        region.imageExtent = {side, side, 1};
-        regions.push_back(region);
-        offset += VkDeviceSize(side) * side * 16 * layers;
-      }
-      vkCmdCopyImageToBuffer(cmd, r.momentImage(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                             side.moments->handle(), std::uint32_t(regions.size()), regions.data());
-      b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-      b.srcAccessMask = VK_ACCESS_2_NONE;
-      b.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-      b.dstAccessMask = VK_ACCESS_2_NONE;
-      b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-      b.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
       vkCmdPipelineBarrier2(cmd, &dep);
     });
   }
