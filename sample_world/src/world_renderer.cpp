@@ -569,7 +569,7 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
 void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& timer,
                                      FrameStats& stats) {
   // ---- Shadow pass: each cascade draws its culled clusters at its LOD (the module's LODs) -----
-  shadow_->setUniformOptions({settings_.debug});
+  shadow_->setDebugMode(settings_.debug);
   const csm::CascadeFrame& cascades = shadow_->frame();
   const csm::CullResult& culled = shadow_->cull();
   stats.casters = {};

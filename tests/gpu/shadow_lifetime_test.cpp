@@ -408,11 +408,11 @@ TEST(ShadowView, OutOfRangeValuesAndMismatchedFramesAreRefusedByName) {
     expectRefused(view.setSettings(testSettings(2, 512), badLod), "options.cascadeLod[1] = 9");
 
     csm::vk::Status status;
-    view.setUniformOptions({static_cast<csm::DebugMode>(99)});
+    view.setDebugMode(static_cast<csm::DebugMode>(99));
     scene.context().submitAndWait(
         [&](VkCommandBuffer cmd) { status = view.record(cmd, scene.csmCamera(), scene.light); });
     expectRefused(status, "debugMode = 99");
-    view.setUniformOptions({});
+    view.setDebugMode(csm::DebugMode::kNone);
 
     // A frame computed with another blend band / normal offset than the renderer's settings.
     csm::ShadowSettings other = testSettings(2, 512);

@@ -145,7 +145,7 @@ Rendered ShadowScene::renderFrame(csm::PcfKernel kernel, const FrameHooks& hooks
   if (second_) {
     // Split screen: the second view records into the same command buffer, first.
     useWorldSpaceKernel(*second_, hooks.worldSpaceKernel);
-    second_->setUniformOptions({hooks.debug});
+    second_->setDebugMode(hooks.debug);
     csm::Camera c = csmCamera();
     c.positionWs = secondCamera.positionWs;
     c.orientationWs = secondCamera.orientation;
@@ -184,7 +184,7 @@ csm::CascadeFrame ShadowScene::recordShadow(VkCommandBuffer cmd, csm::DebugMode 
                                             bool worldSpaceKernel) {
   if (!built_) buildScene();
   useWorldSpaceKernel(*view_, worldSpaceKernel);
-  view_->setUniformOptions({debug});
+  view_->setDebugMode(debug);
   const csm::vk::Status s = view_->record(cmd, csmCamera(), light);
   if (!s.ok()) throw std::runtime_error("ShadowView::record: " + s.message());
   return view_->frame();

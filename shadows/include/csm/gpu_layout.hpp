@@ -109,12 +109,14 @@ struct CsmUniforms {
   glm::vec4 moments{0.0f};
 };
 
-/// Per-frame choices that go into the block besides the cascades and the settings.
+/// Per-frame choices that go into the block besides the cascades and the settings, for a host
+/// that calls packUniforms itself. The renderer packs its own block from its debug mode
+/// (ShadowRenderer::setDebugMode) and its depth format; it takes no UniformOptions.
 struct UniformOptions {
   /// Run-time debug output of the lighting shader.
   DebugMode debugMode = DebugMode::kNone;
   /// Bits of the shadow map's depth format (16: D16_UNORM, 32: D32_SFLOAT): sets the depth floor
-  /// the shader adds for the format's quantisation (depthQuantum()). The renderer fills it in.
+  /// the shader adds for the format's quantisation (depthQuantum()).
   std::uint32_t depthBits = 32;
 };
 

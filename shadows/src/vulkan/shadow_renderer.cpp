@@ -486,8 +486,12 @@ Status ShadowRenderer::prepare(VkCommandBuffer cmd) {
 bool ShadowRenderer::needsPrepare() const noexcept {
   return impl_->needsPrepare();
 }
-void ShadowRenderer::setUniformOptions(const UniformOptions& options) noexcept {
-  impl_->setUniformOptions(options);
+void ShadowRenderer::setDebugMode(DebugMode mode) noexcept {
+  impl_->setDebugMode(mode);
+}
+
+DebugMode ShadowRenderer::debugMode() const noexcept {
+  return impl_->debugMode();
 }
 void ShadowRenderer::setCascadeHook(CascadeHook hook) {
   impl_->setCascadeHook(std::move(hook));

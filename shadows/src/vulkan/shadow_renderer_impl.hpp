@@ -25,7 +25,8 @@ class ShadowRenderer::Impl {
   Status prepare(VkCommandBuffer cmd);
   [[nodiscard]] bool needsPrepare() const noexcept { return pendingClear_; }
 
-  void setUniformOptions(const UniformOptions& options) noexcept { uniformOptions_ = options; }
+  void setDebugMode(DebugMode mode) noexcept { debugMode_ = mode; }
+  [[nodiscard]] DebugMode debugMode() const noexcept { return debugMode_; }
   void setCascadeHook(CascadeHook hook) { cascadeHook_ = std::move(hook); }
 
   Status recordShadowPass(VkCommandBuffer cmd, const CascadeFrame& frame, const CasterList& casters,
@@ -199,7 +200,7 @@ class ShadowRenderer::Impl {
   // change them per draw; beginDepthRendering sets the options' again).
   VkCullModeFlags drawCull_ = VK_CULL_MODE_NONE;
   VkFrontFace drawFront_ = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-  UniformOptions uniformOptions_{};
+  DebugMode debugMode_ = DebugMode::kNone;
   CascadeHook cascadeHook_;
   CsmUniforms uniforms_{};
   bool pipelinesBuilt_ = false;

@@ -88,10 +88,10 @@ Status ShadowRenderer::Impl::checkFrame(const CascadeFrame& frame) const {
   if (image_ == VK_NULL_HANDLE) {
     return Status(ErrorCode::kWrongOrder, "recordShadowPass before a successful update()");
   }
-  if (static_cast<std::uint32_t>(uniformOptions_.debugMode) >= CSM_DEBUG_COUNT) {
+  if (static_cast<std::uint32_t>(debugMode_) >= CSM_DEBUG_COUNT) {
     return Status(ErrorCode::kInvalidArgument,
-                  fmt("UniformOptions::debugMode = %u is invalid: allowed [0, %d) (csm::DebugMode)",
-                      static_cast<std::uint32_t>(uniformOptions_.debugMode), CSM_DEBUG_COUNT));
+                  fmt("setDebugMode: debugMode = %u is invalid: allowed [0, %d) (csm::DebugMode)",
+                      static_cast<std::uint32_t>(debugMode_), CSM_DEBUG_COUNT));
   }
   if (frame.blendBand != settings_.blendBand) {
     return Status(ErrorCode::kInvalidArgument,
@@ -173,10 +173,11 @@ void ShadowRenderer::Impl::recordPassStart(VkCommandBuffer cmd, const char* labe
   vkCmdPipelineBarrier2(cmd, &dep2);
 }
 
-// The uniform block of `frame` as every pass packs it: the host's options with the depth
+// The uniform block of `frame` as every pass packs it: the host's debug mode and the depth
 // format's bits (the depth floor's quantum).
 CsmUniforms ShadowRenderer::Impl::packFrameUniforms(const CascadeFrame& frame) const {
-  UniformOptions uniformOptions = uniformOptions_;
+  UniformOptions uniformOptions;
+  uniformOptions.debugMode = debugMode_;
   uniformOptions.depthBits = options_.depthFormat == VK_FORMAT_D16_UNORM ? 16u : 32u;
   return packUniforms(frame, settings_, uniformOptions);
 }

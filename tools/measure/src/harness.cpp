@@ -179,7 +179,7 @@ csm::CascadeFrame Harness::computeFrame(const csm::Camera& camera,
 }
 
 void Harness::recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame) {
-  view_->setUniformOptions({});
+  view_->setDebugMode(csm::DebugMode::kNone);
   const csm::vk::Status s = view_->record(cmd, frame);
   if (!s.ok()) throw std::runtime_error("ShadowView::record: " + s.message());
   // Triangles drawn: each cascade's culled casters at the LOD the module chose for them there.
@@ -201,13 +201,18 @@ void Harness::recordShadow(VkCommandBuffer cmd, const csm::CascadeFrame& frame) 
 
 std::vector<ProbeResult> Harness::probe(const csm::CascadeFrame& frame,
                                         std::span<const Receiver> receivers, csm::PcfKernel kernel,
-                                        bool blend) {
+                                        bool blend, std::span<const glm::vec2> pixels) {
+  if (!pixels.empty() && pixels.size() != receivers.size()) {
+    throw std::invalid_argument("probe: " + std::to_string(pixels.size()) + " pixels for " +
+                                std::to_string(receivers.size()) + " receivers");
+  }
   if (!probe_) probe_ = std::make_unique<glue::ShadowProbe>(*ctx_, view_->lightingSetLayout());
   std::vector<glue::ProbePoint> points(receivers.size());
   for (size_t i = 0; i < receivers.size(); ++i) {
     // Camera-relative in double, rounded to float once.
     points[i].posCr = glm::vec3(receivers[i].posWs - frame.cameraPositionWs);
     points[i].normalWs = receivers[i].normalWs;
+    if (!pixels.empty()) points[i].pixel = pixels[i];
   }
   probe_->setPoints(points);
   ctx_->submitAndWait([&](VkCommandBuffer cmd) {

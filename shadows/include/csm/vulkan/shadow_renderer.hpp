@@ -438,10 +438,11 @@ class ShadowRenderer {
   /// Whether a new image still waits for its clear (prepare() or a shadow pass).
   [[nodiscard]] bool needsPrepare() const noexcept;
 
-  /// Sets what recordShadowPass packs into the uniform block besides the cascades and the
-  /// settings (the debug mode; depthBits is the renderer's: its depth format's). Takes effect at
-  /// the next record.
-  void setUniformOptions(const UniformOptions& options) noexcept;
+  /// The run-time debug output of the lighting shader that recordShadowPass packs into the
+  /// uniform block (the depth format's bits, the block's other per-frame choice, are the
+  /// renderer's own). Checked and applied at the next record.
+  void setDebugMode(DebugMode mode) noexcept;
+  [[nodiscard]] DebugMode debugMode() const noexcept;
   /// Sets (or clears, with an empty function) the per-cascade hook of the following records.
   void setCascadeHook(CascadeHook hook);
 

@@ -113,9 +113,8 @@ class ShadowView {
   /// settings change does not reset the cache, the depth format or the LOD choices.
   Status setSettings(const ShadowSettings& settings) { return setSettings(settings, options_); }
   /// Debug output of the lighting shader (checked at the next record).
-  void setUniformOptions(const UniformOptions& options) noexcept {
-    renderer_->setUniformOptions(options);
-  }
+  void setDebugMode(DebugMode mode) noexcept { renderer_->setDebugMode(mode); }
+  [[nodiscard]] DebugMode debugMode() const noexcept { return renderer_->debugMode(); }
 
   /// The casters: meshes, instances (each naming a mesh per LOD, see CasterInstance) and each
   /// instance's world bounds for culling (bounds[i] belongs to instances[i]). Copied; the

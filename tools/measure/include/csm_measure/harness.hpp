@@ -115,10 +115,11 @@ class Harness {
                                  csm::CascadeHistory& history);
 
   /// Renders the shadow pass of `frame` and evaluates csm.glsl at the receivers (positions made
-  /// camera-relative in double against the frame's camera).
+  /// camera-relative in double against the frame's camera). `pixels` (empty, or one per
+  /// receiver): the screen pixels handed to csmShadow (glue::ProbePoint::pixel).
   std::vector<ProbeResult> probe(const csm::CascadeFrame& frame,
                                  std::span<const Receiver> receivers, csm::PcfKernel kernel,
-                                 bool blend = true);
+                                 bool blend = true, std::span<const glm::vec2> pixels = {});
 
   /// Which normal renderAccuracy's bias uses: the facet normal (csmGeometricNormal, false: what
   /// the hosts pass) or the interpolated shading normal (true: the bias before facet normals, to
