@@ -273,18 +273,31 @@ const vec2 kCsmPoisson[16] = vec2[16](
     vec2(-0.24188840, 0.99706507), vec2(-0.81409955, 0.91437590), vec2(0.19984126, 0.78641367),
     vec2(0.14383161, -0.14100790));
 
-/// Per-pixel rotation angle in [0, 2 pi): interleaved gradient noise (Jimenez 2014).
-float csmNoiseAngle(vec2 pixel) {
-  return 6.28318531 * fract(52.9829189 * fract(dot(floor(pixel), vec2(0.06711056, 0.00583715))));
+/// Rotation of a tap pattern (the Poisson disk, PCSS) at map texel t of cascade i: a hash of the
+/// WORLD texel (the map's texel index plus the world-grid index of its texel 0), so the pattern
+/// stays on the ground when the camera moves and the stabilised map slides by whole texels.
+float csmWorldTexelAngle(int i, vec2 t) {
+  const vec2 g = mod(floor(t) + csmU.cascades[i].worldTexelOrigin, CSM_WORLD_TEXEL_PERIOD);
+  uint h = uint(g.x) * 0x8da6b343u ^ uint(g.y) * 0xd8163841u ^ uint(i) * 0xcb1ab31fu;
+  h ^= h >> 16;
+  h *= 0x7feb352du;
+  h ^= h >> 15;
+  h *= 0x846ca68bu;
+  h ^= h >> 16;
+  return float(h) * (6.28318531 / 4294967296.0);
 }
 
-float csmPcfPoisson(vec2 t, float scale, float layer, float depth, vec2 pixel, vec2 slope) {
-  const float a = csmNoiseAngle(pixel);
+/// The Poisson disk, rotated by the receiver's world texel (csmWorldTexelAngle): its noise stays
+/// on the ground as the camera moves (a rotation keyed to the screen pixel would stay on the
+/// screen while the world slid under it: a crawl).
+float csmPcfPoisson(int i, vec2 t, float scale, float depth, vec2 slope) {
+  const float layer = float(i);
+  const float a = csmWorldTexelAngle(i, t);
   const float radius = 2.0 * scale;  // disk radius in texels; the bilinear tap adds one
   const mat2 rot = mat2(cos(a), sin(a), -sin(a), cos(a)) * radius;
   float sum = 0.0;
-  for (int i = 0; i < 16; ++i) {
-    const vec2 o = rot * kCsmPoisson[i];
+  for (int k = 0; k < 16; ++k) {
+    const vec2 o = rot * kCsmPoisson[k];
     sum += csmTap(t + o, layer, depth + dot(slope, o));
   }
   return sum / 16.0;
@@ -301,20 +314,6 @@ float csmPcfPoisson(vec2 t, float scale, float layer, float depth, vec2 pixel, v
 // receiver's plane at that texel's centre (the plane from the normal, so it also works in compute
 // shaders), not with one depth per tap: wide kernels on slopes do not shadow themselves, and no
 // normal offset moves the receiver (and so the shadow edge) sideways.
-
-/// Rotation of the tap pattern at map texel t of cascade i: a hash of the WORLD texel (the map's
-/// texel index plus the world-grid index of its texel 0), so the pattern stays on the ground when
-/// the camera moves and the stabilised map slides by whole texels.
-float csmPcssAngle(int i, vec2 t) {
-  const vec2 g = mod(floor(t) + csmU.cascades[i].worldTexelOrigin, CSM_WORLD_TEXEL_PERIOD);
-  uint h = uint(g.x) * 0x8da6b343u ^ uint(g.y) * 0xd8163841u ^ uint(i) * 0xcb1ab31fu;
-  h ^= h >> 16;
-  h *= 0x7feb352du;
-  h ^= h >> 15;
-  h *= 0x846ca68bu;
-  h ^= h >> 16;
-  return float(h) * (6.28318531 / 4294967296.0);
-}
 
 /// Point k of n on a unit disk, spread uniformly (Vogel's golden-angle spiral), rotated by `a`.
 vec2 csmVogel(int k, int n, float a) {
@@ -416,7 +415,7 @@ float csmPcss(int i, vec3 posCr, vec3 normalWs) {
   const float texelM = max(csmU.cascades[i].texelSizeM, 1e-9);
   const float tanHalf = csmU.tanHalfLightAngle;
   const float maxRadiusM = csmU.maxPenumbraRadiusM;
-  const float angle = csmPcssAngle(i, c.xy);
+  const float angle = csmWorldTexelAngle(i, c.xy);
   // Search as far as the widest penumbra: the setting, in metres. (Not the distance to the near
   // side of the cascade's depth range: that moves in steps as the camera turns, and the search
   // with it, which shimmers.)
@@ -574,7 +573,7 @@ float csmMomentShadow(int i, vec3 posCr, vec3 normalWs, vec3 dPdx, vec3 dPdy) {
 
 /// Filtered shadow factor of cascade i at a receiver: 1 lit, 0 in shadow. dPdx, dPdy: see
 /// csmMomentShadow (only the prefiltered filters read them).
-float csmSampleCascade(int i, vec3 posCr, vec3 normalWs, vec2 pixel, vec3 dPdx, vec3 dPdy) {
+float csmSampleCascade(int i, vec3 posCr, vec3 normalWs, vec3 dPdx, vec3 dPdy) {
   if (csmKernel >= CSM_KERNEL_VSM) return csmMomentShadow(i, posCr, normalWs, dPdx, dPdy);
   if (csmKernel == CSM_KERNEL_PCSS) return csmPcss(i, posCr, normalWs);
   const vec3 c = csmShadowCoord(i, posCr, normalWs);
@@ -583,15 +582,14 @@ float csmSampleCascade(int i, vec3 posCr, vec3 normalWs, vec2 pixel, vec3 dPdx, 
   if (csmKernel == CSM_KERNEL_1TAP) return csmTap(c.xy, layer, c.z);
   const vec2 slope = csmReceiverDepthSlope(i, normalWs);
   if (csmKernel == CSM_KERNEL_POISSON16) {
-    return csmPcfPoisson(c.xy, scale, layer, c.z, pixel, slope);
+    return csmPcfPoisson(i, c.xy, scale, c.z, slope);
   }
   return csmPcfTent(c.xy, scale, layer, c.z, slope);
 }
 
 /// The shadow factor of a receiver: 1 lit, 0 in shadow; outside every cascade 1; 0 where the
-/// normal faces away from the light (N.L <= 0), inside or outside the cascades. `pixel` seeds
-/// the Poisson rotation (gl_FragCoord.xy in a fragment shader, the invocation's 2D id elsewhere).
-float csmShadow(vec3 posCr, vec3 normalWs, vec2 pixel) {
+/// normal faces away from the light (N.L <= 0), inside or outside the cascades.
+float csmShadow(vec3 posCr, vec3 normalWs) {
   // Facing away from the light: in shadow by its own shading. 0 without sampling, so that the
   // shadow test can neither light such a surface nor add noise to it (the map holds the
   // surface's own depth there, or that of the lit side in front of it: a near tie).
@@ -613,13 +611,17 @@ float csmShadow(vec3 posCr, vec3 normalWs, vec2 pixel) {
   if (!(dot(normalWs, -csmU.lightDirection.xyz) > 0.0)) return 0.0;
   const float fade = csmFade(viewDepth);
   if (fade >= 1.0) return 1.0;
-  float s = csmSampleCascade(sel.index, posCr, normalWs, pixel, dPdx, dPdy);
+  float s = csmSampleCascade(sel.index, posCr, normalWs, dPdx, dPdy);
   if (csmBlend != 0 && sel.blendIndex >= 0 && sel.blendWeight > 0.0) {
-    s = mix(s, csmSampleCascade(sel.blendIndex, posCr, normalWs, pixel, dPdx, dPdy),
+    s = mix(s, csmSampleCascade(sel.blendIndex, posCr, normalWs, dPdx, dPdy),
             sel.blendWeight);
   }
   return mix(s, 1.0, fade);
 }
+
+/// The same, for hosts written when the Poisson disk rotated by the screen pixel: `pixel` is no
+/// longer read (every filter's noise is keyed to the world texel, so it stays on the ground).
+float csmShadow(vec3 posCr, vec3 normalWs, vec2 pixel) { return csmShadow(posCr, normalWs); }
 
 /// The tint of cascade i (CSM_TINT_i), black for -1.
 vec3 csmCascadeTint(int i) {

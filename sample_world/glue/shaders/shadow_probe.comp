@@ -2,8 +2,8 @@
 // The one GPU probe of csm.glsl (glue::ShadowProbe): evaluates the shadow function and the cascade
 // selection at fixed receiver points (camera-relative positions computed in double on the CPU),
 // one invocation per point. Used by the GPU tests (tests/gpu), the shimmer tests (tests/stability)
-// and csm_tradeoff; the same code path as a lighting shader, with the point's index as the
-// Poisson rotation seed so a point's kernel never rotates.
+// and csm_tradeoff; the same code path as a lighting shader, with the point's screen pixel where
+// the caller gives one (else its index) as csmShadow's pixel argument.
 #extension GL_GOOGLE_include_directive : require
 
 #define CSM_SET 1
@@ -12,8 +12,8 @@
 layout(local_size_x = 64) in;
 
 struct ProbePoint {
-  vec4 posCr;     // xyz: receiver position relative to the camera (m)
-  vec4 normalWs;  // xyz: unit world normal
+  vec4 posCr;     // xyz: receiver position relative to the camera (m); w: screen pixel x
+  vec4 normalWs;  // xyz: unit world normal; w: screen pixel y (negative: use the index)
 };
 
 layout(std430, set = 0, binding = 0) readonly buffer Points {
@@ -36,7 +36,9 @@ void main() {
   if (i >= pc.count) return;
   const vec3 posCr = points[i].posCr.xyz;
   const vec3 normalWs = points[i].normalWs.xyz;
-  const float s = csmShadow(posCr, normalWs, vec2(float(i % 4096u), float(i / 4096u)));
+  const vec2 pixel = points[i].posCr.w >= 0.0 ? vec2(points[i].posCr.w, points[i].normalWs.w)
+                                              : vec2(float(i % 4096u), float(i / 4096u));
+  const float s = csmShadow(posCr, normalWs, pixel);
   const float viewDepth = csmViewDepth(posCr);
   const CsmSelection sel = csmSelectCascade(viewDepth);
   float gapM = 1e30;

@@ -97,8 +97,9 @@ void ShadowProbe::setPoints(std::span<const ProbePoint> points) {
   }
   auto* gpu = static_cast<ProbePointGpu*>(points_.mapped());
   for (uint32_t i = 0; i < count; ++i) {
-    gpu[i].posCr = glm::vec4(points[i].posCr, 1.0f);
-    gpu[i].normalWs = glm::vec4(points[i].normalWs, 0.0f);
+    // w: the screen pixel (x in posCr.w, y in normalWs.w).
+    gpu[i].posCr = glm::vec4(points[i].posCr, points[i].pixel.x);
+    gpu[i].normalWs = glm::vec4(points[i].normalWs, points[i].pixel.y);
   }
   count_ = count;
 }

@@ -99,6 +99,23 @@ nlohmann::json ShimmerRun::toJson(bool perFrameSeries) const {
   return j;
 }
 
+namespace {
+
+/// Where `posWs` lands on a screen of kScreenHeight pixels (and camera.aspect times as wide):
+/// the pixel a lighting shader at the fly-through's 1280 x 720 would shade it in. Points behind
+/// the camera get (0, 0).
+glm::vec2 screenPixel(const csm::Camera& camera, const glm::dvec3& posWs) {
+  constexpr double kScreenHeight = 720.0;
+  const glm::dvec3 c = glm::conjugate(camera.orientationWs) * (posWs - camera.positionWs);
+  if (!(c.z < 0.0)) return glm::vec2(0.0f);
+  const double t = std::tan(0.5 * camera.fovYRad);
+  const double x = c.x / (-c.z * t * camera.aspect), y = c.y / (-c.z * t);
+  return glm::vec2(
+      glm::dvec2(0.5 * (x + 1.0) * kScreenHeight * camera.aspect, 0.5 * (1.0 - y) * kScreenHeight));
+}
+
+}  // namespace
+
 ShimmerRun measureShimmer(Harness& harness, std::span<const Receiver> receivers,
                           const csm::DirectionalLight& light, const CameraPath& path, int frames,
                           csm::PcfKernel kernel, bool blend) {
@@ -111,7 +128,12 @@ ShimmerRun measureShimmer(Harness& harness, std::span<const Receiver> receivers,
     const csm::Camera camera = path(f);
     const csm::CascadeFrame frame = harness.computeFrame(camera, light, history);
     if (!frameIsFinite(frame)) ++run.nonFinite;
-    std::vector<ProbeResult> now = harness.probe(frame, receivers, kernel, blend);
+    // Each receiver's screen pixel in this frame: a filter whose noise followed the screen
+    // (rather than the world) would change under camera motion and count as shimmer.
+    std::vector<glm::vec2> pixels(receivers.size());
+    for (size_t i = 0; i < receivers.size(); ++i)
+      pixels[i] = screenPixel(camera, receivers[i].posWs);
+    std::vector<ProbeResult> now = harness.probe(frame, receivers, kernel, blend, pixels);
     const FrustumTest frustum(camera);
     std::vector<uint8_t> inside(receivers.size());
     for (size_t i = 0; i < receivers.size(); ++i) {

@@ -29,6 +29,11 @@ namespace glue {
 struct ProbePoint {
   glm::vec3 posCr{0.0f};
   glm::vec3 normalWs{0.0f, 1.0f, 0.0f};
+  /// The screen pixel a lighting shader would pass to csmShadow's third argument (where the
+  /// receiver projects in this frame, so it moves with the camera); negative: the point's index.
+  /// csm.glsl no longer reads it; the shimmer measure passes it so that a filter whose noise
+  /// followed the screen would show as a crawl.
+  glm::vec2 pixel{-1.0f, -1.0f};
 };
 
 /// csm.glsl's answer at one receiver point.

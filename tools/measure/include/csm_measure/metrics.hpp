@@ -69,7 +69,8 @@ struct ShimmerRun {
 
 /// Renders `frames` frames along `path` (cascade history carried over) and compares csm.glsl's
 /// shadow factor at each receiver with the previous frame's. Pairs count only where the point
-/// lies inside the view frustum in both frames.
+/// lies inside the view frustum in both frames. The probe hands csmShadow each receiver's screen
+/// pixel in that frame (at 720 pixels high), as a lighting shader would.
 ShimmerRun measureShimmer(Harness& harness, std::span<const Receiver> receivers,
                           const csm::DirectionalLight& light, const CameraPath& path, int frames,
                           csm::PcfKernel kernel, bool blend = true);
