@@ -130,7 +130,7 @@ json summaryJson(const std::vector<json>& framesJson, const world::AppSettings& 
   auto p99 = [&](auto get) { return quantile(get, 0.99); };
   summary["shadow_cache"] = settings.shadowCache;
   summary["thin_casters"] = settings.thinCasters;
-  summary["shadow_cull_closed"] = settings.cullClosedCasters;
+  summary["shadow_cull_closed"] = settings.shadow.diagnostics.cullClosedCasters;
   summary["thin_widen_texels"] = settings.thinWidenTexels;
   summary["shadow_cache_bytes"] = lastStats.cacheBytes;
   summary["shadow_cache_budget_texels"] = settings.cacheBudgetTexels;

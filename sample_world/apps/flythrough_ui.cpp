@@ -201,8 +201,8 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   changed |=
       ImGui::SliderFloat("normal offset", &s.shadow.normalOffsetTexels, 0.0f, 4.0f, "%.2f texels");
   changed |= ImGui::SliderFloat("ambient", &s.ambient, 0.0f, 1.0f);
-  changed |= ImGui::Checkbox("stabilise", &s.shadow.stabilize);
-  changed |= ImGui::Checkbox("size ladder", &s.shadow.sizeLadder);
+  changed |= ImGui::Checkbox("stabilise", &s.shadow.diagnostics.stabilize);
+  changed |= ImGui::Checkbox("size ladder", &s.shadow.diagnostics.sizeLadder);
   bool tight = s.shadow.boxFit == csm::BoxFit::kTight;
   if (ImGui::Checkbox("tight box", &tight)) {
     s.shadow.boxFit = tight ? csm::BoxFit::kTight : csm::BoxFit::kSphere;
@@ -210,7 +210,7 @@ bool settingsPanel(world::AppSettings& s, const std::string& error) {
   }
   changed |= ImGui::Checkbox("receiver splits", &s.receiverSplits);
   changed |= ImGui::Checkbox("thin casters widened", &s.thinCasters);
-  changed |= ImGui::Checkbox("cull closed casters", &s.cullClosedCasters);
+  changed |= ImGui::Checkbox("cull closed casters", &s.shadow.diagnostics.cullClosedCasters);
   changed |= ImGui::Checkbox("caster LODs", &s.casterLods);
   changed |= ImGui::Checkbox("depth pre-pass", &s.depthPrepass);
   changed |= ImGui::Checkbox("deferred shading", &s.deferred);

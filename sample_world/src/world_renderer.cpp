@@ -358,10 +358,9 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   options.consumerStages = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
   // The cache needs stabilised cascades (texels fixed in the world); the unstabilised comparison
   // mode renders every frame in full instead of being refused.
-  options.cache = settings.shadowCache && settings.shadow.stabilize;
+  options.cache = settings.shadowCache && settings.shadow.diagnostics.stabilize;
   options.cacheBudgetTexels = settings.cacheBudgetTexels;
   options.thinCasterWidenTexels = settings.thinCasters ? settings.thinWidenTexels : 0.0f;
-  options.cullClosedCasters = settings.cullClosedCasters;
   if (settings.casterLods) {
     for (std::uint32_t c = 0; c < csm::kMaxCascades; ++c) {
       options.cascadeLod[c] = std::min(settings.cascadeLod[c], kLodCount - 1);
@@ -377,9 +376,9 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
                                                   : csm::vk::ReceiverFit::kSplits;
   const csm::vk::Status s = shadow_->setSettings(effectiveShadow(settings), options);
   if (!s.ok()) return s.message();
-  const bool resetHistory = !applied_ ||
-                            settings.shadow.cascadeCount != settings_.shadow.cascadeCount ||
-                            settings.shadow.stabilize != settings_.shadow.stabilize;
+  const bool resetHistory =
+      !applied_ || settings.shadow.cascadeCount != settings_.shadow.cascadeCount ||
+      settings.shadow.diagnostics.stabilize != settings_.shadow.diagnostics.stabilize;
   settings_ = settings;
   applied_ = true;
   // (A change of the receiver fit drops the earlier ranges in the view itself.)

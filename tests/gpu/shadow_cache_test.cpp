@@ -110,20 +110,24 @@ class CacheRig {
 
   /// Adds a view: cached, or the reference (cached but fully re-rendered every frame).
   ViewRig& addView(std::uint64_t budgetTexels = 0,
-                   csm::vk::CacheRestore restore = csm::vk::CacheRestore::kRedraw) {
+                   csm::CacheRestore restore = csm::CacheRestore::kRedraw) {
     csm::vk::RendererOptions options;
     options.cache = true;
     options.renderMode = csm::vk::RenderMode::kPerLayer;
     options.cacheBudgetTexels = budgetTexels;
-    options.cacheRestore = restore;
-    return addView(options);
+    csm::ShadowDiagnostics diagnostics;
+    diagnostics.cacheRestore = restore;
+    return addView(options, diagnostics);
   }
 
-  /// Adds a view drawn with `options` (the cascades, distance and scene of every view).
-  ViewRig& addView(const csm::vk::RendererOptions& options) {
+  /// Adds a view drawn with `options` and `diagnostics` (the cascades, distance and scene of
+  /// every view).
+  ViewRig& addView(const csm::vk::RendererOptions& options,
+                   const csm::ShadowDiagnostics& diagnostics = {}) {
     ViewRig rig;
     rig.view = glue::createShadowView(*ctx_);
     csm::ShadowSettings settings;
+    settings.diagnostics = diagnostics;
     settings.cascadeCount = kCascades;
     settings.resolution = kResolution;
     settings.shadowDistanceM = 120.0;
@@ -296,9 +300,9 @@ TEST_P(CacheFlight, EveryFrameBitIdenticalToFullRender) {
   // "path" or "path_restore": the cached view restores its layers by redraw (the default), by
   // rectangle copies or by whole-layer copies.
   const std::string path = GetParam().substr(0, GetParam().find('_'));
-  csm::vk::CacheRestore restore = csm::vk::CacheRestore::kRedraw;
-  if (GetParam().ends_with("_copyrects")) restore = csm::vk::CacheRestore::kCopyRects;
-  if (GetParam().ends_with("_wholelayer")) restore = csm::vk::CacheRestore::kWholeLayer;
+  csm::CacheRestore restore = csm::CacheRestore::kRedraw;
+  if (GetParam().ends_with("_copyrects")) restore = csm::CacheRestore::kCopyRects;
+  if (GetParam().ends_with("_wholelayer")) restore = csm::CacheRestore::kWholeLayer;
   CacheRig rig;
   rig.addView(0, restore);
   rig.addView();
@@ -379,7 +383,7 @@ TEST_P(CacheFlight, EveryFrameBitIdenticalToFullRender) {
       100.0 * double(copiedTexels) / double(std::max<std::uint64_t>(copiedLayers * layer, 1)));
   std::printf("[cache] %s: %llu draws saved by drawing a caster once over several rectangles\n",
               GetParam().c_str(), static_cast<unsigned long long>(mergedDraws));
-  if (restore != csm::vk::CacheRestore::kWholeLayer) {
+  if (restore != csm::CacheRestore::kWholeLayer) {
     EXPECT_LT(copiedTexels * 4, copiedLayers * layer);
   }
 }
@@ -415,11 +419,11 @@ TEST(ShadowCache, InvalidatedBoxRerendersOnlyItsTexels) {
   EXPECT_FALSE(rig.views_[0].view->invalidate({{0.0, 0.0, 0.0}, {-1.0, 1.0, 1.0}}).ok());
   csm::ShadowSettings settings = rig.views_[0].view->settings();
   csm::vk::RendererOptions options = rig.views_[0].view->options();
-  settings.stabilize = false;
+  settings.diagnostics.stabilize = false;
   csm::vk::Status s = rig.views_[0].view->setSettings(settings, options);
   EXPECT_EQ(s.code(), csm::vk::ErrorCode::kInvalidArgument);
   EXPECT_NE(s.message().find("stabilize"), std::string::npos) << s.message();
-  settings.stabilize = true;
+  settings.diagnostics.stabilize = true;
   options.renderMode = csm::vk::RenderMode::kLayered;
   s = rig.views_[0].view->setSettings(settings, options);
   EXPECT_EQ(s.code(), csm::vk::ErrorCode::kInvalidArgument);
@@ -679,8 +683,8 @@ TEST(ShadowCacheTiming, DISABLED_CopyRectsVsWholeLayer) {
   const int frames = std::max(4, flightFrames() / 4);
   const char* bEnv = std::getenv("CSM_CACHE_TIMING_B");
   const bool copyRects = bEnv != nullptr && std::string(bEnv) == "copyrects";
-  const csm::vk::CacheRestore restoreB =
-      copyRects ? csm::vk::CacheRestore::kCopyRects : csm::vk::CacheRestore::kRedraw;
+  const csm::CacheRestore restoreB =
+      copyRects ? csm::CacheRestore::kCopyRects : csm::CacheRestore::kRedraw;
   std::array<std::unique_ptr<csm::vk::ShadowView>, 2> views;
   for (std::size_t v = 0; v < 2; ++v) {
     views[v] = glue::createShadowView(*rig.ctx_);
@@ -691,7 +695,7 @@ TEST(ShadowCacheTiming, DISABLED_CopyRectsVsWholeLayer) {
     csm::vk::RendererOptions options;
     options.cache = true;
     options.renderMode = csm::vk::RenderMode::kPerLayer;
-    options.cacheRestore = v == 0 ? csm::vk::CacheRestore::kWholeLayer : restoreB;
+    settings.diagnostics.cacheRestore = v == 0 ? csm::CacheRestore::kWholeLayer : restoreB;
     ASSERT_TRUE(views[v]->setSettings(settings, options).ok());
     const csm::AabbWs scene{{-200, -1, -200}, {200, 20, 200}};
     ASSERT_TRUE(views[v]->setSceneBounds(&scene).ok());
@@ -758,8 +762,9 @@ TEST(ClosedCasters, CullingKeepsEveryTexelsDepth) {
       names.push_back("layered");
     }
     for (bool cull : {true, false}) {
-      options.cullClosedCasters = cull;
-      rig.addView(options);
+      csm::ShadowDiagnostics diagnostics;
+      diagnostics.cullClosedCasters = cull;
+      rig.addView(options, diagnostics);
     }
   }
   const std::size_t views = rig.views_.size();

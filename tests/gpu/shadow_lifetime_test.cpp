@@ -365,7 +365,7 @@ TEST(ShadowView, CachedAndUncachedPassesPackTheDepthFormatsQuantum) {
       options.depthFormat = VK_FORMAT_D16_UNORM;
       options.cache = cache;
       csm::ShadowSettings settings = testSettings(4, 512);
-      settings.stabilize = stabilize;
+      settings.diagnostics.stabilize = stabilize;
       CSM_ASSERT_OK(scene.update(settings, options));
       (void)scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
       EXPECT_EQ(scene.renderer().uniforms().depthFloorQuantum, csm::depthQuantum(16));
@@ -389,7 +389,7 @@ TEST(ShadowView, OutOfRangeValuesAndMismatchedFramesAreRefusedByName) {
     const bool cpu = scene.context().properties().deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU;
     EXPECT_EQ(scene.renderer().renderMode(), csm::vk::RenderMode::kPerLayer);
     csm::ShadowSettings unstable = testSettings(2, 512);
-    unstable.stabilize = false;
+    unstable.diagnostics.stabilize = false;
     CSM_ASSERT_OK(view.setSettings(unstable));
     EXPECT_EQ(scene.renderer().renderMode(), !cpu && scene.context().features().shaderOutputLayer
                                                  ? csm::vk::RenderMode::kLayered

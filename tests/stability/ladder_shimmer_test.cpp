@@ -116,7 +116,7 @@ struct ModeResult {
 
 csm::ShadowSettings modeSettings(Mode m) {
   csm::ShadowSettings s = testSettings(m != Mode::kUnstabilised);
-  s.sizeLadder = m == Mode::kLadder;
+  s.diagnostics.sizeLadder = m == Mode::kLadder;
   s.lightStepDeg = m == Mode::kLadder ? 0.5 : 0.0;
   return s;
 }

@@ -119,7 +119,7 @@ inline csm::ShadowSettings planeSettings(bool stabilize) {
   s.cascadeCount = 4;
   s.resolution = 1024;
   s.shadowDistanceM = 200.0;
-  s.stabilize = stabilize;
+  s.diagnostics.stabilize = stabilize;
   return s;
 }
 

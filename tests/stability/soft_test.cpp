@@ -831,7 +831,7 @@ TEST(SoftShadows, PcssStabilisedShimmerStaysBelowOneStep) {
       for (const auto& [name, path] : paths) {
         Run run{name, distance, {}, {}};
         for (bool stabilize : {true, false}) {
-          settings.stabilize = stabilize;
+          settings.diagnostics.stabilize = stabilize;
           CSM_ASSERT_STATUS(harness->configure(settings));
           (stabilize ? run.stabilised : run.unstabilised) = csm_measure::measureShimmer(
               *harness, receivers, light, path, 20, csm::PcfKernel::kPcss);

@@ -55,7 +55,7 @@ inline csm::ShadowSettings testSettings(bool stabilize) {
   s.shadowDistanceM = 120.0;
   s.splitLambda = 0.6;
   s.blendBand = 0.1;
-  s.stabilize = stabilize;
+  s.diagnostics.stabilize = stabilize;
   return s;
 }
 

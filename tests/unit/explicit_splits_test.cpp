@@ -29,7 +29,7 @@ TEST(ExplicitSplits, PlaceTheSplitsAtTheGivenFractionsOfTheRange) {
     }
   }
   // The ladder off: exactly where they are asked for.
-  s.sizeLadder = false;
+  s.diagnostics.sizeLadder = false;
   const CascadeFrame f = test::computeOrDie(s, cam, DirectionalLight{});
   const double n = f.splitsM[0], far = f.splitsM[4];
   EXPECT_EQ(n, cam.nearM);

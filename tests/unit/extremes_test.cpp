@@ -73,7 +73,7 @@ TEST(Extremes, AllCombinationsFiniteAndContained) {
       for (const glm::dvec3& pos : positions) {
         for (bool stabilize : {true, false}) {
           ShadowSettings s = settingsFor(e);
-          s.stabilize = stabilize;
+          s.diagnostics.stabilize = stabilize;
           // The camera looks along -Z: lights (0,0,-1) and (0,0,1) are along and against
           // the view; (0,-1,0) and (0,1,0) straight down and up.
           const Camera cam = cameraFor(e, pos, {0, 0, -1});

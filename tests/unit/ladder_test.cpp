@@ -151,7 +151,7 @@ RunStats runMotion(const Motion& m, const glm::dvec3& origin, bool ladderOn, boo
   for (int f = 0; f < m.frames; ++f) {
     Camera cam = baseCamera(origin);
     ShadowSettings s = baseSettings();
-    s.sizeLadder = ladderOn;
+    s.diagnostics.sizeLadder = ladderOn;
     if (boxFitTight) s.boxFit = BoxFit::kTight;
     DirectionalLight light = baseLight;
     m.apply(cam, s, light, double(f) / double(m.frames - 1));

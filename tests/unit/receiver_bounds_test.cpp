@@ -330,7 +330,7 @@ TEST(ReceiverBounds, FallsBackToTheBoxWithoutBounds) {
   expectSameBoxes(noBoundsFar.value(), plainFar.value());
   // Unstabilised (the comparison mode) ignores them.
   ShadowSettings u = s;
-  u.stabilize = false;
+  u.diagnostics.stabilize = false;
   auto ua = computeCascades(u, cam, light, nullptr, nullptr, &r.range);
   range = r.range;
   range.lightBounds = ReceiverLightBounds{};

@@ -79,7 +79,7 @@ TEST(Splits, SceneThatEndsAt300mGetsNoCascadePastIt) {
   EXPECT_LE(f.splitsM[4], reachM * std::exp2(1.0 / 16.0) + 1e-9);
   for (std::uint32_t i = 0; i < 4; ++i) EXPECT_FALSE(f.cascades[i].empty);
   // Unstabilised, at the far edge of the box 300 m ahead (the corner's depth along the view).
-  s.stabilize = false;
+  s.diagnostics.stabilize = false;
   const CascadeFrame g = test::computeOrDie(s, cam, light, &scene);
   EXPECT_GE(g.splitsM[4], 300.0);
   EXPECT_LE(g.splitsM[4], 300.0 * std::exp2(1.0 / 16.0) + 1e-9);

@@ -112,7 +112,7 @@ INSTANTIATE_TEST_SUITE_P(Origins, TranslationTest,
 TEST(Stability, UnstabilisedModeMovesBySubTexelAmounts) {
   // The comparison mode must actually differ: a sub-texel move shifts its grid fractionally.
   ShadowSettings s;
-  s.stabilize = false;
+  s.diagnostics.stabilize = false;
   Camera cam;
   DirectionalLight light{{-0.3, -0.9, 0.2}};
   const CascadeFrame a = test::computeOrDie(s, cam, light);

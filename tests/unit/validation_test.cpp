@@ -58,6 +58,8 @@ const Case kCases[] = {
     {"bandNeg", "settings.blendBand", [](auto& s, auto&, auto&) { s.blendBand = -0.01; }},
     {"bandBig", "settings.blendBand", [](auto& s, auto&, auto&) { s.blendBand = 0.51; }},
     {"fadeNeg", "settings.fadeFraction", [](auto& s, auto&, auto&) { s.fadeFraction = -0.01; }},
+    {"cacheRestore3", "settings.diagnostics.cacheRestore",
+     [](auto& s, auto&, auto&) { s.diagnostics.cacheRestore = static_cast<CacheRestore>(3); }},
     {"fadeBig", "settings.fadeFraction", [](auto& s, auto&, auto&) { s.fadeFraction = 1.01; }},
     {"fadeNaN", "settings.fadeFraction", [](auto& s, auto&, auto&) { s.fadeFraction = kNaN; }},
     {"biasNeg", "settings.depthBiasConstant",
@@ -204,7 +206,7 @@ TEST(Validation, TexelsTooSmallForTheDistanceFromTheOriginRefused) {
   EXPECT_EQ(r.error().field, "camera.positionWs (distance from the origin)");
   EXPECT_NE(r.error().message().find("texels of"), std::string::npos) << r.error().message();
   EXPECT_EQ(history.frames, frames);
-  s.stabilize = false;
+  s.diagnostics.stabilize = false;
   EXPECT_TRUE(computeCascades(s, c, l).ok());
 }
 

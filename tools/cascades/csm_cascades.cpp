@@ -128,11 +128,11 @@ Options parse(int argc, char** argv) {
       std::exit(0);
     }
     if (flag == "--unstable") {
-      o.settings.stabilize = false;
+      o.settings.diagnostics.stabilize = false;
       continue;
     }
     if (flag == "--no-ladder") {
-      o.settings.sizeLadder = false;
+      o.settings.diagnostics.sizeLadder = false;
       continue;
     }
     if (flag == "--json") {
@@ -256,7 +256,7 @@ nlohmann::json cascadeJson(const csm::Cascade& k, const Options& o, std::uint32_
           ? (k.halfExtentLs.x * k.halfExtentLs.y) / (k.neededHalfExtentM * k.neededHalfExtentM)
           : 1.0;
   j["texel_size_m"] = k.texelSizeM();
-  j["fit"] = !o.settings.stabilize ? "unstabilised" : (k.tightFit ? "tight" : "sphere");
+  j["fit"] = !o.settings.diagnostics.stabilize ? "unstabilised" : (k.tightFit ? "tight" : "sphere");
   j["size_rung"] = rungJson(k.sizeRung);
   j["depth_rung"] = rungJson(k.depthRung);
   j["split_far_rung"] = rungJson(k.splitFarRung);
@@ -282,8 +282,8 @@ nlohmann::json frameJson(const csm::CascadeFrame& f, const Options& o, const csm
   j["light_direction_ws"] = vec3Json(f.lightDirectionWs);
   j["light_stepped"] = f.lightStepped;
   j["resolution"] = f.resolution;
-  j["stabilised"] = o.settings.stabilize;
-  j["size_ladder"] = o.settings.stabilize && o.settings.sizeLadder;
+  j["stabilised"] = o.settings.diagnostics.stabilize;
+  j["size_ladder"] = o.settings.diagnostics.stabilize && o.settings.diagnostics.sizeLadder;
   j["ladder_steps_per_octave"] = o.settings.ladderStepsPerOctave;
   j["ladder_hysteresis_steps"] = o.settings.ladderHysteresisSteps;
   j["receiver_driven"] = f.receiverDriven;
@@ -391,8 +391,9 @@ int main(int argc, char** argv) {
               c.x, c.y, c.z, f.cameraForwardWs.x, f.cameraForwardWs.y, f.cameraForwardWs.z,
               f.lightDirectionWs.x, f.lightDirectionWs.y, f.lightDirectionWs.z);
   std::printf("%u cascades of %u^2, %s, shadows end at %.3f m (shadow distance %.3f m)\n",
-              f.cascadeCount, f.resolution, o.settings.stabilize ? "stabilised" : "unstabilised",
-              f.shadowFarM, o.settings.shadowDistanceM);
+              f.cascadeCount, f.resolution,
+              o.settings.diagnostics.stabilize ? "stabilised" : "unstabilised", f.shadowFarM,
+              o.settings.shadowDistanceM);
   for (std::uint32_t i = 0; i < f.cascadeCount; ++i) {
     const csm::Cascade& k = f.cascades[i];
     std::printf("\ncascade %u%s: view depth [%.4f, %.4f) m\n", i, k.empty ? " (empty)" : "",

@@ -75,7 +75,7 @@ struct Config {
   std::vector<uint32_t> schedule;
   /// RendererOptions::lodMaxErrorTexels when `lods` (0: the schedule alone).
   float maxErrorTexels = csm::vk::RendererOptions{}.lodMaxErrorTexels;
-  /// RendererOptions::cullClosedCasters: closed casters' faces turned away from the light culled
+  /// ShadowDiagnostics::cullClosedCasters: closed casters' faces turned away from the light culled
   /// in the depth pass (the default; the same map, fewer triangles rasterised).
   bool cullClosed = true;
   /// The LODs column: on (the default), off, a schedule "0122" and/or an error budget "e0.25".

@@ -171,7 +171,8 @@ csm::ShadowSettings settingsOf(const Config& cfg) {
   s.boxFit = cfg.fit;
   s.receiverSplitScheme =
       cfg.histogram ? csm::ReceiverSplitScheme::kHistogram : csm::ReceiverSplitScheme::kRange;
-  s.sizeLadder = cfg.ladderSteps > 0.0;
+  s.diagnostics.sizeLadder = cfg.ladderSteps > 0.0;
+  s.diagnostics.cullClosedCasters = cfg.cullClosed;
   if (cfg.ladderSteps > 0.0) s.ladderStepsPerOctave = cfg.ladderSteps;
   return s;
 }
@@ -180,7 +181,6 @@ csm::vk::RendererOptions rendererOptionsOf(const Config& cfg) {
   csm::vk::RendererOptions ro;
   ro.depthFormat = cfg.format;
   ro.lodMaxErrorTexels = cfg.lods ? cfg.maxErrorTexels : 0.0f;
-  ro.cullClosedCasters = cfg.cullClosed;
   return ro;
 }
 

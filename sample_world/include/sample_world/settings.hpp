@@ -54,10 +54,6 @@ struct AppSettings {
   /// wider than a pixel (shadows/docs/thin_casters.md).
   bool thinCasters = true;
   float thinWidenTexels = 0.0625f;
-  /// Closed caster clusters (World's CasterCluster::closed) drawn in the depth pass without
-  /// their faces turned away from the light (csm::vk::RendererOptions::cullClosedCasters): the
-  /// same shadows, fewer triangles rasterised.
-  bool cullClosedCasters = true;
   /// Sun direction: azimuth from +x toward +z, elevation above the horizon, degrees.
   double lightAzimuthDeg = 140.0;
   double lightElevationDeg = 32.0;

@@ -42,7 +42,8 @@ struct Cascade {
   /// True when no receiver of the scene lies in this cascade: neither rendered nor sampled.
   bool empty = false;
 
-  // ---- The size ladder (set in stabilised mode with settings.sizeLadder; else kNoRung) ----
+  // ---- The size ladder (set in stabilised mode with settings.diagnostics.sizeLadder; else
+  // kNoRung) ----
   /// Rung of the box half side (halfExtentLs = ladderValue(sizeRung)), of the depth range's far
   /// side (depthFarLs = ladderValue(depthRung), x 9/8 with depthAnchored: the anchor's margin) and
   /// of this cascade's far split (kNoRung for the last cascade, which ends at the shadow far
@@ -129,7 +130,8 @@ struct CascadeHistory {
   std::array<double, kMaxCascades> depthNearLs{};
   std::uint32_t cascadeCount = 0;
 
-  // The ladder's state (settings.sizeLadder): last frame's rungs, kNoRung before the first.
+  // The ladder's state (settings.diagnostics.sizeLadder): last frame's rungs, kNoRung before the
+  // first.
   std::array<int, kMaxCascades> sizeRung = detail::noRungs<kMaxCascades>();
   std::array<int, kMaxCascades> depthRung = detail::noRungs<kMaxCascades>();
   std::array<int, kMaxCascades + 1> splitRung = detail::noRungs<kMaxCascades + 1>();

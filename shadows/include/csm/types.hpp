@@ -87,6 +87,50 @@ enum class PcfKernel : std::uint32_t {
   return k == PcfKernel::kVsm || k == PcfKernel::kEvsm || k == PcfKernel::kMsm;
 }
 
+/// How a cached cascade's sampled layer is restored to the static depth
+/// (ShadowDiagnostics::cacheRestore). Whatever the choice, a new window or a change over most of
+/// the layer copies the whole layer.
+enum class CacheRestore : std::uint8_t {
+  /// Copy the whole static layer whenever anything in the cascade changed (dynamic casters
+  /// included): the simplest scheme.
+  kWholeLayer,
+  /// Copy only the changed rectangles. Measured 1.8x slower than kWholeLayer and 5x slower than
+  /// kRedraw on lavapipe (its partial depth copies cost more than whole ones;
+  /// shadows/docs/cache.md).
+  kCopyRects,
+  /// Clear the changed rectangles and draw the static casters over them again, scissored,
+  /// in the dynamic casters' pass: no copy. Bit-identical (a texel is always rasterised with the
+  /// same vertices, viewport and tile). The default: measured fastest.
+  kRedraw,
+};
+
+/// The switches that exist to measure the module against itself, in one group: each turns off
+/// (or swaps out) something that keeps the shadows stable, exact or cheap. A host leaves them at
+/// their defaults; the tests, the trade-off sweep and the fly-through's comparison keys change
+/// them. The shipping choices (filter, cache, LODs, bias) are ShadowSettings' and
+/// RendererOptions' other fields.
+struct ShadowDiagnostics {
+  /// Stabilised cascades (bounding sphere, whole-texel snapping). Off: tight fit, no snap
+  /// (shimmers; the baseline the shimmer tests compare with). The cache needs it on.
+  bool stabilize = true;
+  /// The size ladder (ShadowSettings::ladderStepsPerOctave; stabilised mode only). Off: sizes
+  /// follow their inputs continuously (the texel size changes on every frame such an input
+  /// moves).
+  bool sizeLadder = true;
+  /// Cached cascades: how the sampled layer gets the static depth back where it changed (the
+  /// rectangles re-rendered this frame and those dynamic casters covered last frame) before the
+  /// dynamic casters are drawn. Every choice gives the same depth; only the cost differs.
+  CacheRestore cacheRestore = CacheRestore::kRedraw;
+  /// Where the renderer's cullMode is none: casters flagged CasterInstance::closed are drawn with
+  /// their faces turned away from the light culled. Along any light ray the nearest surface of
+  /// a closed caster faces the light, so every texel keeps its depth while about half of those
+  /// triangles are not rasterised; up to float rounding: a back face's depth plane evaluated at
+  /// a silhouette texel can round a few ulps nearer than the front face's (test
+  /// ClosedCasters.CullingKeepsEveryTexelsDepth, per-layer, layered and cached). False draws
+  /// them like every other caster.
+  bool cullClosedCasters = true;
+};
+
 /// What a host sets once and changes rarely. Every field is checked by validate(); nothing is
 /// clamped silently.
 struct ShadowSettings {
@@ -129,9 +173,6 @@ struct ShadowSettings {
   /// depth format's own quantum (added automatically: one step of D16, 16 ulp of D32). It is the
   /// only bias left where the light meets a surface head-on (no slope, no normal offset). [0, 16].
   float depthFloorTexels = 0.25f;
-  /// Stabilised cascades (bounding sphere, whole-texel snapping). Off: tight fit, no snap
-  /// (shimmers; kept for comparison).
-  bool stabilize = true;
   /// Casters whose bounds span fewer than this many texels of a cascade are not drawn into it
   /// (they cannot show there). 0 turns the test off. [0, 1e6].
   float minCasterTexels = 0.0f;
@@ -150,13 +191,11 @@ struct ShadowSettings {
     return false;
   }
 
-  // ---- The size ladder (stabilised mode only) ----
+  // ---- The size ladder (stabilised mode only; ShadowDiagnostics::sizeLadder) ----
   /// Every length that sets a cascade's extent or texel size (box half side, depth range, the
   /// interior split distances) takes only values 2^(k / ladderStepsPerOctave) metres,
   /// with hysteresis kept in CascadeHistory, so a zoom, a resize, a near-plane or a lambda change
-  /// changes a texel size only at rare rung events. Off: sizes follow their inputs continuously
-  /// (kept for comparison; the texel size changes on every frame such an input moves).
-  bool sizeLadder = true;
+  /// changes a texel size only at rare rung events.
   /// Rungs per doubling, [1, 64]: 8 gives steps of 2^(1/8) = 9.05%.
   double ladderStepsPerOctave = 8.0;
   /// How far, in rungs, a length must move past a rung before the ladder leaves it, [0, 8].
@@ -226,6 +265,9 @@ struct ShadowSettings {
   /// distribution by this weight, so the reconstruction never divides by a vanishing variance
   /// (32-bit float moments). [1e-7, 0.01].
   float msmMomentBias = 3e-5f;
+
+  /// Comparison-only switches (see ShadowDiagnostics): leave at their defaults to ship.
+  ShadowDiagnostics diagnostics;
 };
 
 /// Receiver pixels counted per view-depth bin, log-spaced: bin i covers view depths

@@ -258,7 +258,7 @@ std::array<int, kMaxCascades + 1> splitDistances(const FrameInputs& in,
   if (receivers != nullptr && settings.receiverSplitScheme == ReceiverSplitScheme::kHistogram &&
       !settings.explicitSplits()) {
     const SliceBoxModel model{&in.camera, in.basisT,
-                              settings.stabilize && settings.boxFit == BoxFit::kTight};
+                              settings.diagnostics.stabilize && settings.boxFit == BoxFit::kTight};
     SplitArray previous{};
     bool havePrevious = in.ladder && history != nullptr;
     for (std::uint32_t i = 1; havePrevious && i < count; ++i) {
@@ -487,7 +487,8 @@ void fitCascade(const FrameInputs& in, const SceneDepth& scene, const CascadeFra
   c.sphereRadiusM = quantizeLengthUp(sphere.radiusM);
   c.sphereCenterWs = camera.positionWs + frame.cameraForwardWs * sphere.centerDepthM;
 
-  double depthNearLs = in.settings.stabilize ? fitStableBox(in, i, c) : fitUnstableBox(in, c);
+  double depthNearLs =
+      in.settings.diagnostics.stabilize ? fitStableBox(in, i, c) : fitUnstableBox(in, c);
   depthNearLs = extendedDepthNear(in, scene, i, c, depthNearLs);
   if (in.history != nullptr) in.history->depthNearLs[i] = depthNearLs;
   c.depthNearLs = depthNearLs;
@@ -558,7 +559,7 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   FrameInputs in{settings, camera, history};
   in.basis = frame.lightBasisWs;
   in.basisT = glm::transpose(in.basis);
-  in.ladder = settings.stabilize && settings.sizeLadder;
+  in.ladder = settings.diagnostics.stabilize && settings.diagnostics.sizeLadder;
   in.steps = settings.ladderStepsPerOctave;
   in.hysteresis = settings.ladderHysteresisSteps;
   in.res = static_cast<double>(settings.resolution);
@@ -579,7 +580,7 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   // and re-sizes no box (the depth along the view would step the last cascade's texel).
   const double minFarM =
       std::min(maxFarM, (splitNearM > camera.nearM ? kMinSpanRatio : 2.0) * splitNearM);
-  const double sceneFarM = settings.stabilize ? scene.reachM : scene.maxM;
+  const double sceneFarM = settings.diagnostics.stabilize ? scene.reachM : scene.maxM;
   const double neededFarM =
       std::min(scene.ahead ? std::min(maxFarM, sceneFarM) : maxFarM, receiverFarM);
   frame.shadowFarM = quantizedShadowFar(neededFarM, maxFarM, minFarM,
@@ -592,14 +593,14 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
 
   // Receiver-driven boxes: the visible receivers' light-space bounds, when taken with this
   // frame's splits and light basis.
-  if (receivers != nullptr && settings.stabilize &&
+  if (receivers != nullptr && settings.diagnostics.stabilize &&
       receiverBoundsApply(receivers->lightBounds, count, in.basis)) {
     in.receiverBounds = &receivers->lightBounds;
   }
   for (std::uint32_t i = 0; i < count; ++i) {
     fitCascade(in, scene, frame, i, i + 1 < count ? splitRungs[i + 1] : kNoRung, frame.cascades[i]);
   }
-  if (settings.stabilize) {
+  if (settings.diagnostics.stabilize) {
     if (auto e = gridPrecision(frame, camera)) {
       if (history != nullptr) *history = before;
       return *e;

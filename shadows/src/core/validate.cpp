@@ -122,6 +122,13 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
     return refuse("settings.receiverSplitScheme", static_cast<double>(s.receiverSplitScheme),
                   "0 (range) or 1 (histogram)");
   }
+  if (!(s.diagnostics.cacheRestore == CacheRestore::kWholeLayer ||
+        s.diagnostics.cacheRestore == CacheRestore::kCopyRects ||
+        s.diagnostics.cacheRestore == CacheRestore::kRedraw)) {
+    return refuse("settings.diagnostics.cacheRestore",
+                  static_cast<double>(s.diagnostics.cacheRestore),
+                  "0 (whole layer), 1 (copy rects) or 2 (redraw)");
+  }
   if (!(s.fadeFraction >= 0.0 && s.fadeFraction <= 1.0)) {
     return refuse("settings.fadeFraction", s.fadeFraction,
                   "a fraction of the shadow distance in [0, 1] (0: no fade)");

@@ -254,7 +254,7 @@ Status ShadowRenderer::Impl::checkCacheOptions(const ShadowSettings& settings,
 
 bool ShadowRenderer::Impl::windowedFor(const ShadowSettings& settings,
                                        const RendererOptions& options, RenderMode mode) noexcept {
-  return options.cache || (settings.stabilize && mode == RenderMode::kPerLayer);
+  return options.cache || (settings.diagnostics.stabilize && mode == RenderMode::kPerLayer);
 }
 
 void ShadowRenderer::Impl::applyCacheWindows(CascadeFrame& frame) {
@@ -776,7 +776,7 @@ bool ShadowRenderer::Impl::planRestore(CachedPass& pass, std::uint32_t i, bool f
   CascadeCacheStats& st = cacheStats_[i];
   pass.copyParts.clear();
   pass.redrawParts.clear();
-  bool whole = full || options_.cacheRestore == CacheRestore::kWholeLayer;
+  bool whole = full || settings_.diagnostics.cacheRestore == CacheRestore::kWholeLayer;
   if (!whole) {
     for (const TexelRect& r : pass.dirty) {
       split(sh.window, res, r, pass.layerRects);
@@ -787,7 +787,7 @@ bool ShadowRenderer::Impl::planRestore(CachedPass& pass, std::uint32_t i, bool f
             totalArea(pass.copyParts) * 4 >= 3 * std::uint64_t(res * res);
   }
   if (whole) pass.copyParts.assign(1, TexelRect{0, 0, res, res});
-  if (!whole && options_.cacheRestore == CacheRestore::kRedraw) {
+  if (!whole && settings_.diagnostics.cacheRestore == CacheRestore::kRedraw) {
     // The restored rectangles, with the block each lies in (as the box's own split).
     split(sh.window, res, pass.boxes[i], pass.layerRects);
     for (const TexelRect& p : pass.copyParts) {

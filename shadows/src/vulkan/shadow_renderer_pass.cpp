@@ -268,7 +268,7 @@ void ShadowRenderer::Impl::beginDepthRendering(VkCommandBuffer cmd, VkImageView 
 void ShadowRenderer::Impl::setCasterCull(VkCommandBuffer cmd, const CasterInstance& instance) {
   VkCullModeFlags cull = options_.cullMode;
   VkFrontFace front = options_.frontFace;
-  if (cull == VK_CULL_MODE_NONE && options_.cullClosedCasters && instance.closed &&
+  if (cull == VK_CULL_MODE_NONE && settings_.diagnostics.cullClosedCasters && instance.closed &&
       !instance.thin) {
     const float det = glm::determinant(instance.linearWs);
     if (det != 0.0f) {

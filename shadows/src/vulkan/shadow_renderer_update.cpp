@@ -84,7 +84,7 @@ Status ShadowRenderer::Impl::resolveOptions(const ShadowSettings& settings,
     // README). Unstabilised: layered on a GPU; CPU rasterisers pay per draw, not per pass, so
     // per-layer there (measured faster on lavapipe).
     const bool gpu = properties_.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU;
-    mode = !settings.stabilize && gpu && device_.shaderOutputLayerEnabled &&
+    mode = !settings.diagnostics.stabilize && gpu && device_.shaderOutputLayerEnabled &&
                    settings.cascadeCount <= lim.maxFramebufferLayers
                ? RenderMode::kLayered
                : RenderMode::kPerLayer;
@@ -122,10 +122,11 @@ Status ShadowRenderer::Impl::resolveOptions(const ShadowSettings& settings,
   }
 
   if (s = checkCacheOptions(settings, options); !s.ok()) return s;
-  if (options.cache && !settings.stabilize) {
-    return Status(ErrorCode::kInvalidArgument,
-                  "options.cache = true needs settings.stabilize = true (cached texels must be "
-                  "fixed in the world: boxes snapped to whole texels)");
+  if (options.cache && !settings.diagnostics.stabilize) {
+    return Status(
+        ErrorCode::kInvalidArgument,
+        "options.cache = true needs settings.diagnostics.stabilize = true (cached texels must be "
+        "fixed in the world: boxes snapped to whole texels)");
   }
   if (options.cache && mode != RenderMode::kPerLayer) {
     if (options.renderMode == RenderMode::kAuto) {
@@ -204,7 +205,7 @@ Status ShadowRenderer::Impl::update(const ShadowSettings& settings,
        settings.depthBiasSlope != settings_.depthBiasSlope ||
        settings.minCasterTexels != settings_.minCasterTexels ||
        options.cullMode != options_.cullMode || options.frontFace != options_.frontFace ||
-       options.cullClosedCasters != options_.cullClosedCasters ||
+       settings.diagnostics.cullClosedCasters != settings_.diagnostics.cullClosedCasters ||
        options.cascadeLod != options_.cascadeLod ||
        options.lodMaxErrorTexels != options_.lodMaxErrorTexels ||
        options.thinCasterWidenTexels != options_.thinCasterWidenTexels)) {

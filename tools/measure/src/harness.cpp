@@ -156,7 +156,7 @@ csm::vk::Status Harness::configure(const csm::ShadowSettings& settings,
   // once more so, ctest stability.cached.*), except where a layered pass is asked for.
   if (const char* cache = std::getenv("CSM_SHADOW_CACHE");
       cache != nullptr && std::string(cache) == "1" &&
-      options.renderMode != csm::vk::RenderMode::kLayered && settings.stabilize) {
+      options.renderMode != csm::vk::RenderMode::kLayered && settings.diagnostics.stabilize) {
     withLods.cache = true;
   }
   const csm::vk::Status s = view_->setSettings(settings, withLods);

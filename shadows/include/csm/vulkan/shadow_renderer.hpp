@@ -118,21 +118,6 @@ enum class RenderMode {
   kAuto,
 };
 
-/// How a cached cascade's sampled layer is restored to the static depth (RendererOptions).
-/// Whatever the choice, a new window or a change over most of the layer copies the whole layer.
-enum class CacheRestore {
-  /// Copy the whole static layer whenever anything in the cascade changed (dynamic casters
-  /// included): the simplest scheme.
-  kWholeLayer,
-  /// Copy only the changed rectangles. Measured 3.4x slower than kWholeLayer on lavapipe at
-  /// 4096^2 (its partial depth copies cost more than whole ones; see README).
-  kCopyRects,
-  /// Clear the changed rectangles and draw the static casters over them again, scissored,
-  /// in the dynamic casters' pass: no copy. Bit-identical (a texel is always rasterised with the
-  /// same vertices, viewport and tile). The default: measured fastest (README).
-  kRedraw,
-};
-
 /// The receiver fit of a ShadowView (RendererOptions::receiverFit): from the host's depth buffer
 /// (ShadowView::recordReceiverDepth), the view reduces the visible receivers on the GPU and fits
 /// the next frames' cascades to them (sample-distribution shadow maps).
@@ -156,14 +141,6 @@ struct RendererOptions {
   VkCullModeFlags cullMode = VK_CULL_MODE_NONE;
   /// Front face for cullMode.
   VkFrontFace frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE;
-  /// Where cullMode is VK_CULL_MODE_NONE: casters flagged CasterInstance::closed are drawn with
-  /// their faces turned away from the light culled. Along any light ray the nearest surface of
-  /// a closed caster faces the light, so every texel keeps its depth while about half of those
-  /// triangles are not rasterised; up to float rounding: a back face's depth plane evaluated at
-  /// a silhouette texel can round a few ulps nearer than the front face's (test
-  /// ClosedCasters.CullingKeepsEveryTexelsDepth, per-layer, layered and cached). False draws
-  /// them like every other caster (for comparison).
-  bool cullClosedCasters = true;
   /// See RenderMode.
   RenderMode renderMode = RenderMode::kAuto;
   /// Pipeline stages of the host that sample the shadow map and read the uniform block after the
@@ -185,10 +162,11 @@ struct RendererOptions {
   /// layers are addressed toroidally (texels fixed in the world, nothing is moved), each
   /// cascade's depth window is world-anchored; dynamic casters are drawn every frame over a copy
   /// of the static depth. csm.glsl reads the same world texels (wrap offsets in the uniforms).
-  /// Costs one more depth image of the same size (cacheBytes()). Needs settings.stabilize.
-  /// Stabilised per-layer cascades are drawn in the same world-anchored windows whether cached
-  /// or not (uncached, every texel is drawn every frame), so turning the cache on changes the
-  /// cost, never the depth: the layers are bit-identical either way (test CacheWorld.*).
+  /// Costs one more depth image of the same size (cacheBytes()). Needs
+  /// settings.diagnostics.stabilize. Stabilised per-layer cascades are drawn in the same
+  /// world-anchored windows whether cached or not (uncached, every texel is drawn every frame), so
+  /// turning the cache on changes the cost, never the depth: the layers are bit-identical either
+  /// way (test CacheWorld.*).
   bool cache = false;
   /// Cached cascades: the most static texels re-rendered per frame in the cascades beyond the
   /// first cacheExactCascades (which are always exact and not counted). A cascade whose refresh
@@ -200,10 +178,6 @@ struct RendererOptions {
   /// Cached cascades with a budget: how many cascades from the camera out are refreshed every
   /// frame whatever they cost, [1, kMaxCascades].
   std::uint32_t cacheExactCascades = 1;
-  /// Cached cascades: how the sampled layer gets the static depth back where it changed (the
-  /// rectangles re-rendered this frame and those dynamic casters covered last frame) before the
-  /// dynamic casters are drawn. See CacheRestore.
-  CacheRestore cacheRestore = CacheRestore::kRedraw;
   /// Casters flagged CasterInstance::thin are widened by this many texels on each side in the
   /// depth pass (a geometry shader; see csm_depth_thin.geom); [0, 4], 0 = off. Each texel of
   /// widening adds two texels of full shadow across the caster wherever it passes, whatever its
@@ -260,7 +234,7 @@ struct CasterInstance {
   bool thin = false;
   /// Every LOD mesh of this caster is closed: each connected part watertight, its triangles
   /// wound counter-clockwise seen from outside (the outward normal by the right-hand rule). The
-  /// depth pass then culls its faces turned away from the light (RendererOptions::
+  /// depth pass then culls its faces turned away from the light (ShadowDiagnostics::
   /// cullClosedCasters): a light ray enters a closed part through a face that looks at the
   /// light, and leaves through one that does not, so those never hold the nearest depth. A
   /// mirroring linearWs (negative determinant) is accounted for. Leave false (the default) for
@@ -496,7 +470,8 @@ class ShadowRenderer {
   /// range no longer fits) and rewrites the cascade's depth range and
   /// viewProjCr to that window's. Call it before culling (ShadowView does); the cached
   /// recordShadowPass refuses a frame it was not applied to (uncached, it windows a copy of the
-  /// frame itself). No-op unless the cascades are windowed (settings.stabilize, per-layer).
+  /// frame itself). No-op unless the cascades are windowed (settings.diagnostics.stabilize,
+  /// per-layer).
   void applyCacheWindows(CascadeFrame& frame);
   /// Marks the static depth under a world box stale in every cascade (a static caster added,
   /// removed or moved; terrain streamed in): only the texels under it are re-rendered at the
