@@ -6,6 +6,7 @@
 #include <string>
 
 #include "shadow_renderer_impl.hpp"
+#include "shadow_view_state.hpp"
 
 namespace csm::vk {
 
@@ -48,21 +49,95 @@ std::string handleText(CasterHandle h) {
 
 }  // namespace
 
+ShadowView::ShadowView() : state_(std::make_unique<State>()) {}
+
+ShadowView::~ShadowView() = default;
+
+Status ShadowView::setSettings(const ShadowSettings& settings) {
+  return setSettings(settings, state_->options_);
+}
+void ShadowView::setDebugMode(DebugMode mode) noexcept {
+  state_->renderer_->setDebugMode(mode);
+}
+DebugMode ShadowView::debugMode() const noexcept {
+  return state_->renderer_->debugMode();
+}
+Status ShadowView::prepare(VkCommandBuffer cmd) {
+  return state_->renderer_->prepare(cmd);
+}
+void ShadowView::setReceiverDepthRange(std::optional<ReceiverDepthRange> range) noexcept {
+  state_->receiverRange_ = range;
+}
+const std::optional<ReceiverDepthRange>& ShadowView::receiverDepthRange() const noexcept {
+  return state_->receiverRange_;
+}
+Status ShadowView::invalidate(const AabbWs& boxWs) {
+  return state_->renderer_->invalidate(boxWs);
+}
+void ShadowView::invalidateAll() noexcept {
+  state_->renderer_->invalidateAll();
+}
+void ShadowView::resetHistory() noexcept {
+  state_->history_ = {};
+}
+void ShadowView::setCascadeHook(CascadeHook hook) {
+  state_->renderer_->setCascadeHook(std::move(hook));
+}
+const LightingSpecialization& ShadowView::lightingSpecialization() const noexcept {
+  return state_->spec_;
+}
+const VkSpecializationInfo* ShadowView::lightingSpecializationInfo() const noexcept {
+  return &state_->specInfo_;
+}
+VkDescriptorSetLayout ShadowView::lightingSetLayout() const noexcept {
+  return state_->renderer_->lightingSetLayout();
+}
+VkDescriptorSet ShadowView::lightingSet() const noexcept {
+  return state_->renderer_->lightingSet();
+}
+const CascadeFrame& ShadowView::frame() const noexcept {
+  return state_->frame_;
+}
+const CullResult& ShadowView::cull() const noexcept {
+  return state_->cull_;
+}
+const ShadowSettings& ShadowView::settings() const noexcept {
+  return state_->settings_;
+}
+const RendererOptions& ShadowView::options() const noexcept {
+  return state_->options_;
+}
+std::size_t ShadowView::casterCount() const noexcept {
+  return state_->instances_.size();
+}
+std::span<const MeshDraw> ShadowView::meshes() const noexcept {
+  return state_->meshes_;
+}
+std::span<const CasterInstance> ShadowView::instances() const noexcept {
+  return state_->instances_;
+}
+ShadowRenderer& ShadowView::renderer() noexcept {
+  return *state_->renderer_;
+}
+const ShadowRenderer& ShadowView::renderer() const noexcept {
+  return *state_->renderer_;
+}
+
 std::unique_ptr<ShadowView> ShadowView::create(const DeviceInfo& device, const VertexLayout& layout,
                                                Status* status) {
   std::unique_ptr<ShadowView> view(new ShadowView());
-  view->renderer_ = ShadowRenderer::create(device, layout, status);
-  if (!view->renderer_) return nullptr;
-  view->device_ = device;
-  view->specInfo_ = view->spec_.info();
+  view->state_->renderer_ = ShadowRenderer::create(device, layout, status);
+  if (!view->state_->renderer_) return nullptr;
+  view->state_->device_ = device;
+  view->state_->specInfo_ = view->state_->spec_.info();
   return view;
 }
 
 Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOptions& options) {
   // Refused here rather than by every later frame: shadows must reach past the near plane of
   // the camera the view last computed for.
-  if (lastCamera_) {
-    if (auto e = csm::validate(settings, *lastCamera_, DirectionalLight{})) {
+  if (state_->lastCamera_) {
+    if (auto e = csm::validate(settings, *state_->lastCamera_, DirectionalLight{})) {
       return Status(ErrorCode::kInvalidArgument, e->message());
     }
   }
@@ -74,24 +149,24 @@ Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOpt
   }
   // The receiver fit's reduction, made before anything changes (a failure leaves the view whole).
   std::unique_ptr<DepthRangeReducer> reducer;
-  if (options.receiverFit != ReceiverFit::kOff && !reducer_) {
+  if (options.receiverFit != ReceiverFit::kOff && !state_->reducer_) {
     Status made;
-    reducer = DepthRangeReducer::create(device_, device_.framesInFlight, &made);
+    reducer = DepthRangeReducer::create(state_->device_, state_->device_.framesInFlight, &made);
     if (!reducer) return made;
   }
-  Status s = renderer_->update(settings, options);
+  Status s = state_->renderer_->update(settings, options);
   if (!s.ok()) return s;
-  if (reducer) reducer_ = std::move(reducer);
-  if (!hasSettings_ || settings.cascadeCount != settings_.cascadeCount) {
-    history_ = {};
+  if (reducer) state_->reducer_ = std::move(reducer);
+  if (!state_->hasSettings_ || settings.cascadeCount != state_->settings_.cascadeCount) {
+    state_->history_ = {};
     dropReceiverDepth();
   }
-  if (options.receiverFit != options_.receiverFit) dropReceiverDepth();
-  settings_ = settings;
-  options_ = options;
-  hasSettings_ = true;
-  spec_ = LightingSpecialization(settings_);
-  specInfo_ = spec_.info();
+  if (options.receiverFit != state_->options_.receiverFit) dropReceiverDepth();
+  state_->settings_ = settings;
+  state_->options_ = options;
+  state_->hasSettings_ = true;
+  state_->spec_ = LightingSpecialization(state_->settings_);
+  state_->specInfo_ = state_->spec_.info();
   applyThinMargins();
   // A frame compute() made before stays recordable only if it agrees with the new settings in
   // what the pass and the shader read (the renderer checks and names any difference).
@@ -118,7 +193,7 @@ Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
     }
   }
   set.build();
-  casterSet_ = std::move(set);
+  state_->casterSet_ = std::move(set);
   adoptCasters(meshes, instances);
   return {};
 }
@@ -133,68 +208,72 @@ Status ShadowView::setCasters(std::span<const MeshDraw> meshes,
   }
   Status s = validateCasters(meshes, instances);
   if (!s.ok()) return s;
-  casterSet_ = casterSet;
-  if (!casterSet_.built() || casterSet_.unindexedCount() > 0) casterSet_.build();
+  state_->casterSet_ = casterSet;
+  if (!state_->casterSet_.built() || state_->casterSet_.unindexedCount() > 0)
+    state_->casterSet_.build();
   adoptCasters(meshes, instances);
   return {};
 }
 
 void ShadowView::adoptCasters(std::span<const MeshDraw> meshes,
                               std::span<const CasterInstance> instances) {
-  std::vector<AabbWs> bounds(casterSet_.size());
+  std::vector<AabbWs> bounds(state_->casterSet_.size());
   for (std::size_t i = 0; i < bounds.size(); ++i) {
-    bounds[i] = casterSet_.bounds(static_cast<std::uint32_t>(i));
+    bounds[i] = state_->casterSet_.bounds(static_cast<std::uint32_t>(i));
   }
   // Cached cascades: a static caster whose index, mesh, transform, bounds or thin or closed flag
   // changed (or that was added or removed) invalidates its old and new bounds; dynamic ones are
   // drawn every frame.
-  if (options_.cache) {
+  if (state_->options_.cache) {
     const bool meshesSame =
-        meshes.size() == meshes_.size() &&
-        std::equal(meshes.begin(), meshes.end(), meshes_.begin(), [](const auto& a, const auto& b) {
-          return a.vertexBuffer == b.vertexBuffer && a.indexBuffer == b.indexBuffer &&
-                 a.vertexBufferOffset == b.vertexBufferOffset &&
-                 a.indexBufferOffset == b.indexBufferOffset && a.firstIndex == b.firstIndex &&
-                 a.indexCount == b.indexCount && a.vertexOffset == b.vertexOffset;
-        });
+        meshes.size() == state_->meshes_.size() &&
+        std::equal(meshes.begin(), meshes.end(), state_->meshes_.begin(),
+                   [](const auto& a, const auto& b) {
+                     return a.vertexBuffer == b.vertexBuffer && a.indexBuffer == b.indexBuffer &&
+                            a.vertexBufferOffset == b.vertexBufferOffset &&
+                            a.indexBufferOffset == b.indexBufferOffset &&
+                            a.firstIndex == b.firstIndex && a.indexCount == b.indexCount &&
+                            a.vertexOffset == b.vertexOffset;
+                   });
     if (!meshesSame) {
-      renderer_->invalidateAll();
+      state_->renderer_->invalidateAll();
     } else {
-      const std::size_t n = std::max(instances.size(), instances_.size());
+      const std::size_t n = std::max(instances.size(), state_->instances_.size());
       for (std::size_t i = 0; i < n; ++i) {
-        const bool hasOld = i < instances_.size() && !instances_[i].dynamic;
+        const bool hasOld = i < state_->instances_.size() && !state_->instances_[i].dynamic;
         const bool hasNew = i < instances.size() && !instances[i].dynamic;
-        if (hasOld && hasNew && sameInstance(instances_[i], instances[i]) &&
-            sameBox(boundsWs_[i], bounds[i])) {
+        if (hasOld && hasNew && sameInstance(state_->instances_[i], instances[i]) &&
+            sameBox(state_->boundsWs_[i], bounds[i])) {
           continue;
         }
-        if (hasOld) (void)renderer_->invalidate(boundsWs_[i]);
-        if (hasNew) (void)renderer_->invalidate(bounds[i]);
+        if (hasOld) (void)state_->renderer_->invalidate(state_->boundsWs_[i]);
+        if (hasNew) (void)state_->renderer_->invalidate(bounds[i]);
       }
     }
   }
-  meshes_.assign(meshes.begin(), meshes.end());
-  instances_.assign(instances.begin(), instances.end());
-  boundsWs_ = std::move(bounds);
+  state_->meshes_.assign(meshes.begin(), meshes.end());
+  state_->instances_.assign(instances.begin(), instances.end());
+  state_->boundsWs_ = std::move(bounds);
   // Every handle given before names nothing now.
-  generations_.assign(instances_.size(), ++nextGeneration_);
-  freeSlots_.clear();
-  for (std::uint32_t i = 0; i < casterSet_.size(); ++i) {
-    if (casterSet_.removed(i)) freeSlots_.push_back(i);
+  state_->generations_.assign(state_->instances_.size(), ++state_->nextGeneration_);
+  state_->freeSlots_.clear();
+  for (std::uint32_t i = 0; i < state_->casterSet_.size(); ++i) {
+    if (state_->casterSet_.removed(i)) state_->freeSlots_.push_back(i);
   }
   applyThinMargins();
   // A frame compute() made stays recordable: recordPass() culls the new casters into it.
-  castersChanged_ = true;
+  state_->castersChanged_ = true;
 }
 
 bool ShadowView::valid(CasterHandle handle) const noexcept {
-  return handle.index < generations_.size() && generations_[handle.index] == handle.generation &&
-         !casterSet_.removed(handle.index);
+  return handle.index < state_->generations_.size() &&
+         state_->generations_[handle.index] == handle.generation &&
+         !state_->casterSet_.removed(handle.index);
 }
 
 CasterHandle ShadowView::casterHandle(std::uint32_t index) const noexcept {
-  if (index >= generations_.size() || casterSet_.removed(index)) return {};
-  return {index, generations_[index]};
+  if (index >= state_->generations_.size() || state_->casterSet_.removed(index)) return {};
+  return {index, state_->generations_[index]};
 }
 
 Status ShadowView::checkHandle(const char* call, CasterHandle handle) const {
@@ -207,14 +286,14 @@ Status ShadowView::checkHandle(const char* call, CasterHandle handle) const {
 
 void ShadowView::invalidateChange(const CasterInstance* before, const AabbWs* beforeBounds,
                                   const CasterInstance* after, const AabbWs* afterBounds) {
-  if (!options_.cache) return;
+  if (!state_->options_.cache) return;
   const bool hasOld = before != nullptr && !before->dynamic;
   const bool hasNew = after != nullptr && !after->dynamic;
   if (hasOld && hasNew && sameInstance(*before, *after) && sameBox(*beforeBounds, *afterBounds)) {
     return;
   }
-  if (hasOld) (void)renderer_->invalidate(*beforeBounds);
-  if (hasNew) (void)renderer_->invalidate(*afterBounds);
+  if (hasOld) (void)state_->renderer_->invalidate(*beforeBounds);
+  if (hasNew) (void)state_->renderer_->invalidate(*afterBounds);
 }
 
 Status ShadowView::addCaster(const CasterInstance& instance, const AabbWs& boundsWs,
@@ -222,73 +301,77 @@ Status ShadowView::addCaster(const CasterInstance& instance, const AabbWs& bound
   if (handle == nullptr) {
     return Status(ErrorCode::kInvalidArgument, "addCaster: handle is null: give where to put it");
   }
-  if (Status s = validateCasters(meshes_, std::span<const CasterInstance>(&instance, 1)); !s.ok()) {
+  if (Status s = validateCasters(state_->meshes_, std::span<const CasterInstance>(&instance, 1));
+      !s.ok()) {
     return Status(s.code(), "addCaster: " + s.message());
   }
   std::uint32_t slot;
-  if (!freeSlots_.empty()) {
-    slot = freeSlots_.back();
-    auto set = casterSet_.setBox(slot, boundsWs.minWs, boundsWs.maxWs);
+  if (!state_->freeSlots_.empty()) {
+    slot = state_->freeSlots_.back();
+    auto set = state_->casterSet_.setBox(slot, boundsWs.minWs, boundsWs.maxWs);
     if (!set) return Status(ErrorCode::kInvalidArgument, "addCaster: " + set.error().message());
-    freeSlots_.pop_back();
-    instances_[slot] = instance;
-    boundsWs_[slot] = casterSet_.bounds(slot);
+    state_->freeSlots_.pop_back();
+    state_->instances_[slot] = instance;
+    state_->boundsWs_[slot] = state_->casterSet_.bounds(slot);
   } else {
-    auto added = casterSet_.addBox(boundsWs.minWs, boundsWs.maxWs);
+    auto added = state_->casterSet_.addBox(boundsWs.minWs, boundsWs.maxWs);
     if (!added) return Status(ErrorCode::kInvalidArgument, "addCaster: " + added.error().message());
     slot = added.value();
-    instances_.push_back(instance);
-    boundsWs_.push_back(casterSet_.bounds(slot));
-    generations_.push_back(0);
+    state_->instances_.push_back(instance);
+    state_->boundsWs_.push_back(state_->casterSet_.bounds(slot));
+    state_->generations_.push_back(0);
   }
-  generations_[slot] = ++nextGeneration_;
-  (void)casterSet_.setMarginTexels(slot, instance.thin ? renderer_->thinMarginTexels() : 0.0f);
-  invalidateChange(nullptr, nullptr, &instances_[slot], &boundsWs_[slot]);
-  castersChanged_ = true;
-  *handle = {slot, generations_[slot]};
+  state_->generations_[slot] = ++state_->nextGeneration_;
+  (void)state_->casterSet_.setMarginTexels(
+      slot, instance.thin ? state_->renderer_->thinMarginTexels() : 0.0f);
+  invalidateChange(nullptr, nullptr, &state_->instances_[slot], &state_->boundsWs_[slot]);
+  state_->castersChanged_ = true;
+  *handle = {slot, state_->generations_[slot]};
   return {};
 }
 
 Status ShadowView::updateCaster(CasterHandle handle, const CasterInstance& instance,
                                 const AabbWs& boundsWs) {
   if (Status s = checkHandle("updateCaster", handle); !s.ok()) return s;
-  if (Status s = validateCasters(meshes_, std::span<const CasterInstance>(&instance, 1)); !s.ok()) {
+  if (Status s = validateCasters(state_->meshes_, std::span<const CasterInstance>(&instance, 1));
+      !s.ok()) {
     return Status(s.code(), "updateCaster: " + s.message());
   }
   const std::uint32_t i = handle.index;
-  const CasterInstance before = instances_[i];
-  const AabbWs beforeBounds = boundsWs_[i];
-  auto set = casterSet_.setBox(i, boundsWs.minWs, boundsWs.maxWs);
+  const CasterInstance before = state_->instances_[i];
+  const AabbWs beforeBounds = state_->boundsWs_[i];
+  auto set = state_->casterSet_.setBox(i, boundsWs.minWs, boundsWs.maxWs);
   if (!set) return Status(ErrorCode::kInvalidArgument, "updateCaster: " + set.error().message());
-  instances_[i] = instance;
-  boundsWs_[i] = casterSet_.bounds(i);
+  state_->instances_[i] = instance;
+  state_->boundsWs_[i] = state_->casterSet_.bounds(i);
   if (instance.thin != before.thin) {
-    (void)casterSet_.setMarginTexels(i, instance.thin ? renderer_->thinMarginTexels() : 0.0f);
+    (void)state_->casterSet_.setMarginTexels(
+        i, instance.thin ? state_->renderer_->thinMarginTexels() : 0.0f);
   }
-  invalidateChange(&before, &beforeBounds, &instances_[i], &boundsWs_[i]);
-  castersChanged_ = true;
+  invalidateChange(&before, &beforeBounds, &state_->instances_[i], &state_->boundsWs_[i]);
+  state_->castersChanged_ = true;
   return {};
 }
 
 Status ShadowView::removeCaster(CasterHandle handle) {
   if (Status s = checkHandle("removeCaster", handle); !s.ok()) return s;
   const std::uint32_t i = handle.index;
-  invalidateChange(&instances_[i], &boundsWs_[i], nullptr, nullptr);
-  (void)casterSet_.remove(i);
-  generations_[i] = ++nextGeneration_;
-  freeSlots_.push_back(i);
-  castersChanged_ = true;
+  invalidateChange(&state_->instances_[i], &state_->boundsWs_[i], nullptr, nullptr);
+  (void)state_->casterSet_.remove(i);
+  state_->generations_[i] = ++state_->nextGeneration_;
+  state_->freeSlots_.push_back(i);
+  state_->castersChanged_ = true;
   return {};
 }
 
 // Thin casters reach beyond their bounds by the depth pass's widening: they are culled with it,
 // so that no cascade whose box their rim reaches goes without them.
 void ShadowView::applyThinMargins() {
-  const float margin = renderer_->thinMarginTexels();
-  for (std::size_t i = 0; i < instances_.size() && i < casterSet_.size(); ++i) {
-    const float m = instances_[i].thin ? margin : 0.0f;
-    if (m != casterSet_.marginTexels(static_cast<std::uint32_t>(i))) {
-      (void)casterSet_.setMarginTexels(static_cast<std::uint32_t>(i), m);
+  const float margin = state_->renderer_->thinMarginTexels();
+  for (std::size_t i = 0; i < state_->instances_.size() && i < state_->casterSet_.size(); ++i) {
+    const float m = state_->instances_[i].thin ? margin : 0.0f;
+    if (m != state_->casterSet_.marginTexels(static_cast<std::uint32_t>(i))) {
+      (void)state_->casterSet_.setMarginTexels(static_cast<std::uint32_t>(i), m);
     }
   }
 }
@@ -297,117 +380,122 @@ void ShadowView::applyThinMargins() {
 // was rendered with: its (dynamic) casters are culled in that basis.
 void ShadowView::cullDeferred(const CascadeFrame& frame) {
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
-    if (frame.cascades[i].empty || !renderer_->impl_->cacheDeferred(i) ||
-        renderer_->impl_->cacheLightBasis(i) == frame.lightBasisWs) {
+    if (frame.cascades[i].empty || !state_->renderer_->impl_->cacheDeferred(i) ||
+        state_->renderer_->impl_->cacheLightBasis(i) == frame.lightBasisWs) {
       continue;
     }
     CascadeFrame old = frame;
-    old.lightBasisWs = renderer_->impl_->cacheLightBasis(i);
+    old.lightBasisWs = state_->renderer_->impl_->cacheLightBasis(i);
     old.lightDirectionWs = old.lightBasisWs[2];
     for (std::uint32_t j = 0; j < old.cascadeCount; ++j) old.cascades[j].empty = j != i;
     CullResult one;
-    cullCasters(casterSet_, old, settings_.minCasterTexels, one);
-    cull_.visible[i] = std::move(one.visible[i]);
+    cullCasters(state_->casterSet_, old, state_->settings_.minCasterTexels, one);
+    state_->cull_.visible[i] = std::move(one.visible[i]);
   }
 }
 
 Status ShadowView::setSceneBounds(const AabbWs* boundsWs) {
   if (boundsWs == nullptr) {
-    hasSceneBounds_ = false;
+    state_->hasSceneBounds_ = false;
     return {};
   }
   if (auto e = csm::validate(*boundsWs, "sceneBounds")) {
     return Status(ErrorCode::kInvalidArgument, e->message());
   }
-  sceneBounds_ = *boundsWs;
-  hasSceneBounds_ = true;
+  state_->sceneBounds_ = *boundsWs;
+  state_->hasSceneBounds_ = true;
   return {};
 }
 
 Result<CascadeFrame> ShadowView::computeFrame(const Camera& camera, const DirectionalLight& light,
                                               CascadeHistory* history) const {
-  CascadeHistory own = history_;
-  return computeCascades(settings_, camera, light, hasSceneBounds_ ? &sceneBounds_ : nullptr,
+  CascadeHistory own = state_->history_;
+  return computeCascades(state_->settings_, camera, light,
+                         state_->hasSceneBounds_ ? &state_->sceneBounds_ : nullptr,
                          history != nullptr ? history : &own,
-                         receiverRange_ ? &*receiverRange_ : nullptr);
+                         state_->receiverRange_ ? &*state_->receiverRange_ : nullptr);
 }
 
 Status ShadowView::record(VkCommandBuffer cmd, const CascadeFrame& frame) {
-  if (!hasSettings_) {
+  if (!state_->hasSettings_) {
     return Status(ErrorCode::kWrongOrder, "ShadowView::record before a successful setSettings()");
   }
-  computed_ = false;
-  frameCamera_.reset();  // the frame's camera is not known here
+  state_->computed_ = false;
+  state_->frameCamera_.reset();  // the frame's camera is not known here
   CascadeFrame windowed = frame;
-  renderer_->applyCacheWindows(windowed);  // cached cascades: the depth windows (else no-op)
+  state_->renderer_->applyCacheWindows(
+      windowed);  // cached cascades: the depth windows (else no-op)
   cullInto(windowed);
-  Status s = renderer_->impl_->recordValidatedPass(
-      cmd, windowed, CasterList{meshes_, instances_, boundsWs_}, &cull_);
+  Status s = state_->renderer_->impl_->recordValidatedPass(
+      cmd, windowed, CasterList{state_->meshes_, state_->instances_, state_->boundsWs_},
+      &state_->cull_);
   if (!s.ok()) return s;
-  frame_ = windowed;
+  state_->frame_ = windowed;
   return {};
 }
 
 Status ShadowView::compute(const Camera& camera, const DirectionalLight& light) {
-  if (!hasSettings_) {
+  if (!state_->hasSettings_) {
     return Status(ErrorCode::kWrongOrder, "ShadowView::compute before a successful setSettings()");
   }
   // Computed into a copy of the history: a refused input leaves the view as it was.
-  CascadeHistory history = history_;
+  CascadeHistory history = state_->history_;
   auto frame = computeFrame(camera, light, &history);
   if (!frame.ok()) return Status(ErrorCode::kInvalidArgument, frame.error().message());
-  history_ = history;
-  lastCamera_ = camera;
-  frameCamera_ = camera;
-  frame_ = frame.value();
-  renderer_->applyCacheWindows(frame_);  // cached cascades: the depth windows (else no-op)
-  cullInto(frame_);
-  computed_ = true;
+  state_->history_ = history;
+  state_->lastCamera_ = camera;
+  state_->frameCamera_ = camera;
+  state_->frame_ = frame.value();
+  state_->renderer_->applyCacheWindows(
+      state_->frame_);  // cached cascades: the depth windows (else no-op)
+  cullInto(state_->frame_);
+  state_->computed_ = true;
   return {};
 }
 
 void ShadowView::cullInto(const CascadeFrame& frame) {
-  cullCasters(casterSet_, frame, settings_.minCasterTexels, cull_);
+  cullCasters(state_->casterSet_, frame, state_->settings_.minCasterTexels, state_->cull_);
   cullDeferred(frame);
-  castersChanged_ = false;
+  state_->castersChanged_ = false;
 }
 
 Status ShadowView::recordPass(VkCommandBuffer cmd) {
-  if (!computed_) {
+  if (!state_->computed_) {
     return Status(ErrorCode::kWrongOrder, "ShadowView::recordPass without a compute() before it");
   }
-  if (castersChanged_) cullInto(frame_);  // setCasters() since compute()
-  return renderer_->impl_->recordValidatedPass(cmd, frame_,
-                                               CasterList{meshes_, instances_, boundsWs_}, &cull_);
+  if (state_->castersChanged_) cullInto(state_->frame_);  // setCasters() since compute()
+  return state_->renderer_->impl_->recordValidatedPass(
+      cmd, state_->frame_, CasterList{state_->meshes_, state_->instances_, state_->boundsWs_},
+      &state_->cull_);
 }
 
 Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,
                           const DirectionalLight& light) {
-  const CascadeHistory before = history_;
+  const CascadeHistory before = state_->history_;
   Status s = compute(camera, light);
   if (s.ok()) s = recordPass(cmd);
-  if (!s.ok()) history_ = before;  // nothing recorded: the view stays as it was
+  if (!s.ok()) state_->history_ = before;  // nothing recorded: the view stays as it was
   return s;
 }
 
 void ShadowView::dropReceiverDepth() noexcept {
-  if (reducer_) reducer_->invalidate();
-  receiverRange_.reset();
+  if (state_->reducer_) state_->reducer_->invalidate();
+  state_->receiverRange_.reset();
 }
 
 void ShadowView::cameraCut() noexcept {
-  history_ = {};
+  state_->history_ = {};
   dropReceiverDepth();
 }
 
 Status ShadowView::recordReceiverDepth(VkCommandBuffer cmd, const ReceiverDepthInput& depth) {
-  if (options_.receiverFit == ReceiverFit::kOff || !reducer_) {
+  if (state_->options_.receiverFit == ReceiverFit::kOff || !state_->reducer_) {
     return Status(ErrorCode::kWrongOrder,
                   "ShadowView::recordReceiverDepth with options.receiverFit = kOff: turn the "
                   "receiver fit on (setSettings) first");
   }
-  const bool boxes = options_.receiverFit == ReceiverFit::kSplitsAndBoxes;
-  if (!lastCamera_ || (boxes && !frameCamera_)) {
+  const bool boxes = state_->options_.receiverFit == ReceiverFit::kSplitsAndBoxes;
+  if (!state_->lastCamera_ || (boxes && !state_->frameCamera_)) {
     return Status(ErrorCode::kWrongOrder,
                   boxes ? "ShadowView::recordReceiverDepth with options.receiverFit = "
                           "kSplitsAndBoxes needs the frame's camera: record(cmd, camera, light) "
@@ -418,24 +506,26 @@ Status ShadowView::recordReceiverDepth(VkCommandBuffer cmd, const ReceiverDepthI
   const glm::mat4& p = depth.projection;
   // The view depth of a depth value (DepthProjection), the histogram over the shadows' depth
   // range (for ReceiverSplitScheme::kHistogram) and, for the boxes, the pixel rays.
-  DepthProjection dp{p[2][2], p[3][2], depth.clearDepth, float(lastCamera_->nearM),
-                     float(std::max(settings_.shadowDistanceM, 2.0 * lastCamera_->nearM))};
+  DepthProjection dp{
+      p[2][2], p[3][2], depth.clearDepth, float(state_->lastCamera_->nearM),
+      float(std::max(state_->settings_.shadowDistanceM, 2.0 * state_->lastCamera_->nearM))};
   ReceiverBoundsInputs bounds;
   if (boxes) {
     dp.p00 = p[0][0];
     dp.p11 = p[1][1];
     dp.p20 = p[2][0];
     dp.p21 = p[2][1];
-    bounds = {&frame_, &*frameCamera_};
+    bounds = {&state_->frame_, &*state_->frameCamera_};
   }
   // The slot this frame fills was last filled framesInFlight frames ago; the host has waited for
   // that frame before recording this one, so its result is complete: the next compute() uses it.
-  const std::uint32_t slot = reducerSlot_;
-  std::optional<ReceiverDepthRange> previous = reducer_->read(slot);
-  Status s = reducer_->record(cmd, depth.depthView, depth.layout, depth.extent, dp, slot, bounds);
+  const std::uint32_t slot = state_->reducerSlot_;
+  std::optional<ReceiverDepthRange> previous = state_->reducer_->read(slot);
+  Status s =
+      state_->reducer_->record(cmd, depth.depthView, depth.layout, depth.extent, dp, slot, bounds);
   if (!s.ok()) return s;
-  receiverRange_ = previous;
-  reducerSlot_ = (slot + 1) % reducer_->slotCount();
+  state_->receiverRange_ = previous;
+  state_->reducerSlot_ = (slot + 1) % state_->reducer_->slotCount();
   return {};
 }
 

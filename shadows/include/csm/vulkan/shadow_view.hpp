@@ -102,6 +102,9 @@ class ShadowView {
   [[nodiscard]] static std::unique_ptr<ShadowView> create(const DeviceInfo& device,
                                                           const VertexLayout& layout,
                                                           Status* status = nullptr);
+  ~ShadowView();
+  ShadowView(const ShadowView&) = delete;
+  ShadowView& operator=(const ShadowView&) = delete;
 
   /// Validates and applies settings and renderer options (ShadowRenderer::update: the image is
   /// cleared to lit and sampleable when this returns, or after prepare()). A change of cascade
@@ -111,10 +114,10 @@ class ShadowView {
   Status setSettings(const ShadowSettings& settings, const RendererOptions& options);
   /// The same with the current options() kept (the defaults before the first call), so that a
   /// settings change does not reset the cache, the depth format or the LOD choices.
-  Status setSettings(const ShadowSettings& settings) { return setSettings(settings, options_); }
+  Status setSettings(const ShadowSettings& settings);
   /// Debug output of the lighting shader (checked at the next record).
-  void setDebugMode(DebugMode mode) noexcept { renderer_->setDebugMode(mode); }
-  [[nodiscard]] DebugMode debugMode() const noexcept { return renderer_->debugMode(); }
+  void setDebugMode(DebugMode mode) noexcept;
+  [[nodiscard]] DebugMode debugMode() const noexcept;
 
   /// The casters: meshes, instances (each naming a mesh per LOD, see CasterInstance) and each
   /// instance's world bounds for culling (bounds[i] belongs to instances[i]). Copied; the
@@ -175,7 +178,7 @@ class ShadowView {
 
   /// Records the pending clear of a new image (hosts without DeviceInfo::queue; see
   /// ShadowRenderer::prepare).
-  Status prepare(VkCommandBuffer cmd) { return renderer_->prepare(cmd); }
+  Status prepare(VkCommandBuffer cmd);
   /// The receiver fit (RendererOptions::receiverFit on): records the reduction of this frame's
   /// depth buffer, drawn with the camera of this frame's record() or compute(), after it (in
   /// the same or a later command buffer, before the frame is submitted). The cascades of frame
@@ -193,63 +196,53 @@ class ShadowView {
   /// lightBounds (DepthRangeReducer given ReceiverBoundsInputs) the boxes also fit the visible
   /// receivers. Invalid ranges are refused by the next compute, naming the field. With the
   /// receiver fit on, the next recordReceiverDepth() replaces it.
-  void setReceiverDepthRange(std::optional<ReceiverDepthRange> range) noexcept {
-    receiverRange_ = range;
-  }
+  void setReceiverDepthRange(std::optional<ReceiverDepthRange> range) noexcept;
   /// The receiver range the next compute() fits the cascades to (nothing: the full range).
-  [[nodiscard]] const std::optional<ReceiverDepthRange>& receiverDepthRange() const noexcept {
-    return receiverRange_;
-  }
+  [[nodiscard]] const std::optional<ReceiverDepthRange>& receiverDepthRange() const noexcept;
   /// Cached cascades (RendererOptions::cache): marks the static depth under a world box stale
   /// (only the texels under it are re-rendered at the next record). setCasters() already does
   /// this for static instances that changed; call it for anything else the casters do not show
   /// (a mesh's vertices edited in place, terrain streamed into the same buffers).
-  Status invalidate(const AabbWs& boxWs) { return renderer_->invalidate(boxWs); }
+  Status invalidate(const AabbWs& boxWs);
   /// Re-renders every cascade's static depth at the next record.
-  void invalidateAll() noexcept { renderer_->invalidateAll(); }
+  void invalidateAll() noexcept;
 
   /// Forgets the history (so sizes need not shrink step by step).
-  void resetHistory() noexcept { history_ = {}; }
+  void resetHistory() noexcept;
   /// A camera cut (a teleport, a respawn, a switch of camera): forgets the history and every
   /// receiver range measured before it (the cascades cover the full range until the first depth
   /// buffer after the cut has been reduced).
   void cameraCut() noexcept;
   /// Per-cascade hook of the pass (GPU timestamps, labels): see CascadeHook.
-  void setCascadeHook(CascadeHook hook) { renderer_->setCascadeHook(std::move(hook)); }
+  void setCascadeHook(CascadeHook hook);
 
   /// The specialization the lighting pipeline is built with (settings().kernel, blend band, PCSS
   /// taps): build it with this and rebuild it when this changes after setSettings(), so that the
   /// pipeline and the view's settings cannot disagree.
-  [[nodiscard]] const LightingSpecialization& lightingSpecialization() const noexcept {
-    return spec_;
-  }
+  [[nodiscard]] const LightingSpecialization& lightingSpecialization() const noexcept;
   /// The same as Vulkan takes it, for a shader stage's pSpecializationInfo: valid (and
   /// unchanged) until the next setSettings() or the view's destruction.
-  [[nodiscard]] const VkSpecializationInfo* lightingSpecializationInfo() const noexcept {
-    return &specInfo_;
-  }
+  [[nodiscard]] const VkSpecializationInfo* lightingSpecializationInfo() const noexcept;
   /// The set layout the lighting pipeline declares at CSM_SET, and the set to bind (it changes
   /// when setSettings() recreates the image: fetch it each frame).
-  [[nodiscard]] VkDescriptorSetLayout lightingSetLayout() const noexcept {
-    return renderer_->lightingSetLayout();
-  }
-  [[nodiscard]] VkDescriptorSet lightingSet() const noexcept { return renderer_->lightingSet(); }
+  [[nodiscard]] VkDescriptorSetLayout lightingSetLayout() const noexcept;
+  [[nodiscard]] VkDescriptorSet lightingSet() const noexcept;
 
   /// The last recorded frame and its cull lists (for overlays, statistics, tests).
-  [[nodiscard]] const CascadeFrame& frame() const noexcept { return frame_; }
-  [[nodiscard]] const CullResult& cull() const noexcept { return cull_; }
-  [[nodiscard]] const ShadowSettings& settings() const noexcept { return settings_; }
-  [[nodiscard]] const RendererOptions& options() const noexcept { return options_; }
+  [[nodiscard]] const CascadeFrame& frame() const noexcept;
+  [[nodiscard]] const CullResult& cull() const noexcept;
+  [[nodiscard]] const ShadowSettings& settings() const noexcept;
+  [[nodiscard]] const RendererOptions& options() const noexcept;
   /// Caster slots (removed ones included until an add reuses them).
-  [[nodiscard]] std::size_t casterCount() const noexcept { return instances_.size(); }
-  [[nodiscard]] std::span<const MeshDraw> meshes() const noexcept { return meshes_; }
-  [[nodiscard]] std::span<const CasterInstance> instances() const noexcept { return instances_; }
+  [[nodiscard]] std::size_t casterCount() const noexcept;
+  [[nodiscard]] std::span<const MeshDraw> meshes() const noexcept;
+  [[nodiscard]] std::span<const CasterInstance> instances() const noexcept;
   /// The renderer (its image, views, samplers and uniform block).
-  [[nodiscard]] ShadowRenderer& renderer() noexcept { return *renderer_; }
-  [[nodiscard]] const ShadowRenderer& renderer() const noexcept { return *renderer_; }
+  [[nodiscard]] ShadowRenderer& renderer() noexcept;
+  [[nodiscard]] const ShadowRenderer& renderer() const noexcept;
 
  private:
-  ShadowView() = default;
+  ShadowView();
   void adoptCasters(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances);
   void applyThinMargins();
   void cullDeferred(const CascadeFrame& frame);
@@ -261,32 +254,10 @@ class ShadowView {
   void invalidateChange(const CasterInstance* before, const AabbWs* beforeBounds,
                         const CasterInstance* after, const AabbWs* afterBounds);
 
-  DeviceInfo device_{};
-  std::unique_ptr<ShadowRenderer> renderer_;
-  std::unique_ptr<DepthRangeReducer> reducer_;  // the receiver fit's, made when it is turned on
-  std::uint32_t reducerSlot_ = 0;               // the slot the next recordReceiverDepth fills
-  ShadowSettings settings_{};
-  RendererOptions options_{};
-  LightingSpecialization spec_{ShadowSettings{}};  // of settings_, for the lighting pipeline
-  VkSpecializationInfo specInfo_{};                // spec_.info(): points into spec_
-  bool hasSettings_ = false;
-  CasterSet casterSet_;
-  std::vector<MeshDraw> meshes_;
-  std::vector<CasterInstance> instances_;
-  std::vector<AabbWs> boundsWs_;            // casterSet_.bounds(i), for the cached pass's regions
-  std::vector<std::uint32_t> generations_;  // per slot: a handle's generation must match
-  std::vector<std::uint32_t> freeSlots_;    // removed slots, reused by addCaster
-  std::uint32_t nextGeneration_ = 0;
-  AabbWs sceneBounds_{};
-  bool hasSceneBounds_ = false;
-  std::optional<ReceiverDepthRange> receiverRange_;
-  CascadeHistory history_{};
-  CascadeFrame frame_{};
-  bool computed_ = false;              // frame_ and cull_ hold compute()'s result for recordPass()
-  bool castersChanged_ = false;        // setCasters() since cull_ was made
-  std::optional<Camera> lastCamera_;   // of the last compute(), for setSettings()' cross-checks
-  std::optional<Camera> frameCamera_;  // the camera frame_ was computed for (not record(frame))
-  CullResult cull_;
+  // The view's state (settings, casters and their handles, history, frame, cull lists, the
+  // renderer and the receiver fit's reducer): shadows/src/vulkan/shadow_view_state.hpp.
+  struct State;
+  std::unique_ptr<State> state_;
 };
 
 }  // namespace csm::vk
