@@ -68,12 +68,12 @@ double boxDistance(const csm::AabbWs& b, const glm::dvec3& p) {
 }  // namespace
 
 WorldRenderer::WorldRenderer(engine::Context& ctx, const World& world, VkFormat colorFormat,
-                             VkFormat depthFormat)
+                             VkFormat depthFormat, std::optional<float> momentAnisotropy)
     : ctx_(&ctx), world_(&world), colorFormat_(colorFormat), depthFormat_(depthFormat) {
   uploadMeshes(world);
   buildViewGroups(world);
   buildClosedMeshes(world);
-  setUpShadowView(world);
+  setUpShadowView(world, momentAnisotropy);
   createFrameResources();
   createGBufferResources();
   createPipelines();
@@ -157,10 +157,10 @@ void WorldRenderer::buildViewGroups(const World& world) {
   bucketObjects_.resize(world.meshes.size() * kLodCount);
 }
 
-void WorldRenderer::setUpShadowView(const World& world) {
+void WorldRenderer::setUpShadowView(const World& world, std::optional<float> momentAnisotropy) {
   // ---- Shadow renderer ----------------------------------------------------------------------
   static_assert(kLodCount <= csm::vk::kMaxCasterLods);
-  shadow_ = glue::createShadowView(*ctx_);
+  shadow_ = glue::createShadowView(*ctx_, momentAnisotropy);
   std::vector<csm::vk::MeshDraw> draws;
   std::vector<csm::vk::CasterInstance> instances;
   std::vector<csm::AabbWs> bounds;

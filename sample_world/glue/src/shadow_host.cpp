@@ -1,5 +1,6 @@
 #include "glue/shadow_host.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "engine/mesh_store.hpp"
@@ -7,7 +8,12 @@
 
 namespace glue {
 
-csm::vk::DeviceInfo shadowDeviceInfo(const engine::Context& ctx) {
+float defaultMomentAnisotropy(const engine::Context& ctx) {
+  return ctx.properties().deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU ? 1.0f : kMomentAnisotropy;
+}
+
+csm::vk::DeviceInfo shadowDeviceInfo(const engine::Context& ctx,
+                                     std::optional<float> momentAnisotropy) {
   csm::vk::DeviceInfo info;
   info.physicalDevice = ctx.physicalDevice();
   info.device = ctx.device();
@@ -19,6 +25,11 @@ csm::vk::DeviceInfo shadowDeviceInfo(const engine::Context& ctx) {
   info.geometryShaderEnabled = ctx.features().geometryShader;
   info.conservativeRasterizationEnabled = ctx.features().conservativeRasterization;
   info.debugUtilsEnabled = ctx.debugUtilsEnabled();
+  info.maxSamplerAnisotropy =
+      ctx.features().samplerAnisotropy
+          ? std::clamp(momentAnisotropy.value_or(defaultMomentAnisotropy(ctx)), 1.0f,
+                       ctx.properties().limits.maxSamplerAnisotropy)
+          : 1.0f;
   return info;
 }
 
@@ -31,9 +42,11 @@ csm::vk::VertexLayout engineVertexLayout() {
 }
 }  // namespace
 
-std::unique_ptr<csm::vk::ShadowView> createShadowView(const engine::Context& ctx) {
+std::unique_ptr<csm::vk::ShadowView> createShadowView(const engine::Context& ctx,
+                                                      std::optional<float> momentAnisotropy) {
   csm::vk::Status status;
-  auto view = csm::vk::ShadowView::create(shadowDeviceInfo(ctx), engineVertexLayout(), &status);
+  auto view = csm::vk::ShadowView::create(shadowDeviceInfo(ctx, momentAnisotropy),
+                                          engineVertexLayout(), &status);
   if (!view) throw std::runtime_error("ShadowView::create: " + status.message());
   return view;
 }

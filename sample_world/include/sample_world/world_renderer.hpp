@@ -24,6 +24,7 @@
 #include "engine/mesh_store.hpp"
 #include "engine/pipeline.hpp"
 #include "engine/render_target.hpp"
+#include "glue/shadow_host.hpp"
 #include "sample_world/paths.hpp"
 #include "sample_world/settings.hpp"
 #include "sample_world/world.hpp"
@@ -63,9 +64,11 @@ struct FrameStats {
 class WorldRenderer {
  public:
   /// Uploads the world's meshes, creates the shadow renderer and the pipelines for targets of
-  /// `colorFormat` / `depthFormat`. Throws std::runtime_error on failure.
+  /// `colorFormat` / `depthFormat`. `momentAnisotropy`: the moment sampler's anisotropy cap
+  /// (glue::shadowDeviceInfo: 1 = trilinear; nothing = glue::defaultMomentAnisotropy). Throws
+  /// std::runtime_error on failure.
   WorldRenderer(engine::Context& ctx, const World& world, VkFormat colorFormat,
-                VkFormat depthFormat);
+                VkFormat depthFormat, std::optional<float> momentAnisotropy = std::nullopt);
   ~WorldRenderer();
   WorldRenderer(const WorldRenderer&) = delete;
   WorldRenderer& operator=(const WorldRenderer&) = delete;
@@ -135,9 +138,10 @@ class WorldRenderer {
   // The constructor's stages, in order.
   void uploadMeshes(const World& world);     // every asset and caster-cluster LOD, one store
   void buildViewGroups(const World& world);  // per-chunk culling groups, the dynamic casters
-  void setUpShadowView(const World& world);  // the shadow view and its casters
-  void createFrameResources();               // per-frame uniforms, instances, overlay vertices
-  void createPipelines();                    // shader modules and the overlay pipelines
+  void setUpShadowView(const World& world,
+                       std::optional<float> momentAnisotropy);  // the view, its casters
+  void createFrameResources();  // per-frame uniforms, instances, overlay vertices
+  void createPipelines();       // shader modules and the overlay pipelines
   void buildLitPipeline();
   void recordDepthRange(const engine::Frame& f);
   // record()'s passes: the shadow pass (with its statistics), then inside one rendering the lit

@@ -186,6 +186,11 @@ Status ShadowRenderer::Impl::createMomentResources() {
     ci.addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE;
     ci.minLod = 0.0f;
     ci.maxLod = VK_LOD_CLAMP_NONE;
+    // Anisotropic where the host enabled it (DeviceInfo::maxSamplerAnisotropy, checked by init).
+    if (device_.maxSamplerAnisotropy > 1.0f) {
+      ci.anisotropyEnable = VK_TRUE;
+      ci.maxAnisotropy = device_.maxSamplerAnisotropy;
+    }
     CSM_VK_TRY(vkCreateSampler(dev, &ci, nullptr, &momentSampler_));
     setName(handleBits(momentSampler_), VK_OBJECT_TYPE_SAMPLER, "csm moment sampler");
     ci.addressModeU = VK_SAMPLER_ADDRESS_MODE_REPEAT;

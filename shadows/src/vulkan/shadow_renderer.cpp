@@ -180,6 +180,15 @@ Status ShadowRenderer::Impl::init(const DeviceInfo& device, const VertexLayout& 
   layout_ = layout;
   vkGetPhysicalDeviceProperties(device.physicalDevice, &properties_);
   vkGetPhysicalDeviceMemoryProperties(device.physicalDevice, &memory_);
+  // Against the device's limit: refused by name, never clamped.
+  const float maxAnisotropy = properties_.limits.maxSamplerAnisotropy;
+  if (!(device.maxSamplerAnisotropy >= 1.0f &&
+        device.maxSamplerAnisotropy <= std::max(1.0f, maxAnisotropy))) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("DeviceInfo::maxSamplerAnisotropy = %g is invalid: allowed [1, %g] (the "
+                      "device's maxSamplerAnisotropy; above 1 with samplerAnisotropy enabled)",
+                      double(device.maxSamplerAnisotropy), double(std::max(1.0f, maxAnisotropy))));
+  }
   loadDebugUtils();
   s = createSetLayouts();
   if (s.ok()) s = createPipelineLayout();
@@ -488,6 +497,10 @@ bool ShadowRenderer::needsPrepare() const noexcept {
 }
 void ShadowRenderer::setDebugMode(DebugMode mode) noexcept {
   impl_->setDebugMode(mode);
+}
+
+float ShadowRenderer::momentAnisotropy() const noexcept {
+  return impl_->device_.maxSamplerAnisotropy;
 }
 
 DebugMode ShadowRenderer::debugMode() const noexcept {

@@ -78,6 +78,12 @@ struct DeviceInfo {
   bool conservativeRasterizationEnabled = false;
   /// VK_EXT_debug_utils is enabled on the instance: objects get names, the pass gets labels.
   bool debugUtilsEnabled = false;
+  /// The most anisotropy the moment sampler of the prefiltered filters (vsm, evsm, msm) may use,
+  /// in [1, VkPhysicalDeviceLimits::maxSamplerAnisotropy]; above 1 it needs
+  /// VkPhysicalDeviceFeatures::samplerAnisotropy enabled. 1 (the default): trilinear. Far and
+  /// grazing receivers then read moments filtered along their footprint's long axis instead of
+  /// a coarser mip (sharper far shadows at the same smoothness).
+  float maxSamplerAnisotropy = 1.0f;
   /// The host's own cap on the shadow-map side in texels (a memory budget, a console's limit);
   /// 0 = only the device's limits. update() refuses a larger resolution with kDeviceLimit.
   std::uint32_t maxResolution = 0;
@@ -445,6 +451,8 @@ class ShadowRenderer {
   [[nodiscard]] VkSampler comparisonSampler() const noexcept;
   /// A plain nearest sampler for reading raw depth (debug outputs, thumbnails).
   [[nodiscard]] VkSampler depthSampler() const noexcept;
+  /// The anisotropy of the moment sampler (DeviceInfo::maxSamplerAnisotropy; 1: trilinear).
+  [[nodiscard]] float momentAnisotropy() const noexcept;
   /// How far, in texels of each cascade, a caster flagged CasterInstance::thin reaches beyond
   /// its bounds in the depth pass (RendererOptions::thinCasterWidenTexels through the geometry
   /// stage; half a texel more with conservative rasterisation); 0 when thin casters are drawn as
