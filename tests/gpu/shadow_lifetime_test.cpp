@@ -94,6 +94,35 @@ TEST(ShadowLifetime, LightingSetSampledBeforeTheFirstShadowPassReadsLit) {
   EXPECT_EQ(validationMessages(), 0u);
 }
 
+// The moment sampler's anisotropy is checked against the device at creation: below 1, above the
+// device's limit or not a number is refused, naming the field; 1 and the limit are accepted.
+TEST(ShadowLifetime, MomentAnisotropyOutsideTheDevicesRangeIsRefusedByName) {
+  {
+    ShadowScene scene;
+    const float limit = scene.context().properties().limits.maxSamplerAnisotropy;
+    for (float bad :
+         {0.5f, std::max(limit, 1.0f) * 2.0f, std::numeric_limits<float>::quiet_NaN()}) {
+      csm::vk::DeviceInfo info = glue::shadowDeviceInfo(scene.context());
+      info.maxSamplerAnisotropy = bad;
+      csm::vk::Status status;
+      EXPECT_FALSE(csm::vk::ShadowRenderer::create(info, csm::vk::VertexLayout{}, &status)) << bad;
+      EXPECT_NE(status.message().find("DeviceInfo::maxSamplerAnisotropy"), std::string::npos)
+          << status.message();
+      EXPECT_NE(status.message().find("allowed"), std::string::npos) << status.message();
+    }
+    std::vector<float> good = {1.0f};
+    if (scene.context().features().samplerAnisotropy) good.push_back(limit);
+    for (float ok : good) {
+      csm::vk::DeviceInfo info = glue::shadowDeviceInfo(scene.context(), ok);
+      csm::vk::Status status;
+      auto renderer = csm::vk::ShadowRenderer::create(info, csm::vk::VertexLayout{}, &status);
+      ASSERT_TRUE(renderer) << status.message();
+      EXPECT_EQ(renderer->momentAnisotropy(), ok);
+    }
+  }
+  EXPECT_EQ(validationMessages(), 0u);
+}
+
 TEST(ShadowLifetime, WithoutAQueuePrepareRecordsTheClear) {
   {
     ShadowScene scene;
