@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <csm/names.hpp>
 #include <csm_measure/harness.hpp>
 #include <csm_measure/metrics.hpp>
 #include <csm_measure/motions.hpp>
@@ -77,5 +78,50 @@ inline csm::ShadowSettings testSettings(bool stabilize) {
     const csm::vk::Status st_ = (expr);     \
     ASSERT_TRUE(st_.ok()) << st_.message(); \
   } while (false)
+
+/// The stabilised-shimmer bound of the percentage-closer kernels, for `settings` (its kernel)
+/// and `options`: on the shimmer scene at 0 and 10^7 m, 4000 receivers in the view, 12 frames
+/// each of sub-texel translation, multi-texel translation and yaw, no receiver that stays in its
+/// cascade may change by more than kVisibleStep. Prints each run; returns them for a report.
+inline nlohmann::json expectStabilisedShimmerBound(csm_measure::Harness& harness,
+                                                   const csm::ShadowSettings& settings,
+                                                   const csm::vk::RendererOptions& options = {}) {
+  const csm::DirectionalLight light = testLight();
+  const char* name = csm::kernelName(settings.kernel);
+  nlohmann::json runs = nlohmann::json::array();
+  for (double distance : {0.0, 1e7}) {
+    const glm::dvec3 origin = originAt(distance);
+    const csm_measure::Scene scene = setShimmerScene(harness, distance);
+    const std::vector<csm_measure::Receiver> receivers = viewReceivers(scene, 4000);
+    const csm::vk::Status status = harness.configure(settings, options);
+    EXPECT_TRUE(status.ok()) << status.message();
+    if (!status.ok()) return runs;
+    csm::CascadeHistory h;
+    const csm::CascadeFrame f0 = harness.computeFrame(baseCamera(origin), light, h);
+    const double texel0 = f0.cascades[0].texelSizeM();
+    const double texelLast = f0.cascades[f0.cascadeCount - 1].texelSizeM();
+    for (const std::string motion : {"subtexel", "multitexel", "yaw"}) {
+      const csm_measure::ShimmerRun run = csm_measure::measureShimmer(
+          harness, receivers, light,
+          [&](int f) { return motionCamera(motion, origin, texel0, texelLast, f); }, 12,
+          settings.kernel);
+      const csm_measure::ShimmerStats& stayed = run.total.stayed;
+      std::printf("%-9s %-10s %6s m  stayed pairs %6llu  mean %.2e max %.5f  visible %llu\n", name,
+                  motion.c_str(), distanceKey(distance).c_str(), (unsigned long long)stayed.pairs,
+                  stayed.mean(), stayed.max, (unsigned long long)stayed.visible);
+      std::fflush(stdout);
+      runs.push_back({{"filter", name},
+                      {"motion", motion},
+                      {"distance_m", distance},
+                      {"stayed", stayed.toJson()}});
+      SCOPED_TRACE(std::string(name) + " " + motion + " at " + distanceKey(distance) + " m");
+      EXPECT_EQ(run.nonFinite, 0u);
+      EXPECT_GT(stayed.pairs, 10000u) << "too few points tracked";
+      EXPECT_LE(stayed.max, csm_measure::kVisibleStep);
+      EXPECT_EQ(stayed.visible, 0u);
+    }
+  }
+  return runs;
+}
 
 }  // namespace csm_stability
