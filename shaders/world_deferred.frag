@@ -6,7 +6,7 @@
 #extension GL_GOOGLE_include_directive : require
 
 #define CSM_SET 1
-#define CSM_IMPLICIT_LOD  // fragment stage: implicit-derivative taps (csmCompareTap)
+#define CSM_IMPLICIT_LOD  // fragment stage: the prefiltered filters read the footprint's mip
 #include "csm.glsl"
 #include "world_shading.glsl"
 

@@ -4,7 +4,7 @@
 //   #define CSM_SET 1            // the descriptor set the host binds the module's resources to
 //   #include "csm.glsl"
 //   ...
-//   float s = csmShadow(posCr, normalWs, gl_FragCoord.xy);   // 1 lit, 0 in shadow
+//   float s = csmShadow(posCr, normalWs);   // 1 lit, 0 in shadow
 //
 // Inputs are camera-relative world positions (posWs - cameraPositionWs, as float) and world
 // normals (unit length) of the surface the shadow map holds: in a fragment shader pass the
@@ -16,8 +16,8 @@
 // CSM_SPEC_KERNEL (PCF kernel), CSM_SPEC_BLEND (0: hard switch at the split, 1: blend across the
 // band) and CSM_SPEC_PCSS_TAPS (taps of the PCSS blocker search and filter).
 // Define CSM_UNIFORMS_ONLY to declare only the uniform block (the depth pass does), and in a
-// fragment shader CSM_IMPLICIT_LOD for cheaper comparison taps with the same result
-// (csmCompareTap).
+// fragment shader CSM_IMPLICIT_LOD, so that the prefiltered filters read the mip level the pixel's
+// footprint covers (dFdx/dFdy of posCr; without it they read level 0, as a compute shader does).
 #ifndef CSM_GLSL
 #define CSM_GLSL
 
@@ -146,46 +146,34 @@ vec2 csmWrapUv(vec2 t, int cascade) {
   return (t + offset) * csmU.invResolution;
 }
 
-/// Level 0 of the shadow map through the comparison sampler. Explicit zero gradients by default:
-/// valid in every stage, compute included. A fragment shader may define CSM_IMPLICIT_LOD before
-/// including this file to sample with implicit derivatives instead, the same texels and result
-/// (one level, minLod = maxLod = 0 and LINEAR both ways on the comparison samplers, so no level
-/// or filter choice depends on the derivatives, even in non-uniform control flow) at less cost
-/// per tap on a CPU rasteriser (lavapipe computes no per-pixel level from explicit gradients).
-float csmCompareTap(vec2 uv, float layer, float depth) {
-#ifdef CSM_IMPLICIT_LOD
-  return texture(csmShadowMap, vec4(uv, layer, depth));
-#else
-  return textureGrad(csmShadowMap, vec4(uv, layer, depth), vec2(0.0), vec2(0.0));
-#endif
-}
-
-/// One bilinear comparison tap at shadow-map texel coordinates `t` (texel centres at i + 0.5).
-/// Valid in every stage (see csmCompareTap). Texels outside the
-/// cascade's box read lit (depth 1, the border of the unwrapped map): in a wrapped layer a tap
-/// that straddles the box's edge is filtered by hand from a gather, its outside texels lit.
+/// One bilinear comparison tap at shadow-map texel coordinates `t` (texel centres at i + 0.5),
+/// filtered by hand from a comparison gather: the weights are the float fraction of `t`, not the
+/// sampler's fixed-point sub-texel weights (8 bits on the GPUs we measured: a receiver whose
+/// coordinate differs by float rounding from one frame to the next could cross a 1/256 step and
+/// change its factor by up to 1/256 of a tap, visible through the wider kernels' sums). The
+/// gather reads level 0 without derivatives, so this is valid in every stage. Texels outside the
+/// cascade's box read lit (depth 1, the border of the unwrapped map; in a wrapped layer, the
+/// toroidal neighbours are masked to lit).
 float csmTap(vec2 t, float layer, float depth) {
+  const vec2 f = t - 0.5;
+  const vec2 i0 = floor(f);
+  const vec2 w = f - i0;
+  // At the corner shared by the four texels: the gather's footprint is unambiguous.
+  // textureGather order: (i0, j1), (i1, j1), (i1, j0), (i0, j0).
+  const vec4 g =
+      textureGather(csmShadowMap, vec3(csmWrapUv(i0 + 1.0, int(layer)), layer), depth);
+  vec4 v = g;
   if (csmU.wrappedLayers != 0u) {
     const float res = csmU.resolution;
-    const vec2 f = t - 0.5;
-    const vec2 i0 = floor(f);
     if (any(lessThan(i0, vec2(0.0))) || any(greaterThan(i0 + 1.0, vec2(res - 1.0)))) {
-      // textureGather order: (i0, j1), (i1, j1), (i1, j0), (i0, j0).
-      const vec4 g = textureGather(csmShadowMap, vec3(csmWrapUv(i0 + 1.0, int(layer)), layer),
-                                   depth);
       const bvec2 in0 = bvec2(i0.x >= 0.0 && i0.x <= res - 1.0, i0.y >= 0.0 && i0.y <= res - 1.0);
       const bvec2 in1 = bvec2(i0.x + 1.0 >= 0.0 && i0.x + 1.0 <= res - 1.0,
                               i0.y + 1.0 >= 0.0 && i0.y + 1.0 <= res - 1.0);
-      const float t00 = in0.x && in0.y ? g.w : 1.0;
-      const float t10 = in1.x && in0.y ? g.z : 1.0;
-      const float t01 = in0.x && in1.y ? g.x : 1.0;
-      const float t11 = in1.x && in1.y ? g.y : 1.0;
-      const vec2 w = f - i0;
-      return mix(mix(t00, t10, w.x), mix(t01, t11, w.x), w.y);
+      v = vec4(in0.x && in1.y ? g.x : 1.0, in1.x && in1.y ? g.y : 1.0,
+               in1.x && in0.y ? g.z : 1.0, in0.x && in0.y ? g.w : 1.0);
     }
-    return csmCompareTap(csmWrapUv(t, int(layer)), layer, depth);
   }
-  return csmCompareTap(t * csmU.invResolution, layer, depth);
+  return mix(mix(v.w, v.z, w.x), mix(v.x, v.y, w.x), w.y);
 }
 
 /// The receiver's plane in the map of cascade i: change of stored depth per texel of offset along
@@ -555,16 +543,43 @@ float csmMomentLit(vec4 moments, float depth, float minVariance) {
   return clamp((lit - reduction) / (1.0 - reduction), 0.0, 1.0);
 }
 
-/// Prefiltered shadow factor of cascade i: one trilinear tap of the moments. dPdx, dPdy: the
-/// receiver's screen-space derivatives (zero outside a fragment shader: level 0, bilinear), so
-/// a far or grazing receiver reads the mip its footprint covers instead of aliasing.
+/// Level 0 of the moments of cascade i at box texel coordinates `t`, bilinear by hand from four
+/// gathers (one per channel): float weights, so that a receiver whose coordinate differs by float
+/// rounding between frames reads the same moments to within that rounding. The sampler's
+/// fixed-point sub-texel weights (8 bits on the GPUs we measured) changed a factor through the
+/// reconstruction by up to 1.3/255 there.
+vec4 csmMomentBilinear(int i, vec2 t) {
+  const vec2 f = t - 0.5;
+  const vec2 i0 = floor(f);
+  const vec2 w = f - i0;
+  // At the corner shared by the four texels (order (i0, j1), (i1, j1), (i1, j0), (i0, j0)).
+  const vec3 uvw = vec3(csmWrapUv(i0 + 1.0, i), float(i));
+  const mat4 g = mat4(textureGather(csmMomentMap, uvw, 0), textureGather(csmMomentMap, uvw, 1),
+                      textureGather(csmMomentMap, uvw, 2), textureGather(csmMomentMap, uvw, 3));
+  // Rows of g: the four texels' moments (g[c][k]: channel c of texel k).
+  const vec4 t01 = vec4(g[0].x, g[1].x, g[2].x, g[3].x);
+  const vec4 t11 = vec4(g[0].y, g[1].y, g[2].y, g[3].y);
+  const vec4 t10 = vec4(g[0].z, g[1].z, g[2].z, g[3].z);
+  const vec4 t00 = vec4(g[0].w, g[1].w, g[2].w, g[3].w);
+  return mix(mix(t00, t10, w.x), mix(t01, t11, w.x), w.y);
+}
+
+/// Prefiltered shadow factor of cascade i: the moments the receiver's footprint covers. dPdx,
+/// dPdy: the receiver's screen-space derivatives (zero outside a fragment shader). Where the
+/// footprint is at most a texel (magnification: level 0, bilinear), the moments are filtered by
+/// hand (csmMomentBilinear); where it is larger, one trilinear (or anisotropic) tap reads the
+/// mip it covers, so a far or grazing receiver does not alias.
 float csmMomentShadow(int i, vec3 posCr, vec3 normalWs, vec3 dPdx, vec3 dPdy) {
   const vec3 c = csmShadowCoord(i, posCr, normalWs);
   const mat4 m = csmU.cascades[i].viewProjCr;
   const vec2 gx = (m * vec4(dPdx, 0.0)).xy * 0.5;
   const vec2 gy = (m * vec4(dPdy, 0.0)).xy * 0.5;
+  const float res = csmU.resolution;
+  const float footprint = max(dot(gx, gx), dot(gy, gy)) * res * res;  // texels squared
   const vec4 moments =
-      textureGrad(csmMomentMap, vec3(csmWrapUv(c.xy, i), float(i)), gx, gy);
+      footprint <= 1.0
+          ? csmMomentBilinear(i, c.xy)
+          : textureGrad(csmMomentMap, vec3(csmWrapUv(c.xy, i), float(i)), gx, gy);
   // The variance floor: a quarter texel of depth at 45 degrees (units of stored depth).
   const float texelDepth =
       0.5 * csmU.cascades[i].texelSizeM / max(csmU.cascades[i].depthRangeM, 1e-6);
