@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <stdexcept>
@@ -93,6 +94,18 @@ std::vector<nlohmann::json> measureShimmer(const std::vector<RowSpec>& specs,
             harness, receivers, light,
             [&](int f) { return csm_measure::motionCamera(motion, origin, texel0, texelLast, f); },
             kShimmerFrames, specs[r].kernel);
+        // CSM_DATASHEET_SHIMMER_DEBUG=1: each visible change of a stable receiver, for diagnosis.
+        if (std::getenv("CSM_DATASHEET_SHIMMER_DEBUG")) {
+          for (const auto& c : run.visibleChanges) {
+            const glm::dvec3 p = receivers[c.receiver].posWs - origin;
+            std::fprintf(stderr,
+                         "shimmer %s %s %s: frame %d receiver %zu (%.2f %.2f %.2f) cascade %d "
+                         "%.5f -> %.5f depth gap %.3g m\n",
+                         specs[r].name.c_str(), m.name, csm_measure::distanceKey(distance).c_str(),
+                         c.frame, c.receiver, p.x, p.y, p.z, c.cascade, c.before, c.after,
+                         c.depthGapM);
+          }
+        }
         out[r][m.name][csm_measure::distanceKey(distance)] = {
             {"visible", round6(run.total.stayed.visibleFraction())},
             {"mean", round6(run.total.stayed.mean())}};

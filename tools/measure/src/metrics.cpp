@@ -79,7 +79,10 @@ nlohmann::json ShimmerRun::toJson(bool perFrameSeries) const {
     changes.push_back({{"frame", c.frame},
                        {"receiver", c.receiver},
                        {"delta", c.delta},
-                       {"min_depth_gap_m", c.depthGapM}});
+                       {"min_depth_gap_m", c.depthGapM},
+                       {"before", c.before},
+                       {"after", c.after},
+                       {"cascade", c.cascade}});
   }
   j["stayed_visible_changes"] = changes;
   if (perFrameSeries) {
@@ -161,7 +164,8 @@ ShimmerRun measureShimmer(Harness& harness, std::span<const Receiver> receivers,
         } else {
           cls.stayed.add(d);
           if (d > kVisibleStep && run.visibleChanges.size() < 100) {
-            run.visibleChanges.push_back({f, i, d, std::min(a.depthGapM, b.depthGapM)});
+            run.visibleChanges.push_back(
+                {f, i, d, std::min(a.depthGapM, b.depthGapM), a.shadow, b.shadow, b.cascade});
           }
         }
       }

@@ -55,13 +55,16 @@ struct ShimmerRun {
   ShimmerClasses total;
   uint64_t nonFinite = 0;      ///< NaN / inf in shader outputs or cascade matrices
   uint64_t pointsTracked = 0;  ///< receivers inside the view in the first frame
-  /// Stayed points that changed visibly: (frame, receiver index, |ds|, depth gap in m), for
-  /// diagnosis (at most 100 kept).
+  /// Stayed points that changed visibly: (frame, receiver index, |ds|, depth gap in m, the
+  /// factor in the two frames, the cascade), for diagnosis (at most 100 kept).
   struct Change {
     int frame;
     size_t receiver;
     double delta;
     double depthGapM;
+    float before = 0.0f;
+    float after = 0.0f;
+    int cascade = -1;
   };
   std::vector<Change> visibleChanges;
   [[nodiscard]] nlohmann::json toJson(bool perFrameSeries) const;
