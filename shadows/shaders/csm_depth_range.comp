@@ -11,6 +11,12 @@
 // the cascade whose view-depth interval holds it, and its light-space x, y (camera-relative, the
 // host adds the camera's in double) folded in with atomicMin on order-preserving uints (the
 // maxima stored inverted, so one fill value, 0xffffffff, resets every field).
+// Optionally (tileMarks != 0, with bounds) the receiver-marked tiles (csm::ReceiverTileMarks):
+// each workgroup marks, per cascade, every tile of the cascade's grid that the light-space
+// rectangle of its receivers there, widened by the reach, touches: the receivers the lighting
+// shades with the cascade (its bounds above, when it is not empty) and those in the blend band of
+// the cascade before it (a second rectangle). The host writes each cascade's grid (origin about
+// the camera, 1 / tile side, reach) and blend band into the slot.
 #extension GL_GOOGLE_include_directive : require
 #include "csm/shared_constants.h"
 
@@ -20,10 +26,16 @@ layout(set = 0, binding = 0) uniform sampler2D depthTex;
 // Per slot: range.x = min depth bits, y = max depth bits, z = pixels counted, w = unused;
 // bins: receiver pixels per view-depth bin (all 0 without a histogram).
 // bounds: per cascade (min x, min y, ~max x, ~max y) as order-preserving uints.
+// tiles: per cascade CSM_TILE_WORDS words of marks (bit y * CSM_TILE_GRID_SIDE + x); grid:
+// per cascade (grid origin x, y in light space about the camera (m), 1 / tile side (1/m),
+// reach (m)); band: per cascade (view depth where its blend band starts, 1 when non-empty).
 struct Slot {
   uvec4 range;
   uint bins[CSM_DEPTH_HISTOGRAM_BINS];
   uint bounds[CSM_MAX_CASCADES * 4];
+  uint tiles[CSM_MAX_CASCADES * CSM_TILE_WORDS];
+  vec4 grid[CSM_MAX_CASCADES];
+  vec4 band[CSM_MAX_CASCADES];
 };
 layout(set = 0, binding = 1, std430) buffer Result {
   Slot slots[];
@@ -48,7 +60,7 @@ layout(push_constant) uniform Push {
   vec4 lsY;
   vec2 pOff;
   uint boundsCount;
-  float pad;
+  uint tileMarks;  // 1: mark tiles (with bounds)
   float splits[CSM_MAX_CASCADES + 1];
 } pc;
 
@@ -57,11 +69,40 @@ shared uint sMax;
 shared uint sCount;
 shared uint sBins[CSM_DEPTH_HISTOGRAM_BINS];
 shared uint sBounds[CSM_MAX_CASCADES * 4];
+shared uint sBandBounds[CSM_MAX_CASCADES * 4];  // as sBounds, the band's receivers
+shared vec4 sGrid[CSM_MAX_CASCADES];
+shared vec4 sBand[CSM_MAX_CASCADES];
 
 // Order-preserving float -> uint: negative floats reversed below the positive ones.
 uint orderedBits(float f) {
   const uint u = floatBitsToUint(f);
   return (u & 0x80000000u) != 0u ? ~u : (u | 0x80000000u);
+}
+
+// The inverse of orderedBits().
+float fromOrderedBits(uint u) {
+  return uintBitsToFloat((u & 0x80000000u) != 0u ? (u & 0x7fffffffu) : ~u);
+}
+
+// Marks the grid tiles of cascade c that the rectangle of a bounds entry (min x, min y, ~max x,
+// ~max y; light space about the camera) touches, widened by the cascade's reach.
+void markTiles(uint c, uint minX, uint minY, uint notMaxX, uint notMaxY) {
+  if (minX == 0xffffffffu) return;  // no receiver
+  const vec4 g = sGrid[c];
+  const vec2 lo = floor((vec2(fromOrderedBits(minX), fromOrderedBits(minY)) - g.w - g.xy) * g.z);
+  const vec2 hi =
+      floor((vec2(fromOrderedBits(~notMaxX), fromOrderedBits(~notMaxY)) + g.w - g.xy) * g.z);
+  const float last = float(CSM_TILE_GRID_SIDE - 1);
+  if (hi.x < 0.0 || hi.y < 0.0 || lo.x > last || lo.y > last) return;
+  const uvec2 a = uvec2(max(lo, vec2(0.0)));
+  const uvec2 b = uvec2(min(hi, vec2(last)));
+  for (uint y = a.y; y <= b.y; ++y) {
+    for (uint x = a.x; x <= b.x; ++x) {
+      const uint bit = y * uint(CSM_TILE_GRID_SIDE) + x;
+      atomicOr(result.slots[pc.slot].tiles[c * uint(CSM_TILE_WORDS) + bit / 32u],
+               1u << (bit % 32u));
+    }
+  }
 }
 
 void main() {
@@ -73,6 +114,11 @@ void main() {
   }
   for (uint b = local; b < CSM_DEPTH_HISTOGRAM_BINS; b += 256u) sBins[b] = 0u;
   if (local < CSM_MAX_CASCADES * 4) sBounds[local] = 0xffffffffu;
+  if (local < CSM_MAX_CASCADES * 4) sBandBounds[local] = 0xffffffffu;
+  if (pc.tileMarks != 0u && local < CSM_MAX_CASCADES) {
+    sGrid[local] = result.slots[pc.slot].grid[local];
+    sBand[local] = result.slots[pc.slot].band[local];
+  }
   barrier();
   const uvec2 p = gl_GlobalInvocationID.xy;
   if (p.x < pc.extent.x && p.y < pc.extent.y) {
@@ -105,6 +151,19 @@ void main() {
             atomicMin(sBounds[o + 2u], ~orderedBits(ls.x));
             atomicMin(sBounds[o + 3u], ~orderedBits(ls.y));
           }
+          // The blend band: the next cascade (when it is not empty) shades it too.
+          if (pc.tileMarks != 0u && c >= 0 && uint(c) + 1u < pc.boundsCount) {
+            const uint n = uint(c) + 1u;
+            const float bandStart = sBand[c].x;
+            if (sBand[c].y != 0.0 && sBand[n].y != 0.0 && bandStart < pc.splits[n] &&
+                d >= bandStart) {
+              const uint o = n * 4u;
+              atomicMin(sBandBounds[o + 0u], orderedBits(ls.x));
+              atomicMin(sBandBounds[o + 1u], orderedBits(ls.y));
+              atomicMin(sBandBounds[o + 2u], ~orderedBits(ls.x));
+              atomicMin(sBandBounds[o + 3u], ~orderedBits(ls.y));
+            }
+          }
         }
       }
     }
@@ -120,5 +179,12 @@ void main() {
   }
   if (local < pc.boundsCount * 4u && sBounds[local] != 0xffffffffu) {
     atomicMin(result.slots[pc.slot].bounds[local], sBounds[local]);
+  }
+  // One invocation per non-empty cascade marks the tiles under the workgroup's rectangles.
+  if (pc.tileMarks != 0u && local < pc.boundsCount && sBand[local].y != 0.0) {
+    const uint o = local * 4u;
+    markTiles(local, sBounds[o], sBounds[o + 1u], sBounds[o + 2u], sBounds[o + 3u]);
+    markTiles(local, sBandBounds[o], sBandBounds[o + 1u], sBandBounds[o + 2u],
+              sBandBounds[o + 3u]);
   }
 }

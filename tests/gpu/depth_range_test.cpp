@@ -5,6 +5,7 @@
 // camera cut drops every earlier result; an empty view gives none. ShadowView's receiver fit
 // (one switch and one call a frame) gives the same ranges and the frames they make.
 // Validation on, zero messages.
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -13,6 +14,7 @@
 
 #include <csm/light_space.hpp>
 #include <csm/receiver_bounds.hpp>
+#include <csm/receiver_tiles.hpp>
 #include <csm/splits.hpp>
 #include <csm/vulkan/depth_range.hpp>
 #include <csm/vulkan/shadow_view.hpp>
@@ -417,6 +419,172 @@ TEST_F(DepthRangeTest, LightSpaceBoundsOfAnAnalyticGroundPlane) {
     }
   }
   std::printf("receiver-fitted cascades: %d of %u\n", fitted, s.cascadeCount);
+}
+
+// Receiver-marked tiles (ReceiverBoundsInputs::tiles): the GPU's marks of the analytic ground
+// plane 3e6, 7e6 m from the origin against csm::markTileRect in double over the same 16x16
+// pixel blocks, for several filters. Float positions about the camera round differently from double
+// ones, so the GPU's marks must lie between the CPU's with the reach shrunk and grown by the float
+// error (and depths near a split or band start, where float may choose the other cascade, only in
+// the grown set); any tile missed or marked without a receiver near it fails.
+TEST_F(DepthRangeTest, TilesTheReceiversSampleMatchTheCpuMarks) {
+  constexpr std::uint32_t kW = 333, kH = 187;
+  const double fovDeg = 30.0, pitchDeg = -8.0, heightM = 20.0, nearM = 0.5, farM = 1500.0;
+  const AnalyticDepth scene = groundPlane(kW, kH, heightM, pitchDeg, fovDeg, nearM, farM);
+  const double tanY = std::tan(glm::radians(fovDeg) * 0.5);
+  const double aspect = double(kW) / kH;
+  csm::vk::DepthProjection proj = scene.projection;
+  proj.p00 = float(1.0 / (tanY * aspect));
+  proj.p11 = float(-1.0 / tanY);
+  const csm::Camera cam = yawedCamera(heightM, pitchDeg, fovDeg, aspect, nearM, farM);
+  const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
+
+  engine::ImageDesc desc;
+  desc.format = VK_FORMAT_D32_SFLOAT;
+  desc.extent = {kW, kH};
+  desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  engine::Image depth(ctx(), desc, "analytic depth");
+  engine::uploadImage(ctx(), depth, engine::asBytes(std::span<const float>(scene.depth)),
+                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  csm::vk::Status status;
+  auto reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), 2, &status);
+  ASSERT_TRUE(reducer) << status.message();
+
+  struct Case {
+    const char* name;
+    csm::PcfKernel kernel;
+    bool worldSpaceKernel;
+    std::uint32_t resolution;
+  };
+  const Case cases[] = {{"tent3x3", csm::PcfKernel::kTent3, false, 1024},
+                        {"tent7x7 world-space", csm::PcfKernel::kTent7, true, 2048},
+                        {"pcss", csm::PcfKernel::kPcss, false, 1024},
+                        {"msm", csm::PcfKernel::kMsm, false, 512}};
+  const glm::dmat3 rot = glm::mat3_cast(cam.orientationWs);
+  for (const Case& k : cases) {
+    SCOPED_TRACE(k.name);
+    csm::ShadowSettings s;
+    s.shadowDistanceM = 1200.0;
+    s.kernel = k.kernel;
+    s.worldSpaceKernel = k.worldSpaceKernel;
+    s.resolution = k.resolution;
+    auto f = csm::computeCascades(s, cam, light);
+    ASSERT_TRUE(f.ok());
+    const csm::CascadeFrame& frame = f.value();
+    ctx().submitAndWait([&](VkCommandBuffer cmd) {
+      ASSERT_TRUE(reducer
+                      ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                               {kW, kH}, proj, 0, {&frame, &cam, &s})
+                      .ok());
+      ASSERT_TRUE(reducer
+                      ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                               {kW, kH}, proj, 1, {&frame, &cam})
+                      .ok());
+    });
+    const auto range = reducer->read(0);
+    ASSERT_TRUE(range.has_value());
+    EXPECT_FALSE(reducer->read(1)->tiles.present());  // not asked for
+    const csm::ReceiverTileMarks& gpu = range->tiles;
+    ASSERT_TRUE(gpu.present());
+    ASSERT_EQ(gpu.cascadeCount, frame.cascadeCount);
+
+    csm::ReceiverTileMarks inner = csm::emptyReceiverTileMarks(s, frame);
+    csm::ReceiverTileMarks outer = inner;
+    for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+      const double eps = 4e-6 * frame.splitsM[i + 1] + 1e-4;
+      inner.reachM[i] = std::max(inner.reachM[i] - eps, 0.0);
+      outer.reachM[i] += eps;
+    }
+    // The GPU marks per 16x16 block of pixels: the rectangle of the block's receivers per
+    // cascade. The same blocks here, in double.
+    const glm::dmat3 basisT = glm::transpose(frame.lightBasisWs);
+    constexpr double kInf = std::numeric_limits<double>::infinity();
+    for (std::uint32_t by = 0; by < kH; by += 16) {
+      for (std::uint32_t bx = 0; bx < kW; bx += 16) {
+        // [0]: the receivers a cascade shades, [1]: those of the blend band before it (the GPU
+        // keeps the two rectangles apart).
+        std::array<std::array<glm::dvec2, csm::kMaxCascades>, 2> inLo, inHi, outLo, outHi;
+        for (int k = 0; k < 2; ++k) {
+          inLo[k].fill(glm::dvec2(kInf));
+          inHi[k].fill(glm::dvec2(-kInf));
+        }
+        outLo = inLo;
+        outHi = inHi;
+        auto grow = [](glm::dvec2& lo, glm::dvec2& hi, const glm::dvec2& v) {
+          lo = glm::min(lo, v);
+          hi = glm::max(hi, v);
+        };
+        for (std::uint32_t y = by; y < std::min(by + 16, kH); ++y) {
+          for (std::uint32_t x = bx; x < std::min(bx + 16, kW); ++x) {
+            const float z = scene.depth[std::size_t(y) * kW + x];
+            if (z == 1.0f) continue;
+            const double d = double(proj.p32 / (z + proj.p22));
+            const double vx = (2.0 * (x + 0.5) / kW - 1.0) * tanY * aspect;
+            const double vy = -(2.0 * (y + 0.5) / kH - 1.0) * tanY;
+            const glm::dvec3 p = cam.positionWs + rot * (glm::dvec3(vx, vy, -1.0) * d);
+            const glm::dvec3 q = basisT * p;
+            const glm::dvec2 ls(q.x, q.y);
+            // Depths within float error of a split or band start may go either way on the GPU:
+            // both ways in the outer set, neither in the inner one.
+            const double dd = 1e-6 * d;
+            bool nearBoundary = false;
+            for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+              nearBoundary = nearBoundary || std::abs(d - frame.splitsM[i + 1]) <= dd ||
+                             std::abs(d - inner.blendStartM[i]) <= dd;
+            }
+            for (double e : {-dd, 0.0, dd}) {
+              const auto [c, next] = csm::shadingCascades(outer, d + e);
+              const auto ci = std::size_t(c), ni = std::size_t(next);
+              if (c >= 0) grow(outLo[0][ci], outHi[0][ci], ls);
+              if (next >= 0) grow(outLo[1][ni], outHi[1][ni], ls);
+              if (e != 0.0 || nearBoundary) continue;
+              if (c >= 0) grow(inLo[0][ci], inHi[0][ci], ls);
+              if (next >= 0) grow(inLo[1][ni], inHi[1][ni], ls);
+            }
+          }
+        }
+        for (int k = 0; k < 2; ++k) {
+          for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+            if (inLo[k][i].x <= inHi[k][i].x) csm::markTileRect(inner, i, inLo[k][i], inHi[k][i]);
+            if (outLo[k][i].x <= outHi[k][i].x) {
+              csm::markTileRect(outer, i, outLo[k][i], outHi[k][i]);
+            }
+          }
+        }
+      }
+    }
+    int partial = 0;
+    for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+      for (std::uint32_t ty = 0; ty < csm::kTileGridSide; ++ty) {
+        for (std::uint32_t tx = 0; tx < csm::kTileGridSide; ++tx) {
+          if (inner.marked(i, tx, ty)) {
+            EXPECT_TRUE(gpu.marked(i, tx, ty))
+                << "missed: cascade " << i << " tile " << tx << "," << ty;
+          }
+          if (gpu.marked(i, tx, ty)) {
+            EXPECT_TRUE(outer.marked(i, tx, ty))
+                << "no receiver near: cascade " << i << " tile " << tx << "," << ty;
+          }
+        }
+      }
+      const std::uint32_t n = gpu.markedCount(i);
+      partial += (n > 0 && n < csm::kTileGridSide * csm::kTileGridSide) ? 1 : 0;
+      std::printf("%s cascade %u: %u of %u tiles marked (cpu %u..%u), reach %.3f m\n", k.name, i, n,
+                  csm::kTileGridSide * csm::kTileGridSide, inner.markedCount(i),
+                  outer.markedCount(i), gpu.reachM[i]);
+    }
+    EXPECT_GE(partial, 2);  // a ground plane seen at a grazing angle marks part of each grid
+  }
+
+  // Tiles need the frame they are marked on.
+  csm::ShadowSettings s;
+  ctx().submitAndWait([&](VkCommandBuffer cmd) {
+    const csm::vk::Status refused =
+        reducer->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, proj,
+                        0, {nullptr, nullptr, &s});
+    EXPECT_FALSE(refused.ok());
+    EXPECT_NE(refused.message().find("bounds.tiles"), std::string::npos) << refused.message();
+  });
 }
 
 // The receiver fit as one switch of the view (RendererOptions::receiverFit): the host hands

@@ -89,4 +89,13 @@
 // 8 rungs per octave the splits are placed on; the shader reduces a 16x16 tile, one bin each.
 #define CSM_DEPTH_HISTOGRAM_BINS 256
 
+// Receiver-marked tiles (csm::ReceiverTileMarks, csm_depth_range.comp): a cascade's layer is
+// divided into CSM_TILES_PER_SIDE^2 tiles of resolution / CSM_TILES_PER_SIDE texels on the
+// world-anchored texel grid; a box of `resolution` texels that does not start on a tile boundary
+// spans one tile more per side, so the marks of a cascade are a CSM_TILE_GRID_SIDE^2 bit grid in
+// CSM_TILE_WORDS 32-bit words.
+#define CSM_TILES_PER_SIDE 16
+#define CSM_TILE_GRID_SIDE 17
+#define CSM_TILE_WORDS 10
+
 #endif

@@ -2,6 +2,7 @@
 // World space is right-handed, +Y up, metres; world positions are double precision.
 #pragma once
 
+#include <glm/ext/vector_int2_sized.hpp>
 #include <glm/glm.hpp>
 #include <glm/gtc/quaternion.hpp>
 
@@ -312,6 +313,53 @@ struct ReceiverLightBounds {
   }
 };
 
+inline constexpr std::uint32_t kTilesPerSide = CSM_TILES_PER_SIDE;
+inline constexpr std::uint32_t kTileGridSide = CSM_TILE_GRID_SIDE;
+inline constexpr std::uint32_t kTileWords = CSM_TILE_WORDS;
+static_assert(kTileGridSide == kTilesPerSide + 1 &&
+              kTileWords * 32 >= kTileGridSide * kTileGridSide);
+
+/// The shadow-map tiles that the visible receivers of one frame sample, per cascade (receiver-
+/// marked tiles, as virtual shadow maps mark pages from the depth buffer): tiles are
+/// tileTexels = resolution / kTilesPerSide texels on the world-anchored texel grid of the cascade
+/// (world texel index floor(light-space x / texel), tile index floor(texel index / tileTexels));
+/// a cascade's grid holds kTileGridSide^2 of them from gridOrigin, which covers its box. The
+/// receivers a cascade shades (the first non-empty one whose [splitsM[i], splitsM[i + 1]) holds
+/// their view depth, as the lighting shader selects, and the next one too inside the blend band)
+/// mark the tiles that the light-space rectangle of their x, y, widened by reachM[i], touches
+/// (what the cascade's filter can read there, csm::receiverSampleReachTexels): per 16x16 block of
+/// pixels on the GPU (DepthRangeReducer, with ReceiverBoundsInputs::tiles), per receiver or
+/// rectangle on the CPU (csm::markReceiverTiles, markTileRect in csm/receiver_tiles.hpp). A
+/// block that straddles a silhouette so marks the tiles between its receivers too.
+/// cascadeCount = 0: no marks.
+struct ReceiverTileMarks {
+  std::uint32_t cascadeCount = 0;
+  std::uint32_t nonEmptyMask = 0;
+  std::uint32_t tileTexels = 0;
+  std::array<double, kMaxCascades + 1> splitsM{};
+  /// View depth where cascade i's blend band toward i + 1 starts (= splitsM[i + 1]: no band).
+  std::array<double, kMaxCascades> blendStartM{};
+  glm::dmat3 lightBasisWs{1.0};
+  std::array<double, kMaxCascades> texelM{};
+  std::array<double, kMaxCascades> reachM{};
+  /// World tile index (x, y) of grid tile (0, 0).
+  std::array<glm::i64vec2, kMaxCascades> gridOrigin{};
+  /// Bit y * kTileGridSide + x of cascade i: grid tile (x, y) is marked.
+  std::array<std::array<std::uint32_t, kTileWords>, kMaxCascades> bits{};
+
+  [[nodiscard]] bool present() const noexcept { return cascadeCount != 0; }
+  [[nodiscard]] bool marked(std::uint32_t i, std::uint32_t x, std::uint32_t y) const noexcept {
+    const std::uint32_t b = y * kTileGridSide + x;
+    return (bits[i][b / 32] >> (b % 32)) & 1u;
+  }
+  void mark(std::uint32_t i, std::uint32_t x, std::uint32_t y) noexcept {
+    const std::uint32_t b = y * kTileGridSide + x;
+    bits[i][b / 32] |= 1u << (b % 32);
+  }
+  /// Tiles marked in cascade i.
+  [[nodiscard]] std::uint32_t markedCount(std::uint32_t i) const noexcept;
+};
+
 /// The view-depth range [minM, maxM] of the receivers visible this frame (as a depth-buffer
 /// reduction reports it, typically one or two frames late). 0 <= minM <= maxM, finite.
 /// Optionally the histogram of the same receivers' view depths (ReceiverSplitScheme::kHistogram).
@@ -321,6 +369,8 @@ struct ReceiverDepthRange {
   ReceiverDepthHistogram histogram{};
   /// Optionally the receivers' light-space bounds per cascade (the boxes' partition bounds).
   ReceiverLightBounds lightBounds{};
+  /// Optionally the tiles the receivers sample per cascade (receiver-marked tiles).
+  ReceiverTileMarks tiles{};
 };
 
 /// A perspective camera. Looks down its local -Z with +Y up (the GLM/Vulkan view convention).

@@ -11,6 +11,7 @@
 #include <csm_shaders/csm_depth_range.comp.spv.h>
 
 #include "csm/receiver_bounds.hpp"
+#include "csm/receiver_tiles.hpp"
 #include "vk_util.hpp"
 
 namespace csm::vk {
@@ -19,11 +20,16 @@ namespace {
 constexpr std::uint32_t kGroup = 16;  // local size of csm_depth_range.comp
 constexpr std::uint32_t kFltMaxBits = 0x7f7fffffu;
 // One result slot: uvec4 (min bits, max bits, count, unused), the histogram's bins, then per
-// cascade (min x, min y, ~max x, ~max y) as order-preserving uints.
+// cascade (min x, min y, ~max x, ~max y) as order-preserving uints, then per cascade the tile
+// marks (kTileWords words), the tile grids and the blend bands (a vec4 each, written by record).
 constexpr VkDeviceSize kBinsBytes = 4 * VkDeviceSize(kDepthHistogramBins);
 constexpr VkDeviceSize kBoundsBytes = 16 * VkDeviceSize(kMaxCascades);
-constexpr VkDeviceSize kSlotBytes = 16 + kBinsBytes + kBoundsBytes;
-static_assert(kSlotBytes % 16 == 0);
+constexpr VkDeviceSize kTilesOffset = 16 + kBinsBytes + kBoundsBytes;
+constexpr VkDeviceSize kTilesBytes = 4 * VkDeviceSize(kTileWords) * kMaxCascades;
+constexpr VkDeviceSize kGridOffset = kTilesOffset + kTilesBytes;
+constexpr VkDeviceSize kGridBytes = 2 * 16 * VkDeviceSize(kMaxCascades);  // grid, then band
+constexpr VkDeviceSize kSlotBytes = kGridOffset + kGridBytes;
+static_assert(kTilesOffset % 16 == 0 && kGridOffset % 16 == 0 && kSlotBytes % 16 == 0);
 
 struct PushConstants {
   std::uint32_t extent[2];
@@ -37,7 +43,7 @@ struct PushConstants {
   float lsY[4];  // light y row, 1 / P[1][1]
   float pOff[2];
   std::uint32_t boundsCount;  // 0: no bounds
-  float pad;
+  std::uint32_t tileMarks;    // 1: mark tiles
   float splits[kMaxCascades + 1];
 };
 static_assert(sizeof(PushConstants) == 80 + 4 * (kMaxCascades + 1));
@@ -271,6 +277,16 @@ Status checkRecordArguments(VkImageView depthView, VkImageLayout layout, VkExten
     return Status(ErrorCode::kInvalidArgument,
                   "DepthRangeReducer::record: bounds.frame and bounds.camera go together");
   }
+  if (bounds.tiles != nullptr) {
+    if (bounds.frame == nullptr) {
+      return Status(ErrorCode::kInvalidArgument,
+                    "DepthRangeReducer::record: bounds.tiles needs bounds.frame and bounds.camera");
+    }
+    if (auto e = csm::validate(*bounds.tiles)) {
+      return Status(ErrorCode::kInvalidArgument,
+                    "DepthRangeReducer::record: bounds.tiles: " + e->message());
+    }
+  }
   if (bounds.frame != nullptr &&
       (!std::isfinite(projection.p00) || !std::isfinite(projection.p11) ||
        !std::isfinite(projection.p20) || !std::isfinite(projection.p21) || projection.p00 == 0.0f ||
@@ -331,8 +347,30 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
   vkCmdFillBuffer(cmd, buffer_, offset, 4, kFltMaxBits);
   vkCmdFillBuffer(cmd, buffer_, offset + 4, 12 + kBinsBytes, 0u);
   vkCmdFillBuffer(cmd, buffer_, offset + 16 + kBinsBytes, kBoundsBytes, 0xffffffffu);
+  vkCmdFillBuffer(cmd, buffer_, offset + kTilesOffset, kTilesBytes, 0u);
+  slotTiles_[slot] = ReceiverTileMarks{};
+  if (bounds.frame != nullptr && bounds.tiles != nullptr) {
+    // Each cascade's grid about the camera (the shader's positions are camera-relative floats).
+    const ReceiverTileMarks t = emptyReceiverTileMarks(*bounds.tiles, *bounds.frame);
+    const glm::dmat3 basisT = glm::transpose(t.lightBasisWs);
+    const glm::dvec3 cam = basisT * bounds.frame->cameraPositionWs;
+    float grid[2][kMaxCascades][4]{};
+    for (std::uint32_t i = 0; i < t.cascadeCount; ++i) {
+      grid[1][i][0] = float(t.blendStartM[i]);
+      if (!(t.nonEmptyMask >> i & 1u)) continue;
+      const double tileM = t.texelM[i] * t.tileTexels;
+      grid[0][i][0] = float(double(t.gridOrigin[i].x) * tileM - cam.x);
+      grid[0][i][1] = float(double(t.gridOrigin[i].y) * tileM - cam.y);
+      grid[0][i][2] = float(1.0 / tileM);
+      grid[0][i][3] = float(t.reachM[i]);
+      grid[1][i][1] = 1.0f;
+    }
+    static_assert(sizeof grid == kGridBytes);
+    vkCmdUpdateBuffer(cmd, buffer_, offset + kGridOffset, kGridBytes, grid);
+    slotTiles_[slot] = t;
+  }
   auto toCompute = vkInit<VkMemoryBarrier2>(VK_STRUCTURE_TYPE_MEMORY_BARRIER_2);
-  toCompute.srcStageMask = VK_PIPELINE_STAGE_2_CLEAR_BIT | VK_PIPELINE_STAGE_2_COPY_BIT;
+  toCompute.srcStageMask = VK_PIPELINE_STAGE_2_ALL_TRANSFER_BIT;
   toCompute.srcAccessMask = VK_ACCESS_2_TRANSFER_WRITE_BIT;
   toCompute.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
   toCompute.dstAccessMask =
@@ -359,7 +397,7 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
                      {},
                      {},
                      0u,
-                     0.0f,
+                     0u,
                      {}};
   slotBounds_[slot] = ReceiverLightBounds{};
   if (bounds.frame != nullptr) {
@@ -374,6 +412,7 @@ Status DepthRangeReducer::record(VkCommandBuffer cmd, VkImageView depthView, VkI
     push.pOff[0] = projection.p20;
     push.pOff[1] = projection.p21;
     push.boundsCount = f.cascadeCount;
+    push.tileMarks = slotTiles_[slot].present() ? 1u : 0u;
     for (std::uint32_t i = 0; i <= f.cascadeCount; ++i) push.splits[i] = float(f.splitsM[i]);
     slotBounds_[slot] = emptyReceiverLightBounds(f, *bounds.camera);
   }
@@ -429,6 +468,13 @@ std::optional<ReceiverDepthRange> DepthRangeReducer::read(std::uint32_t slot) co
           cameraLs + glm::dvec2(fromOrderedBits(q[0]), fromOrderedBits(q[1]));
       range.lightBounds.maxLs[i] =
           cameraLs + glm::dvec2(fromOrderedBits(~q[2]), fromOrderedBits(~q[3]));
+    }
+  }
+  if (slotTiles_[slot].present()) {
+    range.tiles = slotTiles_[slot];
+    for (std::uint32_t i = 0; i < range.tiles.cascadeCount; ++i) {
+      std::memcpy(range.tiles.bits[i].data(), base + kTilesOffset + 4 * kTileWords * i,
+                  4 * kTileWords);
     }
   }
   return range;

@@ -58,9 +58,13 @@ struct DepthProjection {
 /// What the reduction needs to bound the receivers in light space per cascade: the cascades the
 /// depth buffer's frame was drawn with (cascadeCount, splitsM, lightBasisWs, cameraPositionWs)
 /// and its camera (orientation, field of view and aspect).
+/// With `tiles` (the settings the frame is lit with: its filter, bias and blend band) the
+/// reduction also marks the tiles the receivers sample per cascade (ReceiverDepthRange::tiles,
+/// csm/receiver_tiles.hpp).
 struct ReceiverBoundsInputs {
   const CascadeFrame* frame = nullptr;
   const Camera* camera = nullptr;
+  const ShadowSettings* tiles = nullptr;
 };
 
 class DepthRangeReducer {
@@ -118,6 +122,7 @@ class DepthRangeReducer {
   float slotHistogramNearM_[kMaxSlots]{};  // the histogram range each slot was recorded with
   float slotHistogramFarM_[kMaxSlots]{};
   ReceiverLightBounds slotBounds_[kMaxSlots]{};  // the frame each slot's bounds were taken with
+  ReceiverTileMarks slotTiles_[kMaxSlots]{};     // the grids each slot's tiles were marked on
   VkDescriptorSetLayout setLayout_ = VK_NULL_HANDLE;
   VkPipelineLayout pipelineLayout_ = VK_NULL_HANDLE;
   VkPipeline pipeline_ = VK_NULL_HANDLE;

@@ -1,0 +1,124 @@
+#include "csm/receiver_tiles.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+
+#include "csm/gpu_layout.hpp"
+#include "csm/moments.hpp"
+
+namespace csm {
+
+namespace {
+
+std::int64_t floorDiv(std::int64_t a, std::int64_t b) noexcept {
+  const std::int64_t q = a / b;
+  return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;
+}
+
+}  // namespace
+
+std::uint32_t ReceiverTileMarks::markedCount(std::uint32_t i) const noexcept {
+  std::uint32_t n = 0;
+  if (i >= kMaxCascades) return 0;
+  for (std::uint32_t w : bits[i]) n += std::uint32_t(std::popcount(w));
+  return n;
+}
+
+double receiverSampleReachTexels(const ShadowSettings& settings, const CascadeFrame& frame,
+                                 std::uint32_t i) noexcept {
+  if (i >= frame.cascadeCount || i >= kMaxCascades || frame.cascades[i].empty) return 0.0;
+  const double texel = frame.cascades[i].texelSizeM();
+  if (!(texel > 0.0)) return 0.0;
+  const double offset = double(settings.normalOffsetTexels) * std::sqrt(2.0);
+  const PcfKernel k = settings.kernel;
+  if (k == PcfKernel::kPcss) {
+    const double search = std::max(0.5 * settings.maxPenumbraM / texel, 1.0);
+    return search + double(CSM_KERNEL_RADIUS_PCSS);
+  }
+  if (isPrefiltered(k)) {
+    return double(CSM_KERNEL_RADIUS_MOMENTS) +
+           double(momentBlurRadiusTexels(settings.momentBlurM, texel)) + offset;
+  }
+  // The taps spread by the world-space kernel's scale: reach 1 + (radius - 1) s.
+  const double texel0 = frame.cascades[0].texelSizeM();
+  const double scale = settings.worldSpaceKernel && texel0 > 0.0 ? texel0 / texel : 1.0;
+  return 1.0 + (double(kernelRadiusTexels(k)) - 1.0) * scale + offset;
+}
+
+ReceiverTileMarks emptyReceiverTileMarks(const ShadowSettings& settings,
+                                         const CascadeFrame& frame) noexcept {
+  ReceiverTileMarks m;
+  const std::uint32_t count = std::min(frame.cascadeCount, kMaxCascades);
+  const std::uint32_t res = frame.resolution > 0 ? frame.resolution : settings.resolution;
+  m.cascadeCount = count;
+  m.tileTexels = std::max(res / kTilesPerSide, 1u);
+  m.splitsM = frame.splitsM;
+  m.lightBasisWs = frame.lightBasisWs;
+  const glm::dmat3 basisT = glm::transpose(frame.lightBasisWs);
+  const double band = settings.blendBand;
+  for (std::uint32_t i = 0; i < count; ++i) {
+    const Cascade& c = frame.cascades[i];
+    const double nearM = frame.splitsM[i], farM = frame.splitsM[i + 1];
+    m.blendStartM[i] = farM - band * (farM - nearM);
+    if (c.empty || !(c.texelSizeM() > 0.0)) continue;
+    m.nonEmptyMask |= 1u << i;
+    const double texel = c.texelSizeM();
+    m.texelM[i] = texel;
+    m.reachM[i] = receiverSampleReachTexels(settings, frame, i) * texel;
+    // The box's first world texel, as the cached renderer's windows place it, and its tile.
+    const glm::dvec3 centerLs = basisT * c.boxCenterWs;
+    const auto half = std::int64_t(res / 2);
+    const std::int64_t boxX = std::llround(std::clamp(centerLs.x / texel, -4e18, 4e18)) - half;
+    const std::int64_t boxY = std::llround(std::clamp(centerLs.y / texel, -4e18, 4e18)) - half;
+    m.gridOrigin[i] = glm::i64vec2(floorDiv(boxX, m.tileTexels), floorDiv(boxY, m.tileTexels));
+  }
+  return m;
+}
+
+std::pair<int, int> shadingCascades(const ReceiverTileMarks& m, double viewDepthM) noexcept {
+  int c = -1;
+  for (std::uint32_t i = 0; i < m.cascadeCount; ++i) {
+    if ((m.nonEmptyMask >> i & 1u) && viewDepthM >= m.splitsM[i] && viewDepthM < m.splitsM[i + 1]) {
+      c = int(i);
+      break;
+    }
+  }
+  if (c < 0) return {-1, -1};
+  const auto i = std::uint32_t(c);
+  const std::uint32_t next = i + 1;
+  if (next < m.cascadeCount && (m.nonEmptyMask >> next & 1u) &&
+      m.blendStartM[i] < m.splitsM[i + 1] && viewDepthM >= m.blendStartM[i]) {
+    return {c, int(next)};
+  }
+  return {c, -1};
+}
+
+void markTileRect(ReceiverTileMarks& m, std::uint32_t i, const glm::dvec2& minLs,
+                  const glm::dvec2& maxLs) noexcept {
+  if (i >= m.cascadeCount || !(m.nonEmptyMask >> i & 1u)) return;
+  const double tileM = m.texelM[i] * m.tileTexels;
+  const glm::dvec2 origin = glm::dvec2(m.gridOrigin[i]) * tileM;
+  const double side = double(kTileGridSide);
+  const glm::dvec2 lo = glm::floor((minLs - m.reachM[i] - origin) / tileM);
+  const glm::dvec2 hi = glm::floor((maxLs + m.reachM[i] - origin) / tileM);
+  if (!(hi.x >= 0.0 && hi.y >= 0.0 && lo.x < side && lo.y < side)) return;
+  const auto x0 = std::uint32_t(std::max(lo.x, 0.0)), y0 = std::uint32_t(std::max(lo.y, 0.0));
+  const auto x1 = std::uint32_t(std::min(hi.x, side - 1.0));
+  const auto y1 = std::uint32_t(std::min(hi.y, side - 1.0));
+  for (std::uint32_t y = y0; y <= y1; ++y) {
+    for (std::uint32_t x = x0; x <= x1; ++x) m.mark(i, x, y);
+  }
+}
+
+int markReceiverTiles(ReceiverTileMarks& m, const glm::dvec3& posWs, double viewDepthM) noexcept {
+  const auto [c, next] = shadingCascades(m, viewDepthM);
+  if (c < 0) return -1;
+  const glm::dvec3 q = glm::transpose(m.lightBasisWs) * posWs;
+  const glm::dvec2 ls(q.x, q.y);
+  markTileRect(m, std::uint32_t(c), ls, ls);
+  if (next >= 0) markTileRect(m, std::uint32_t(next), ls, ls);
+  return c;
+}
+
+}  // namespace csm
