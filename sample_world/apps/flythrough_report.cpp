@@ -53,6 +53,9 @@ json cascadesJson(const world::FrameStats& st) {
                    {"texels_rendered", st.texelsRendered[c]},
                    {"moment_texels", st.momentTexels[c]},
                    {"lag_frames", st.lagFrames[c]}});
+    // settings.tileMarks: tiles marked (of kTileGridSide^2) by the depth buffer of a few frames
+    // ago, when that frame's marks are ready and had this cascade (absent otherwise).
+    if (c < st.tilesMarkedFrom) arr.back()["tiles_marked"] = st.tilesMarked[c];
   }
   return arr;
 }

@@ -246,6 +246,7 @@ const std::vector<Entry>& table() {
              [](AppSettings& s) -> csm::BoxFit& { return s.shadow.boxFit; }),
       boolean("shadow.receiverSplits", [](AppSettings& s) -> bool& { return s.receiverSplits; }),
       boolean("shadow.receiverBounds", [](AppSettings& s) -> bool& { return s.receiverBounds; }),
+      boolean("shadow.tileMarks", [](AppSettings& s) -> bool& { return s.tileMarks; }),
       choice(
           "shadow.receiverSplitScheme", "one of range, histogram", kReceiverSchemes,
           [](AppSettings& s) -> csm::ReceiverSplitScheme& { return s.shadow.receiverSplitScheme; }),

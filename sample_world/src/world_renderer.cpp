@@ -374,6 +374,12 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   options.receiverFit = !settings.receiverSplits  ? csm::vk::ReceiverFit::kOff
                         : settings.receiverBounds ? csm::vk::ReceiverFit::kSplitsAndBoxes
                                                   : csm::vk::ReceiverFit::kSplits;
+  if (settings.tileMarks && !tileReducer_) {
+    csm::vk::Status made;
+    tileReducer_ = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(*ctx_),
+                                                      engine::kFramesInFlight, &made);
+    if (!tileReducer_) return "shadow.tileMarks: " + made.message();
+  }
   const csm::vk::Status s = shadow_->setSettings(effectiveShadow(settings), options);
   if (!s.ok()) return s.message();
   const bool resetHistory =
@@ -409,11 +415,13 @@ void WorldRenderer::cameraCut() {
   // place's (every cascade's window is new there anyway), and no receiver range measured there
   // is used here.
   shadow_->cameraCut();
+  if (tileReducer_) tileReducer_->invalidate();
 }
 
 std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, FrameStats& stats) {
   camera_ = camera;
   const csm::Camera c = glue::toCsmCamera(camera);
+  frameCamera_ = c;
   const csm::DirectionalLight light{lightDirection(settings_)};
 
   // The shadows: dynamic casters moved, cascades for this camera, the casters culled into them.
@@ -561,7 +569,7 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
   if (overlay && (settings_.overlayThumbnails || settings_.overlayMap))
     recordOverlay(f, slot, timer);
   vkCmdEndRendering(cmd);
-  if (settings_.receiverSplits) recordDepthRange(f);
+  if (settings_.receiverSplits || settings_.tileMarks) recordDepthRange(f, timer, stats);
   stats.cpuRecordMs = msSince(t0);
 }
 
@@ -636,9 +644,37 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
   }
 }
 
-void WorldRenderer::recordDepthRange(const engine::Frame& f) {
+void WorldRenderer::recordTileMarks(const engine::Frame& f, engine::GpuTimer& timer,
+                                    FrameStats& stats) {
+  // The slot of this frame in flight: its last submission has completed (the engine waited for
+  // the frame's fence), so its marks are those of the depth buffer kFramesInFlight frames ago.
+  stats.tilesMarked = {};
+  stats.tilesMarkedFrom = 0;
+  if (const auto previous = tileReducer_->read(f.slot); previous && previous->tiles.present()) {
+    stats.tilesMarkedFrom = previous->tiles.cascadeCount;
+    for (std::uint32_t c = 0; c < previous->tiles.cascadeCount; ++c) {
+      stats.tilesMarked[c] = previous->tiles.markedCount(c);
+    }
+  }
+  const glm::mat4& p = camera_.projection();
+  csm::vk::DepthProjection dp{p[2][2], p[3][2], 1.0f};
+  dp.p00 = p[0][0];
+  dp.p11 = p[1][1];
+  dp.p20 = p[2][0];
+  dp.p21 = p[2][1];
+  timer.begin(f.cmd, "tile marks");
+  const csm::vk::Status s =
+      tileReducer_->record(f.cmd, f.depthView, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, f.extent,
+                           dp, f.slot, {&shadow_->frame(), &frameCamera_, &shadow_->settings()});
+  timer.end(f.cmd, "tile marks");
+  if (!s.ok()) throw std::runtime_error("DepthRangeReducer::record (tile marks): " + s.message());
+}
+
+void WorldRenderer::recordDepthRange(const engine::Frame& f, engine::GpuTimer& timer,
+                                     FrameStats& stats) {
   // The receiver fit: the view reduces this frame's depth buffer to the visible receivers' range
-  // (and their light-space bounds per cascade); the frames kFramesInFlight later fit to it.
+  // (and their light-space bounds per cascade); the frames kFramesInFlight later fit to it. The
+  // tile marks: the same kind of reduction marks the tiles the visible pixels sample.
   VkCommandBuffer cmd = f.cmd;
   const VkImageAspectFlags aspect = VK_IMAGE_ASPECT_DEPTH_BIT;
   engine::imageBarrier(
@@ -647,9 +683,13 @@ void WorldRenderer::recordDepthRange(const engine::Frame& f) {
       VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
       VK_ACCESS_2_SHADER_SAMPLED_READ_BIT, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL,
       VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
-  const csm::vk::Status s = shadow_->recordReceiverDepth(
-      cmd, {f.depthView, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, f.extent, camera_.projection()});
-  if (!s.ok()) throw std::runtime_error("ShadowView::recordReceiverDepth: " + s.message());
+  if (settings_.receiverSplits) {
+    const csm::vk::Status s = shadow_->recordReceiverDepth(
+        cmd,
+        {f.depthView, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, f.extent, camera_.projection()});
+    if (!s.ok()) throw std::runtime_error("ShadowView::recordReceiverDepth: " + s.message());
+  }
+  if (settings_.tileMarks && tileReducer_) recordTileMarks(f, timer, stats);
   // Back to the layout the render target expects at endFrame.
   engine::imageBarrier(
       cmd, f.depthImage, aspect, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,

@@ -260,4 +260,53 @@ TEST(FlightClock, DayAndCutPathsReportSunStepsCutsAndTheirWorstFrames) {
   }
 }
 
+// shadow.tileMarks: each frame's report carries, per cascade, the tiles that the visible pixels
+// of the frame kFramesInFlight (2) earlier sample: absent on a cut's frame and the next (the
+// marks of the old place are dropped), present on every other frame after the first two (whose
+// slots the screenshot renders of frame 0 may have filled); at most a grid's worth, fewer in the
+// first cascade (a view samples part of it), some in every cascade along the flight. The
+// reduction's GPU scope is reported; validation clean.
+TEST(FlightClock, TileMarksArePerCascadeAndDroppedAtACut) {
+  const fs::path out = fs::path(CSM_TEST_ARTEFACT_DIR) / "tile_marks_cut";
+  fs::remove_all(out);
+  const ProcessResult r = runApp(
+      "--headless --frames 20 --shot-every 1000 --validation --path cut --out " + out.string() +
+      " --set view.width=160 --set view.height=90"
+      " --set shadow.resolution=512 --set cut.everyS=0.1"
+      " --set shadow.tileMarks=true");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  std::ifstream in(out / "report.json");
+  ASSERT_TRUE(in) << "no report.json in " << out;
+  json rep;
+  in >> rep;
+  EXPECT_EQ(rep["validation"]["messages"].get<std::uint64_t>(), 0u);
+  const json& frames = rep["per_frame"];
+  ASSERT_EQ(frames.size(), 20u);
+  constexpr std::uint32_t kGrid = 17 * 17;
+  std::array<std::uint32_t, 8> most{};
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const json& cascades = frames[i]["cascades"];
+    ASSERT_FALSE(cascades.empty());
+    ASSERT_LE(cascades.size(), most.size());
+    if (i < 2) continue;
+    const bool expected = i % 6 >= 2;  // a cut every 6 frames, at frames 6, 12 and 18
+    for (std::size_t c = 0; c < cascades.size(); ++c) {
+      ASSERT_EQ(cascades[c].contains("tiles_marked"), expected)
+          << "frame " << i << " cascade " << c;
+      if (!expected) continue;
+      const auto n = cascades[c]["tiles_marked"].get<std::uint32_t>();
+      EXPECT_LE(n, c == 0 ? kGrid - 1 : kGrid) << "frame " << i << " cascade " << c;
+      most[c] = std::max(most[c], n);
+    }
+  }
+  // Every cascade samples some tiles somewhere along the flight (a cascade may see no receiver
+  // from one place: the camera high above the ground).
+  for (std::size_t c = 0; c < frames[0]["cascades"].size(); ++c) {
+    EXPECT_GE(most[c], 1u) << "cascade " << c;
+  }
+  for (std::size_t i = 1; i < frames.size(); ++i) {
+    EXPECT_TRUE(frames[i]["gpu_ms"].contains("tile marks")) << "frame " << i;
+  }
+}
+
 }  // namespace

@@ -72,6 +72,13 @@ struct AppSettings {
   /// per cascade (csm::ReceiverDepthRange::lightBounds), and each cascade's box covers only them
   /// (never more than without). On by measurement (README, "Tighter where the receivers are").
   bool receiverBounds = true;
+  /// Measures receiver-marked tiles (csm::ReceiverTileMarks): each frame a reduction over the
+  /// lit pass's depth buffer marks, per cascade, the shadow-map tiles (1/16 of a layer's side)
+  /// that visible pixels sample with this frame's filter, bias and blend band; report.json gives
+  /// the count per cascade ("tiles_marked", of csm::kTileGridSide^2, a few frames late) and the
+  /// reduction's GPU time ("tile marks"). Nothing is skipped: it measures what rendering only
+  /// those tiles would leave out. Off by default.
+  bool tileMarks = false;
   std::array<std::uint32_t, csm::kMaxCascades> cascadeLod{};
   float lodMaxErrorTexels = 0.5f;
   csm::DebugMode debug = csm::DebugMode::kNone;

@@ -15,6 +15,7 @@
 
 #include "csm/cascades.hpp"
 #include "csm/culling.hpp"
+#include "csm/vulkan/depth_range.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
 #include "csm/vulkan/shadow_view.hpp"
 #include "engine/camera.hpp"
@@ -46,6 +47,11 @@ struct FrameStats {
   std::array<std::uint64_t, csm::kMaxCascades> momentTexels{};
   /// Frames the cascade's content lags the camera (the cache's texel budget deferred it).
   std::array<std::uint32_t, csm::kMaxCascades> lagFrames{};
+  /// settings.tileMarks: the tiles marked per cascade by the reduction of the depth buffer of
+  /// engine::kFramesInFlight frames ago (tilesMarkedFrom: that frame's cascade count; 0 when no
+  /// result was ready: the first frames, an empty view).
+  std::array<std::uint32_t, csm::kMaxCascades> tilesMarked{};
+  std::uint32_t tilesMarkedFrom = 0;
   /// Device memory of the static-depth cache (0 without it).
   std::uint64_t cacheBytes = 0;
   /// The LODs a cascade drew its caster clusters with: the finest and the coarsest, and how many
@@ -143,7 +149,8 @@ class WorldRenderer {
   void createFrameResources();  // per-frame uniforms, instances, overlay vertices
   void createPipelines();       // shader modules and the overlay pipelines
   void buildLitPipeline();
-  void recordDepthRange(const engine::Frame& f);
+  void recordDepthRange(const engine::Frame& f, engine::GpuTimer& timer, FrameStats& stats);
+  void recordTileMarks(const engine::Frame& f, engine::GpuTimer& timer, FrameStats& stats);
   // record()'s passes: the shadow pass (with its statistics), then inside one rendering the lit
   // pass and the overlay.
   void recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& timer, FrameStats& stats);
@@ -179,6 +186,10 @@ class WorldRenderer {
   // is mesh k * kLodCount + l).
   std::unique_ptr<csm::vk::ShadowView> shadow_;
   engine::Camera camera_{};
+  // settings.tileMarks: the reduction that marks the tiles visible pixels sample (one slot per
+  // frame in flight, the frame's slot), and the camera of the frame prepare() computed.
+  std::unique_ptr<csm::vk::DepthRangeReducer> tileReducer_;
+  csm::Camera frameCamera_{};
 
   // Per chunk: the bounds of everything in it (view culling of the lit pass).
   std::vector<csm::AabbWs> chunkBounds_;
