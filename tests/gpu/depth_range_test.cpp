@@ -88,7 +88,20 @@ csm::Camera yawedCamera(double heightM, double pitchDeg, double fovDeg, double a
   return cam;
 }
 
-class DepthRangeTest : public engine_test::GpuTest {};
+class DepthRangeTest : public engine_test::GpuTest {
+ protected:
+  // The analytic depth buffer as a sampled D32 image, in SHADER_READ_ONLY_OPTIMAL.
+  engine::Image uploadDepth(const AnalyticDepth& scene, std::uint32_t w, std::uint32_t h) {
+    engine::ImageDesc desc;
+    desc.format = VK_FORMAT_D32_SFLOAT;
+    desc.extent = {w, h};
+    desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+    engine::Image depth(ctx(), desc, "analytic depth");
+    engine::uploadImage(ctx(), depth, engine::asBytes(std::span<const float>(scene.depth)),
+                        VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    return depth;
+  }
+};
 
 TEST_F(DepthRangeTest, ReturnsTheAnalyticRangeAndFallsBackAfterACut) {
   constexpr std::uint32_t kW = 320, kH = 180;
@@ -210,13 +223,7 @@ TEST_F(DepthRangeTest, HistogramOfAnAnalyticGroundPlane) {
   }
   ASSERT_GT(ground, 20000u);
 
-  engine::ImageDesc desc;
-  desc.format = VK_FORMAT_D32_SFLOAT;
-  desc.extent = {kW, kH};
-  desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-  engine::Image depth(ctx(), desc, "analytic depth");
-  engine::uploadImage(ctx(), depth, engine::asBytes(std::span<const float>(scene.depth)),
-                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  const engine::Image depth = uploadDepth(scene, kW, kH);
   csm::vk::Status status;
   auto reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), 2, &status);
   ASSERT_TRUE(reducer) << status.message();
@@ -328,13 +335,7 @@ TEST_F(DepthRangeTest, LightSpaceBoundsOfAnAnalyticGroundPlane) {
   }
   const csm::ReceiverLightBounds truth = csm::receiverLightBounds(frame, cam, pts);
 
-  engine::ImageDesc desc;
-  desc.format = VK_FORMAT_D32_SFLOAT;
-  desc.extent = {kW, kH};
-  desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-  engine::Image depth(ctx(), desc, "analytic depth");
-  engine::uploadImage(ctx(), depth, engine::asBytes(std::span<const float>(scene.depth)),
-                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  const engine::Image depth = uploadDepth(scene, kW, kH);
   csm::vk::Status status;
   auto reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), 2, &status);
   ASSERT_TRUE(reducer) << status.message();
@@ -439,13 +440,7 @@ TEST_F(DepthRangeTest, TilesTheReceiversSampleMatchTheCpuMarks) {
   const csm::Camera cam = yawedCamera(heightM, pitchDeg, fovDeg, aspect, nearM, farM);
   const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
 
-  engine::ImageDesc desc;
-  desc.format = VK_FORMAT_D32_SFLOAT;
-  desc.extent = {kW, kH};
-  desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-  engine::Image depth(ctx(), desc, "analytic depth");
-  engine::uploadImage(ctx(), depth, engine::asBytes(std::span<const float>(scene.depth)),
-                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  const engine::Image depth = uploadDepth(scene, kW, kH);
   csm::vk::Status status;
   auto reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), 2, &status);
   ASSERT_TRUE(reducer) << status.message();
@@ -613,13 +608,7 @@ TEST_F(DepthRangeTest, ViewReceiverFitIsOneSwitchAndMatchesTheReducerByHand) {
   byHand.histogramFarM = float(s.shadowDistanceM);
   const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
 
-  engine::ImageDesc desc;
-  desc.format = VK_FORMAT_D32_SFLOAT;
-  desc.extent = {kW, kH};
-  desc.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
-  engine::Image depth(ctx(), desc, "analytic depth");
-  engine::uploadImage(ctx(), depth, engine::asBytes(std::span<const float>(scene.depth)),
-                      VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  const engine::Image depth = uploadDepth(scene, kW, kH);
   const csm::vk::ReceiverDepthInput input{
       depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, projection};
 

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iterator>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 #include <string>
 
@@ -202,20 +203,37 @@ INSTANTIATE_TEST_SUITE_P(Paths, CacheOnOff,
 // The day path moves the sun at its day length (the light steps, the report says how often);
 // the cut path jumps between places at its interval (each cut marked). Both report the median
 // and the p99 of the shadow pass and of the whole frame.
+// Flies csm_flythrough headless with validation and `args` into the test artefact folder `name`
+// (emptied first) and returns its report.json, after checking that validation stayed silent;
+// nothing after reporting why.
+std::optional<json> flyReport(const std::string& name, const std::string& args) {
+  const fs::path out = fs::path(CSM_TEST_ARTEFACT_DIR) / name;
+  fs::remove_all(out);
+  const ProcessResult r = runApp("--headless --validation " + args + " --out " + out.string());
+  if (r.exitCode != 0) {
+    ADD_FAILURE() << r.output;
+    return std::nullopt;
+  }
+  std::ifstream in(out / "report.json");
+  if (!in) {
+    ADD_FAILURE() << "no report.json in " << out;
+    return std::nullopt;
+  }
+  json rep;
+  in >> rep;
+  EXPECT_EQ(rep["validation"]["messages"].get<std::uint64_t>(), 0u);
+  return rep;
+}
+
 TEST(FlightClock, DayAndCutPathsReportSunStepsCutsAndTheirWorstFrames) {
   for (const std::string path : {"day", "cut"}) {
-    const fs::path out = fs::path(CSM_TEST_ARTEFACT_DIR) / ("clock_" + path);
-    fs::remove_all(out);
-    const ProcessResult r =
-        runApp("--headless --frames 24 --validation --path " + path + " --out " + out.string() +
-               " --set view.width=160 --set view.height=90 --set shadow.resolution=512"
-               " --set day.lengthS=10 --set cut.everyS=0.1");
-    ASSERT_EQ(r.exitCode, 0) << r.output;
-    std::ifstream in(out / "report.json");
-    ASSERT_TRUE(in) << "no report.json in " << out;
-    json rep;
-    in >> rep;
-    EXPECT_EQ(rep["validation"]["messages"].get<std::uint64_t>(), 0u);
+    const std::optional<json> report =
+        flyReport("clock_" + path, "--frames 24 --path " + path +
+                                       " --set view.width=160 --set view.height=90"
+                                       " --set shadow.resolution=512"
+                                       " --set day.lengthS=10 --set cut.everyS=0.1");
+    ASSERT_TRUE(report);
+    const json& rep = *report;
     EXPECT_EQ(rep["settings"]["day.lengthS"].get<double>(), 10.0);
     EXPECT_EQ(rep["settings"]["cut.everyS"].get<double>(), 0.1);
     const json& frames = rep["per_frame"];
@@ -267,19 +285,13 @@ TEST(FlightClock, DayAndCutPathsReportSunStepsCutsAndTheirWorstFrames) {
 // first cascade (a view samples part of it), some in every cascade along the flight. The
 // reduction's GPU scope is reported; validation clean.
 TEST(FlightClock, TileMarksArePerCascadeAndDroppedAtACut) {
-  const fs::path out = fs::path(CSM_TEST_ARTEFACT_DIR) / "tile_marks_cut";
-  fs::remove_all(out);
-  const ProcessResult r = runApp(
-      "--headless --frames 20 --shot-every 1000 --validation --path cut --out " + out.string() +
-      " --set view.width=160 --set view.height=90"
-      " --set shadow.resolution=512 --set cut.everyS=0.1"
-      " --set shadow.tileMarks=true");
-  ASSERT_EQ(r.exitCode, 0) << r.output;
-  std::ifstream in(out / "report.json");
-  ASSERT_TRUE(in) << "no report.json in " << out;
-  json rep;
-  in >> rep;
-  EXPECT_EQ(rep["validation"]["messages"].get<std::uint64_t>(), 0u);
+  const std::optional<json> report = flyReport("tile_marks_cut",
+                                               "--frames 20 --shot-every 1000 --path cut"
+                                               " --set view.width=160 --set view.height=90"
+                                               " --set shadow.resolution=512 --set cut.everyS=0.1"
+                                               " --set shadow.tileMarks=true");
+  ASSERT_TRUE(report);
+  const json& rep = *report;
   const json& frames = rep["per_frame"];
   ASSERT_EQ(frames.size(), 20u);
   constexpr std::uint32_t kGrid = 17 * 17;
