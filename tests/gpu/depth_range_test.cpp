@@ -88,6 +88,30 @@ csm::Camera yawedCamera(double heightM, double pitchDeg, double fovDeg, double a
   return cam;
 }
 
+// The view of the bounds and tiles tests: groundPlane() seen 20 m up, pitched down 8 degrees,
+// field of view 30 degrees, by yawedCamera() far from the origin, with the projection's terms
+// for light-space positions (row 0 at the top: +y up in the view).
+struct GroundView {
+  AnalyticDepth scene;
+  csm::vk::DepthProjection proj;
+  csm::Camera cam;
+  double tanY = 0.0;
+  double aspect = 0.0;
+};
+
+GroundView groundView(std::uint32_t w, std::uint32_t h) {
+  const double fovDeg = 30.0, pitchDeg = -8.0, heightM = 20.0, nearM = 0.5, farM = 1500.0;
+  GroundView v;
+  v.scene = groundPlane(w, h, heightM, pitchDeg, fovDeg, nearM, farM);
+  v.tanY = std::tan(glm::radians(fovDeg) * 0.5);
+  v.aspect = double(w) / h;
+  v.proj = v.scene.projection;
+  v.proj.p00 = float(1.0 / (v.tanY * v.aspect));
+  v.proj.p11 = float(-1.0 / v.tanY);
+  v.cam = yawedCamera(heightM, pitchDeg, fovDeg, v.aspect, nearM, farM);
+  return v;
+}
+
 class DepthRangeTest : public engine_test::GpuTest {
  protected:
   // The analytic depth buffer as a sampled D32 image, in SHADER_READ_ONLY_OPTIMAL.
@@ -304,15 +328,9 @@ namespace {
 // float arithmetic differs), far from the origin; then the bounds drive the boxes.
 TEST_F(DepthRangeTest, LightSpaceBoundsOfAnAnalyticGroundPlane) {
   constexpr std::uint32_t kW = 333, kH = 187;
-  const double fovDeg = 30.0, pitchDeg = -8.0, heightM = 20.0, nearM = 0.5, farM = 1500.0;
-  const AnalyticDepth scene = groundPlane(kW, kH, heightM, pitchDeg, fovDeg, nearM, farM);
-  const double tanY = std::tan(glm::radians(fovDeg) * 0.5);
-  const double aspect = double(kW) / kH;
-  csm::vk::DepthProjection proj = scene.projection;
-  proj.p00 = float(1.0 / (tanY * aspect));
-  proj.p11 = float(-1.0 / tanY);  // row 0 at the top: +y up in the view
+  const GroundView view = groundView(kW, kH);
+  const auto& [scene, proj, cam, tanY, aspect] = view;
 
-  const csm::Camera cam = yawedCamera(heightM, pitchDeg, fovDeg, aspect, nearM, farM);
   csm::ShadowSettings s;
   s.shadowDistanceM = 1200.0;  // the far ground is beyond the last cascade
   const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
@@ -430,14 +448,8 @@ TEST_F(DepthRangeTest, LightSpaceBoundsOfAnAnalyticGroundPlane) {
 // the grown set); any tile missed or marked without a receiver near it fails.
 TEST_F(DepthRangeTest, TilesTheReceiversSampleMatchTheCpuMarks) {
   constexpr std::uint32_t kW = 333, kH = 187;
-  const double fovDeg = 30.0, pitchDeg = -8.0, heightM = 20.0, nearM = 0.5, farM = 1500.0;
-  const AnalyticDepth scene = groundPlane(kW, kH, heightM, pitchDeg, fovDeg, nearM, farM);
-  const double tanY = std::tan(glm::radians(fovDeg) * 0.5);
-  const double aspect = double(kW) / kH;
-  csm::vk::DepthProjection proj = scene.projection;
-  proj.p00 = float(1.0 / (tanY * aspect));
-  proj.p11 = float(-1.0 / tanY);
-  const csm::Camera cam = yawedCamera(heightM, pitchDeg, fovDeg, aspect, nearM, farM);
+  const GroundView view = groundView(kW, kH);
+  const auto& [scene, proj, cam, tanY, aspect] = view;
   const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
 
   const engine::Image depth = uploadDepth(scene, kW, kH);
