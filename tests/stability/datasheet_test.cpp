@@ -5,9 +5,13 @@
 // forest path).
 #include <gtest/gtest.h>
 
+#include <csm/names.hpp>
+#include <csm/presets.hpp>
 #include <engine/errors.hpp>
 
+#include <algorithm>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -64,6 +68,40 @@ TEST(Datasheet, DefaultRowMatchesTheCommittedSheetAndAHandEditIsFound) {
   ASSERT_EQ(edited.size(), now.size() + 1);
   EXPECT_NE(edited.back().find("row 'high'.figures.misclassification"), std::string::npos)
       << edited.back();
+}
+
+// The datasheet's rows are every preset with its own filter, then every filter of the module
+// (csm::kAllFilters, the prefiltered ones included) over the default preset, each once; the
+// committed datasheet holds exactly those rows, in that order, so that a filter or preset added
+// to the module without a regenerated datasheet is found without measuring anything.
+TEST(Datasheet, RowsAreEveryPresetAndEveryFilterAndTheCommittedSheetHoldsThem) {
+  const std::vector<datasheet::RowSpec> specs = datasheet::rowSpecs();
+  std::set<std::string> names;
+  for (const datasheet::RowSpec& s : specs) EXPECT_TRUE(names.insert(s.name).second) << s.name;
+  for (csm::Preset p : csm::kAllPresets) {
+    EXPECT_EQ(std::count_if(specs.begin(), specs.end(),
+                            [&](const datasheet::RowSpec& s) {
+                              return s.preset == p &&
+                                     s.kernel == csm::presetConfig(p).settings.kernel;
+                            }),
+              1)
+        << csm::presetName(p);
+  }
+  for (csm::PcfKernel k : csm::kAllFilters) {
+    EXPECT_EQ(std::count_if(specs.begin(), specs.end(),
+                            [&](const datasheet::RowSpec& s) {
+                              return s.preset == csm::Preset::kHigh && s.kernel == k;
+                            }),
+              1)
+        << csm::kernelName(k) << " over the default preset";
+  }
+  const nlohmann::json committed = committedSheet();
+  std::vector<std::string> committedNames, specNames;
+  for (const nlohmann::json& r : committed.at("rows")) committedNames.push_back(r.at("name"));
+  for (const datasheet::RowSpec& s : specs) specNames.push_back(s.name);
+  EXPECT_EQ(committedNames, specNames)
+      << "the committed datasheet's rows are not the code's (regenerate with "
+         "build/bin/csm_datasheet)";
 }
 
 }  // namespace

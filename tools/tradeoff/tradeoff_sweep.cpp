@@ -168,6 +168,9 @@ csm::ShadowSettings settingsOf(const Config& cfg) {
   s.splitLambda = cfg.lambda;
   s.blendBand = cfg.blendBand;
   s.fadeFraction = cfg.fade;
+  // A prefiltered filter is the settings' own (the renderer resolves its moments); the
+  // percentage-closer kernels keep the settings' default and are chosen per render.
+  if (csm::isPrefiltered(cfg.kernel)) s.kernel = cfg.kernel;
   s.boxFit = cfg.fit;
   s.receiverSplitScheme =
       cfg.histogram ? csm::ReceiverSplitScheme::kHistogram : csm::ReceiverSplitScheme::kRange;

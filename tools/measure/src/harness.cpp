@@ -3,6 +3,7 @@
 
 #include <csm_shaders/stability_accuracy.frag.spv.h>
 #include <csm_shaders/stability_accuracy.vert.spv.h>
+#include <csm/moments.hpp>
 #include <engine/debug.hpp>
 #include <engine/errors.hpp>
 #include <engine/gpu_timer.hpp>
@@ -167,7 +168,8 @@ csm::vk::Status Harness::configure(const csm::ShadowSettings& settings,
 uint64_t Harness::shadowMapBytes() const {
   const csm::ShadowSettings& settings = view_->settings();
   return uint64_t(settings.resolution) * settings.resolution * settings.cascadeCount *
-         engine::bytesPerTexel(view_->renderer().depthFormat());
+             engine::bytesPerTexel(view_->renderer().depthFormat()) +
+         csm::momentImageBytes(settings);
 }
 
 csm::CascadeFrame Harness::computeFrame(const csm::Camera& camera,

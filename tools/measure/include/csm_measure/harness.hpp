@@ -141,7 +141,8 @@ class Harness {
                          csm::CascadeHistory& history, VkExtent2D extent, csm::PcfKernel kernel,
                          bool blend = true);
 
-  /// Bytes of the shadow map at the current settings and format.
+  /// Bytes of the shadow map at the current settings and format, the moment images of a
+  /// prefiltered filter included.
   uint64_t shadowMapBytes() const;
 
  private:
