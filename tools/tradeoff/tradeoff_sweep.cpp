@@ -1,6 +1,7 @@
 // csm_tradeoff: the sweep (configurations measured on poses along a path).
 #include "tradeoff.hpp"
 
+#include <csm/names.hpp>
 #include <csm/presets.hpp>
 #include <csm_measure/bias_metrics.hpp>
 #include <csm_measure/harness.hpp>
@@ -107,9 +108,11 @@ std::vector<Config> sweepConfigs(const Options& o) {
     cfg.lambda = l;
     configs.push_back(cfg);
   }
-  for (csm::PcfKernel k : {csm::PcfKernel::k1Tap, csm::PcfKernel::kTent5, csm::PcfKernel::kTent7,
-                           csm::PcfKernel::kPoisson16, csm::PcfKernel::kPcss}) {
+  // Every filter of the module other than the default's: the percentage-closer kernels and the
+  // prefiltered filters (their moments resolved from the depth layers).
+  for (csm::PcfKernel k : csm::kAllFilters) {
     if (o.lodStudy) break;
+    if (k == Config{}.kernel) continue;
     Config cfg;
     cfg.kernel = k;
     configs.push_back(cfg);
