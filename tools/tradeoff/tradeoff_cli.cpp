@@ -36,7 +36,7 @@ void usage(std::FILE* out) {
       "misclassification, defaults marked).\n"
       "  full mode: 5 poses, 640x360 timing view, 320x180 accuracy view (about 10 min "
       "on 2-core lavapipe);\n  --quick: 2 poses, 320x180 / 240x135, fewer counts "
-      "and resolutions (under a minute).\n  paths:");
+      "and resolutions,\n  no prefiltered filters (under a minute).\n  paths:");
   for (const std::string& n : world::pathNames()) std::fprintf(out, " %s", n.c_str());
   std::fprintf(out, "\n");
 }
