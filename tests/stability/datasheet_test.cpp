@@ -2,7 +2,7 @@
 // (tools/datasheet/results/datasheet.json): the code measures what is committed, a figure changed
 // by hand beyond the tolerance is found, and the default row's own figures hold what the module
 // promises (no shimmer under translation, rotation or zoom at 0, 10^6 or 10^7 m; no acne on the
-// forest path).
+// forest path); the committed speed/accuracy sweep's default row and its rival kernels likewise.
 #include <gtest/gtest.h>
 
 #include <csm/names.hpp>
@@ -10,6 +10,8 @@
 #include <engine/errors.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -18,6 +20,7 @@
 
 #include "datasheet.hpp"
 #include "datasheet_measure.hpp"
+#include "tradeoff.hpp"
 
 namespace {
 
@@ -102,6 +105,81 @@ TEST(Datasheet, RowsAreEveryPresetAndEveryFilterAndTheCommittedSheetHoldsThem) {
   EXPECT_EQ(committedNames, specNames)
       << "the committed datasheet's rows are not the code's (regenerate with "
          "build/bin/csm_datasheet)";
+}
+
+// The committed speed/accuracy sweep (tools/tradeoff/results/tradeoff.csv, whose figures
+// tools/tradeoff/README.md quotes) against the code: the accuracy columns of its default row and
+// of the kernels the README weighs against it (the single tap, PCSS), measured again as
+// csm_tradeoff measures them (forest path, 5 poses, no timing). A figure within the datasheet's
+// tolerance, or half a unit of the CSV's last written digit where that is coarser, is the same.
+// A committed figure changed by 5% is found.
+std::vector<std::string> sweepMismatches(const std::vector<tradeoff::Row>& committed,
+                                         const std::vector<tradeoff::Row>& measured) {
+  std::vector<std::string> out;
+  for (const tradeoff::Row& m : measured) {
+    const auto c = std::find_if(committed.begin(), committed.end(), [&](const tradeoff::Row& r) {
+      return r.config.label() == m.config.label();
+    });
+    if (c == committed.end()) {
+      out.push_back(m.config.label() + ": not in the committed sweep");
+      continue;
+    }
+    const auto check = [&](const char* column, double was, double now, double halfUnit) {
+      const double tol = std::max(
+          datasheet::kAbsoluteTolerance + datasheet::kRelativeTolerance * std::abs(was), halfUnit);
+      if (!(std::abs(now - was) <= tol)) {
+        char line[256];
+        std::snprintf(line, sizeof line, "%s: %s committed %.6g, measured %.6g (tolerance %.2g)",
+                      m.config.label().c_str(), column, was, now, tol);
+        out.emplace_back(line);
+      }
+    };
+    check("misclassification", c->misclassification, m.misclassification, 5e-6);
+    check("mean_abs_error", c->meanError, m.meanError, 5e-6);
+    check("mean_abs_error_soft", c->softError, m.softError, 5e-6);
+    check("shimmer_max", c->shimmerMax, m.shimmerMax, 5e-5);
+    check("shadow_triangles", c->triangles, m.triangles, 0.5);
+  }
+  return out;
+}
+
+TEST(TradeoffSweep, CommittedFiguresOfTheDefaultAndItsRivalKernelsAreWhatTheCodeMeasures) {
+  const std::vector<tradeoff::Row> committed =
+      tradeoff::readCsv(std::string(CSM_SOURCE_DIR) + "/tools/tradeoff/results/tradeoff.csv");
+  std::vector<tradeoff::Config> configs(3);
+  configs[1].kernel = csm::PcfKernel::k1Tap;
+  configs[2].kernel = csm::PcfKernel::kPcss;
+  ASSERT_TRUE(configs[0].isDefault());
+  tradeoff::Options o;
+  o.timing = false;
+  std::string info, device;
+  std::vector<tradeoff::Row> measured;
+  try {
+    measured = tradeoff::runSweep(o, configs, info, device, [] { return 0.0; });
+  } catch (const engine::NoDeviceError& e) {
+    GTEST_SKIP() << "no Vulkan device: " << e.what();
+  }
+  ASSERT_EQ(measured.size(), configs.size());
+  for (const tradeoff::Row& m : measured) {
+    std::printf(
+        "%s: misclassified %.5f, mean error %.5f, soft %.5f, shimmer max %.4f, %.0f "
+        "triangles\n",
+        m.config.label().c_str(), m.misclassification, m.meanError, m.softError, m.shimmerMax,
+        m.triangles);
+  }
+  const std::vector<std::string> now = sweepMismatches(committed, measured);
+  EXPECT_TRUE(now.empty())
+      << "the committed sweep is stale (regenerate with build/bin/csm_tradeoff "
+         "--out tools/tradeoff/results): "
+      << (now.empty() ? "" : now[0]);
+
+  std::vector<tradeoff::Row> edited = committed;
+  for (tradeoff::Row& r : edited) {
+    if (r.config.isDefault()) r.misclassification *= 1.05;
+  }
+  const std::vector<std::string> found = sweepMismatches(edited, measured);
+  ASSERT_EQ(found.size(), now.size() + 1);
+  EXPECT_NE(found.back().find("misclassification"), std::string::npos) << found.back();
 }
 
 }  // namespace
