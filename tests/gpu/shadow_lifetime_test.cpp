@@ -721,7 +721,7 @@ TEST(ShadowView, SetSettingsIsAllOrNothingUnderFaultsAtEachStep) {
     const Rendered after = scene.render(csm::PcfKernel::kTent3, csm::DebugMode::kShadowFactor);
     EXPECT_TRUE(after.image.rgba == before.image.rgba) << "the image changed after a refusal";
     EXPECT_EQ(scene.view().lightingSpecialization().value(CSM_SPEC_KERNEL),
-              std::uint32_t(CSM_KERNEL_TENT3));
+              static_cast<std::uint32_t>(testSettings(2, 512).kernel));
 
     CSM_ASSERT_OK(scene.view().setSettings(changedSettings, next));
     EXPECT_EQ(scene.view().lightingSpecializationInfo(), spec) << "the pointer stays the view's";
@@ -761,6 +761,7 @@ TEST(ShadowView, PrefilteredKernelsSwitchWithFramesInFlight) {
     csm::vk::RendererOptions options;
     options.cache = cache;
     csm::ShadowSettings settings = testSettings(2, 512);
+    settings.kernel = csm::PcfKernel::kTent3;
     CSM_ASSERT_OK(scene.update(settings, options));
     ShadowScene::FrameHooks byView;
     byView.viewSpecialization = true;
