@@ -54,7 +54,7 @@ struct Config {
   uint32_t cascades = 4;
   uint32_t resolution = 2048;
   double lambda = 0.75;
-  csm::PcfKernel kernel = csm::PcfKernel::kTent3;
+  csm::PcfKernel kernel = csm::ShadowSettings{}.kernel;
   double blendBand = 0.1;
   /// ShadowSettings::fadeFraction: the fade to lit at the shadow distance (0: the hard cut).
   double fade = csm::ShadowSettings{}.fadeFraction;
@@ -93,8 +93,8 @@ struct Config {
   [[nodiscard]] bool isDefault() const {
     const csm::ShadowSettings d;
     return cascades == d.cascadeCount && resolution == d.resolution && lambda == d.splitLambda &&
-           kernel == csm::PcfKernel::kTent3 && blendBand == d.blendBand &&
-           format == VK_FORMAT_D32_SFLOAT && lods && schedule.empty() &&
+           kernel == d.kernel && blendBand == d.blendBand && format == VK_FORMAT_D32_SFLOAT &&
+           lods && schedule.empty() &&
            maxErrorTexels == csm::vk::RendererOptions{}.lodMaxErrorTexels && fit == d.boxFit &&
            ladderSteps == d.ladderStepsPerOctave && !receivers && cullClosed &&
            fade == d.fadeFraction;
@@ -126,7 +126,7 @@ struct Config {
       std::snprintf(buf, sizeof buf, " l%.2f", lambda);
       s += buf;
     }
-    if (kernel != csm::PcfKernel::kTent3) s += std::string(" ") + csm::kernelName(kernel);
+    if (kernel != d.kernel) s += std::string(" ") + csm::kernelName(kernel);
     if (blendBand != d.blendBand) {
       std::snprintf(buf, sizeof buf, " b%.2f", blendBand);
       s += buf;

@@ -170,7 +170,8 @@ void writePlot(const std::vector<Row>& rows, const std::string& out, const std::
       "-0.8,-0.6 font 'sans,8' tc rgb '#1f4f7f' notitle, '" +
       csv +
       "' every ::1 u ($20==1?$10:1/0):($13*100) w p pt 6 ps 3 lw 3 lc rgb '#d62728' "
-      "t 'default: c4 r2048 l0.75 tent3x3 b0.10 d32 LODs on'\n";
+      "t 'default: " +
+      Config{}.label() + "'\n";
   csm_measure::runGnuplot(out + "/tradeoff.gp", gp);
 }
 
