@@ -19,7 +19,8 @@ namespace csm {
 enum class Preset : std::uint8_t {
   /// 6 cascades of 512^2 (6 MiB at D32), PCF tent 3x3: within 8 MiB.
   kLow = 0,
-  /// 6 cascades of 1024^2 (24 MiB), PCF tent 3x3: within 32 MiB and 20 ms of shadow pass.
+  /// 6 cascades of 1024^2 (24 MiB), PCF tent 3x3: within 32 MiB and two thirds of high's shadow
+  /// pass on lavapipe.
   kMedium = 1,
   /// 4 cascades of 2048^2 (64 MiB), PCF tent 3x3: the default.
   kHigh = 2,
