@@ -195,6 +195,14 @@ ModeResult runMotion(csm_measure::Harness& harness, const Motion& motion, Mode m
   return r;
 }
 
+// Receivers over the whole view, and more along the view axis where a zoom still sees.
+std::vector<csm_measure::Receiver> motionReceivers(const csm_measure::Scene& scene) {
+  std::vector<csm_measure::Receiver> receivers = viewReceivers(scene, 3000);
+  const auto axis = scene.sampleReceivers(3000, 0.3, {-9.0, -5.0, -100.0}, {9.0, 12.0, 0.0}, 8);
+  receivers.insert(receivers.end(), axis.begin(), axis.end());
+  return receivers;
+}
+
 TEST(StabilityLadder, SizeChangingMotionsDoNotShimmerBetweenRungEvents) {
   std::map<std::tuple<std::string, double, Mode>, ModeResult> results;
   {
@@ -202,10 +210,7 @@ TEST(StabilityLadder, SizeChangingMotionsDoNotShimmerBetweenRungEvents) {
     for (double distance : kDistances) {
       const glm::dvec3 origin = originAt(distance);
       const csm_measure::Scene scene = setShimmerScene(*harness, distance);
-      // Receivers over the whole view, and more along the view axis where a zoom still sees.
-      std::vector<csm_measure::Receiver> receivers = viewReceivers(scene, 3000);
-      const auto axis = scene.sampleReceivers(3000, 0.3, {-9.0, -5.0, -100.0}, {9.0, 12.0, 0.0}, 8);
-      receivers.insert(receivers.end(), axis.begin(), axis.end());
+      const std::vector<csm_measure::Receiver> receivers = motionReceivers(scene);
       for (const Motion& m : motions()) {
         for (Mode mode : kModes) {
           results[{m.name, distance, mode}] = runMotion(*harness, m, mode, origin, receivers);
@@ -295,9 +300,7 @@ TEST(StabilityLadder, PrefilteredFiltersDoNotShimmerUnderZoomOrAMovingSunBetween
   for (double distance : {0.0, 1e7}) {
     const glm::dvec3 origin = originAt(distance);
     const csm_measure::Scene scene = setShimmerScene(*harness, distance);
-    std::vector<csm_measure::Receiver> receivers = viewReceivers(scene, 3000);
-    const auto axis = scene.sampleReceivers(3000, 0.3, {-9.0, -5.0, -100.0}, {9.0, 12.0, 0.0}, 8);
-    receivers.insert(receivers.end(), axis.begin(), axis.end());
+    const std::vector<csm_measure::Receiver> receivers = motionReceivers(scene);
     for (const Motion& m : motions()) {
       const std::string name = m.name;
       if (name != "zoom" && name != "sun") continue;
