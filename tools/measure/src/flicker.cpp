@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <thread>
 
 #include "csm_measure/metrics.hpp"
 
@@ -70,15 +69,7 @@ std::vector<float> pixelCoverageTruth(const RayTracer& tracer, const csm::Camera
       truth[i] = float(fadedTruth(lit / double(vis.size()), *p, frame));
     }
   };
-  const unsigned threads = std::max(1u, std::min(16u, std::thread::hardware_concurrency()));
-  std::vector<std::thread> pool;
-  const size_t chunk = (count + threads - 1) / threads;
-  for (unsigned t = 0; t < threads; ++t) {
-    const size_t begin = std::min(count, t * chunk);
-    const size_t end = std::min(count, begin + chunk);
-    if (begin < end) pool.emplace_back(work, begin, end);
-  }
-  for (std::thread& t : pool) t.join();
+  parallelChunks(count, 16u, work);
   return truth;
 }
 

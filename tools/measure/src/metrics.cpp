@@ -13,6 +13,7 @@
 #include <iterator>
 #include <limits>
 #include <stdexcept>
+#include <thread>
 
 namespace csm_measure {
 namespace {
@@ -284,6 +285,20 @@ bool inShadowRange(const PixelSample& p, const csm::CascadeFrame& frame) noexcep
 }
 
 }  // namespace
+
+void parallelChunks(size_t count, unsigned maxThreads,
+                    const std::function<void(size_t, size_t)>& work) {
+  const unsigned threads =
+      std::max(1u, std::min(std::max(maxThreads, 1u), std::thread::hardware_concurrency()));
+  std::vector<std::thread> pool;
+  const size_t chunk = (count + threads - 1) / threads;
+  for (unsigned t = 0; t < threads; ++t) {
+    const size_t begin = std::min(count, t * chunk);
+    const size_t end = std::min(count, begin + chunk);
+    if (begin < end) pool.emplace_back(work, begin, end);
+  }
+  for (std::thread& t : pool) t.join();
+}
 
 double fadedTruth(double visibility, const PixelSample& p,
                   const csm::CascadeFrame& frame) noexcept {

@@ -8,7 +8,6 @@
 #include <cmath>
 #include <functional>
 #include <random>
-#include <thread>
 
 #include "csm_measure/metrics.hpp"
 
@@ -68,7 +67,6 @@ void softVisibility(const RayTracer& tracer, std::span<const glm::dvec3> posWs,
   const std::vector<glm::dvec3> dirs =
       sunDiskDirections(lightDirWs, angularDiameterDeg, strataPerAxis);
   const size_t count = posWs.size();
-  const unsigned threads = std::max(1u, std::min(8u, std::thread::hardware_concurrency()));
   auto work = [&](size_t begin, size_t end) {
     std::vector<float> vis(end - begin);
     std::vector<double> sum(end - begin, 0.0);
@@ -79,14 +77,7 @@ void softVisibility(const RayTracer& tracer, std::span<const glm::dvec3> posWs,
     }
     for (size_t k = 0; k < vis.size(); ++k) out[begin + k] = float(sum[k] / double(dirs.size()));
   };
-  std::vector<std::thread> pool;
-  const size_t chunk = (count + threads - 1) / threads;
-  for (unsigned t = 0; t < threads; ++t) {
-    const size_t begin = std::min(count, t * chunk);
-    const size_t end = std::min(count, begin + chunk);
-    if (begin < end) pool.emplace_back(work, begin, end);
-  }
-  for (std::thread& t : pool) t.join();
+  parallelChunks(count, 8u, work);
 }
 
 nlohmann::json SoftErrorStats::toJson() const {

@@ -119,6 +119,12 @@ struct AccuracyStats {
 /// csm::shadowFade), so there the truth is faded alike: v + fade x (1 - v).
 double fadedTruth(double visibility, const PixelSample& p, const csm::CascadeFrame& frame) noexcept;
 
+/// Runs `work(begin, end)` over [0, count) in one contiguous chunk per hardware thread (at most
+/// `maxThreads`) and waits for all of them. For the ray-traced truths: RayTracer is
+/// thread-compatible, and each chunk writes only its own outputs.
+void parallelChunks(size_t count, unsigned maxThreads,
+                    const std::function<void(size_t, size_t)>& work);
+
 /// Compares each receiver pixel's shadow factor s with the visibility v of a shadow ray toward
 /// the light (Embree, full-detail triangles). Pixels with dot(n, -lightDir) <= 0 are unlit by
 /// shading whatever the shadow says and are left out.
