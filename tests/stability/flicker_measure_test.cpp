@@ -114,10 +114,15 @@ TEST(FlickerMeasure, CoverageTruthIsTheLitShareOfThePixelsSubSamples) {
   std::vector<PixelSample> moved = pixels;
   PixelSample& p = moved[size_t(row) * 64 + 30];
   p.posWs = cam.positionWs + glm::normalize(p.posWs - cam.positionWs) * 2.0;
+  // Nor is a pixel whose position is not finite.
+  moved[size_t(row) * 64 + 32].posWs.x = std::numeric_limits<double>::infinity();
+  moved[size_t(row) * 64 + 33].posWs.y = std::numeric_limits<double>::quiet_NaN();
   const std::vector<float> truth2 =
       csm_measure::pixelCoverageTruth(tracer, cam, extent, sun, moved, frame);
   EXPECT_EQ(truth2[size_t(row) * 64 + 30], -1.0f);
   EXPECT_EQ(truth2[size_t(row) * 64 + 31], 0.0f);
+  EXPECT_EQ(truth2[size_t(row) * 64 + 32], -1.0f);
+  EXPECT_EQ(truth2[size_t(row) * 64 + 33], -1.0f);
 }
 
 TEST(FlickerMeasure, PairsAreCountedStableFlickeringOrExcessExactly) {

@@ -36,7 +36,7 @@ std::vector<float> pixelCoverageTruth(const RayTracer& tracer, const csm::Camera
       const PixelSample* p = at[i];
       if (!p || p->cascade < o.minCascade || !std::isfinite(p->shadow)) continue;
       const double centreDist = glm::length(p->posWs - camera.positionWs);
-      if (!(centreDist > 0.0)) continue;
+      if (!(centreDist > 0.0) || !std::isfinite(centreDist)) continue;
       const double x = double(i % extent.width), y = double(i / extent.width);
       bool ok = true;
       for (int sy = 0; sy < n && ok; ++sy) {
@@ -49,10 +49,15 @@ std::vector<float> pixelCoverageTruth(const RayTracer& tracer, const csm::Camera
             ok = false;  // the sky
             break;
           }
-          glm::dvec3 nd = glm::normalize(glm::dvec3(normal));
+          const double normalLength = glm::length(glm::dvec3(normal));
+          if (!(normalLength > 0.0) || !std::isfinite(normalLength)) {
+            ok = false;  // a degenerate triangle: no side faces the light
+            break;
+          }
+          glm::dvec3 nd = glm::dvec3(normal) / normalLength;
           if (glm::dot(nd, dir) > 0.0) nd = -nd;  // the side the camera sees
           const double d = glm::length(hit - camera.positionWs);
-          if (std::abs(d - centreDist) > o.continuity * centreDist ||
+          if (!(std::abs(d - centreDist) <= o.continuity * centreDist) ||
               glm::dot(nd, toLight) <= 0.0) {
             ok = false;
             break;
