@@ -61,11 +61,13 @@ inline csm::ShadowSettings testSettings(bool stabilize) {
 }
 
 /// Creates a validation-enabled harness, or skips the test where no Vulkan device exists.
-#define CSM_MAKE_HARNESS(var)                                                                 \
+#define CSM_MAKE_HARNESS(var) CSM_MAKE_HARNESS_DESC(var, csm_measure::HarnessDesc{})
+/// The same, created with `desc` (a csm_measure::HarnessDesc).
+#define CSM_MAKE_HARNESS_DESC(var, desc)                                                      \
   std::unique_ptr<csm_measure::Harness> var;                                                  \
   engine::resetValidationCounts();                                                            \
   try {                                                                                       \
-    var = std::make_unique<csm_measure::Harness>();                                           \
+    var = std::make_unique<csm_measure::Harness>(desc);                                       \
   } catch (const engine::NoDeviceError& e) {                                                  \
     GTEST_SKIP() << "no Vulkan device: " << e.what();                                         \
   }                                                                                           \

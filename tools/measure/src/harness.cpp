@@ -3,6 +3,7 @@
 
 #include <csm_shaders/stability_accuracy.frag.spv.h>
 #include <csm_shaders/stability_accuracy.vert.spv.h>
+#include <csm_shaders/stability_accuracy_lod.frag.spv.h>
 #include <csm/moments.hpp>
 #include <engine/debug.hpp>
 #include <engine/errors.hpp>
@@ -68,7 +69,8 @@ Harness::Harness(const HarnessDesc& desc) {
   cd.appName = desc.appName;
   cd.validation = desc.validation;
   ctx_ = std::make_unique<engine::Context>(cd);
-  view_ = glue::createShadowView(*ctx_);
+  view_ = glue::createShadowView(*ctx_, desc.momentAnisotropy);
+  implicitLod_ = desc.implicitLod;
 }
 
 Harness::~Harness() {
@@ -275,8 +277,10 @@ Harness::AccuracyPipeline& Harness::accuracyPipeline(csm::PcfKernel kernel, bool
   VkDevice dev = ctx_->device();
   const auto vert =
       engine::createShaderModule(dev, stability_accuracy_vert_spv, "stability_accuracy.vert");
-  const auto frag =
-      engine::createShaderModule(dev, stability_accuracy_frag_spv, "stability_accuracy.frag");
+  const auto frag = implicitLod_ ? engine::createShaderModule(dev, stability_accuracy_lod_frag_spv,
+                                                              "stability_accuracy_lod.frag")
+                                 : engine::createShaderModule(dev, stability_accuracy_frag_spv,
+                                                              "stability_accuracy.frag");
   const VkVertexInputBindingDescription binding = engine::MeshStore::bindingDescription();
   const VkFormat formats[3] = {kPositionFormat, kNormalFormat, kFootprintFormat};
   engine::GraphicsPipelineBuilder builder;

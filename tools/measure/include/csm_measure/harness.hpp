@@ -42,6 +42,14 @@ struct HarnessDesc {
   /// Validation layers (with synchronization validation); tests keep it on.
   bool validation = true;
   const char* appName = "csm_measure";
+  /// The moment sampler's anisotropy (vsm, evsm, msm); empty: the sample world's default (8x on
+  /// a GPU that allows it, 1 = trilinear on a CPU device such as lavapipe).
+  std::optional<float> momentAnisotropy;
+  /// The accuracy pass's prefiltered filters (vsm, evsm, msm) read the mip of each pixel's
+  /// footprint, as the sample world's lit pass does (stability_accuracy_lod.frag); false: level 0
+  /// at every pixel (stability_accuracy.frag). The percentage-closer kernels read the same either
+  /// way.
+  bool implicitLod = false;
 };
 
 /// csm.glsl's answer at one receiver point (the shared GPU probe's result).
@@ -175,6 +183,7 @@ class Harness {
   // Key: kernel | 0x100 when the bias uses the shading normal; blend.
   std::map<std::pair<uint32_t, bool>, std::unique_ptr<AccuracyPipeline>> accuracyPipelines_;
   bool biasFromShadingNormal_ = false;
+  bool implicitLod_ = false;
 
   std::unique_ptr<engine::HeadlessTarget> timingTarget_;
   std::unique_ptr<engine::GpuTimer> timer_;
