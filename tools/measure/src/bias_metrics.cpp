@@ -81,7 +81,8 @@ void markNearOccluders(std::span<const PixelSample> pixels, const std::vector<si
     const PixelSample& p = pixels[idx[k]];
     const glm::dvec3 n = glm::normalize(glm::dvec3(p.normalWs));
     if (!(glm::dot(n, toLight) > desc.minFacing)) continue;
-    const double r = desc.edgeRadiusTexels * pixelTexel(p, frame);
+    const double r =
+        desc.edgeRadiusTexels * pixelTexel(p, frame) + desc.footprintRadii * p.footprintM;
     const glm::dvec2 q(glm::dot(p.posWs, lu), glm::dot(p.posWs, lv));
     for (const Box2& box : boxes) {
       const glm::dvec2 d = glm::max(glm::max(box.lo - q, q - box.hi), glm::dvec2(0.0));
@@ -186,7 +187,7 @@ BiasTruth computeBiasTruth(std::span<const PixelSample> pixels, uint32_t width, 
       nearEdge[k] = 1;
       continue;
     }
-    const double r = desc.edgeRadiusTexels * texel;
+    const double r = desc.edgeRadiusTexels * texel + desc.footprintRadii * p.footprintM;
     for (int d = 0; d < kDiskPoints; ++d) {
       const double a = 2.399963229728653 * d;  // golden angle
       const double rd = r * std::sqrt((d + 0.5) / kDiskPoints);

@@ -34,6 +34,11 @@ struct BiasTruthDesc {
   /// kernel's reach, so darkening there is filtering, not acne. 6 = the widest kernel (tent
   /// 7x7, 3.5) + bilinear (1) + margin.
   double edgeRadiusTexels = 6.0;
+  /// For a filter that averages over the pixel's footprint (the prefiltered filters read at the
+  /// footprint's mip): the edge radius grows by this many times the pixel's footprint
+  /// (PixelSample::footprintM, the square root of its area on the surface). 0: the lookup's reach
+  /// does not depend on the pixel (the percentage-closer kernels).
+  double footprintRadii = 0.0;
   /// Contact lines: a shadowed pixel with other geometry within this many texels along its own
   /// surface (8 directions in the tangent plane) lies next to a contact line.
   double contactTexels = 2.0;
