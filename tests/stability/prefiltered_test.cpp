@@ -301,7 +301,7 @@ TEST(Prefiltered, StabilisedFiltersDoNotShimmer) {
 // Writes prefiltered_world.json and far_flicker_<filter>.png (the first walking frame).
 TEST(Prefiltered, FarFieldFlickerInTheSampleWorld) {
   // The prefiltered filters read the mip of each pixel's footprint, as the fly-through's lit
-  // pass does (at level 0 they flicker 2.5-6x more, see prefiltered.md).
+  // pass does (at level 0 they flicker 1.3-4.9x more, see prefiltered.md).
   csm_measure::HarnessDesc lod;
   lod.implicitLod = true;
   CSM_MAKE_HARNESS_DESC(harness, lod);
