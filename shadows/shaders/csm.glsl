@@ -60,7 +60,8 @@ layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniform
   uint wrappedLayers;        // 1: layers addressed toroidally (cached cascades, wrapOffset)
   float depthFloorTexels;    // depth floor (texels of the receiver's cascade)
   float depthFloorQuantum;   // depth floor (units of stored depth: the format's quantum)
-  vec2 biasReserved;         // unused
+  float momentAnisotropy;    // the moment sampler's largest anisotropy (1: trilinear)
+  float biasReserved;        // unused
   float tanHalfLightAngle;   // PCSS: tan(light angular diameter / 2)
   float maxPenumbraRadiusM;  // PCSS: largest penumbra radius (m)
   float fadeEndM;            // the fade to lit ends here (view depth, m)
@@ -543,6 +544,28 @@ float csmMomentLit(vec4 moments, float depth, float minVariance) {
   return clamp((lit - reduction) / (1.0 - reduction), 0.0, 1.0);
 }
 
+/// Mirror of csm::momentReadFootprint: the footprint (long axis, level-0 texels) a mip read may
+/// take at box texel distance `edgeTexels` from the box's edge, for a receiver at stored depth
+/// `depth` on a plane of `slopePerTexel`.
+float csmMomentReadFootprint(float wanted, float edgeTexels, float depth, vec2 slopePerTexel) {
+  const float slope = length(slopePerTexel);
+  const float byDepth = slope > 0.0 ? depth / slope : edgeTexels;
+  const float cap = max(min(edgeTexels, byDepth) / 3.0, 1.0);
+  return min(wanted, cap);
+}
+
+/// Mirror of csm::momentReceiverShift (csm::momentFootprintSpread): how far toward the light the
+/// receiver's compared depth moves when it reads a mip of footprint `footprintTexels` (long axis,
+/// level-0 texels), so that a lit plane whose depths the mip spreads reads lit.
+float csmMomentReceiverShift(vec2 slopePerTexel, float footprintTexels) {
+  if (!(footprintTexels > 1.0)) return 0.0;
+  const float texels = sqrt((footprintTexels * footprintTexels - 1.0) / 3.0);
+  const float spread = texels * length(slopePerTexel);
+  if (csmKernel == CSM_KERNEL_MSM) return spread;
+  if (csmKernel != CSM_KERNEL_EVSM) return 0.0;
+  return min(csmU.moments.w * spread, 1.0) * spread;
+}
+
 /// Level 0 of the moments of cascade i at box texel coordinates `t`, bilinear by hand from four
 /// gathers (one per channel): float weights, so that a receiver whose coordinate differs by float
 /// rounding between frames reads the same moments to within that rounding. The sampler's
@@ -568,22 +591,38 @@ vec4 csmMomentBilinear(int i, vec2 t) {
 /// dPdy: the receiver's screen-space derivatives (zero outside a fragment shader). Where the
 /// footprint is at most a texel (magnification: level 0, bilinear), the moments are filtered by
 /// hand (csmMomentBilinear); where it is larger, one trilinear (or anisotropic) tap reads the
-/// mip it covers, so a far or grazing receiver does not alias.
+/// mip it covers, so a far or grazing receiver does not alias. The footprint stays inside the box
+/// and the stored depth range (csmMomentReadFootprint), and the receiver compares in front of the
+/// spread the mip gives its own plane (csmMomentReceiverShift): lit ground stays lit at every sun
+/// elevation.
 float csmMomentShadow(int i, vec3 posCr, vec3 normalWs, vec3 dPdx, vec3 dPdy) {
   const vec3 c = csmShadowCoord(i, posCr, normalWs);
   const mat4 m = csmU.cascades[i].viewProjCr;
   const vec2 gx = (m * vec4(dPdx, 0.0)).xy * 0.5;
   const vec2 gy = (m * vec4(dPdy, 0.0)).xy * 0.5;
   const float res = csmU.resolution;
-  const float footprint = max(dot(gx, gx), dot(gy, gy)) * res * res;  // texels squared
+  const vec2 slope = csmReceiverDepthSlope(i, normalWs);
+  // The footprint in level-0 texels: an anisotropic sampler takes it as it is (its long axis;
+  // the sampler reads the short axis's mip along it); a trilinear one would read the long axis's
+  // mip and blur a grazing footprint across, so it reads the mip of the geometric-mean axis
+  // (sharper, and steadier than level 0 by far). No wider than the box and the depth range
+  // allow (csmMomentReadFootprint); the gradients are scaled to match.
+  const float longAxis = sqrt(max(dot(gx, gx), dot(gy, gy))) * res;
+  const float meanAxis = sqrt(abs(gx.x * gy.y - gx.y * gy.x)) * res;
+  const float wanted = csmU.momentAnisotropy > 1.0 ? longAxis : meanAxis;
+  const float edge = min(min(c.x, c.y), min(res - c.x, res - c.y));
+  const float footprint = csmMomentReadFootprint(wanted, edge, c.z, slope);
+  const float k = longAxis > footprint ? footprint / longAxis : 1.0;
   const vec4 moments =
       footprint <= 1.0
           ? csmMomentBilinear(i, c.xy)
-          : textureGrad(csmMomentMap, vec3(csmWrapUv(c.xy, i), float(i)), gx, gy);
+          : textureGrad(csmMomentMap, vec3(csmWrapUv(c.xy, i), float(i)), gx * k, gy * k);
   // The variance floor: a quarter texel of depth at 45 degrees (units of stored depth).
   const float texelDepth =
       0.5 * csmU.cascades[i].texelSizeM / max(csmU.cascades[i].depthRangeM, 1e-6);
-  return csmMomentLit(moments, c.z, texelDepth * texelDepth);
+  // A mip spreads the receiver's own plane over its footprint: compare in front of the spread.
+  const float shift = csmMomentReceiverShift(slope, footprint);
+  return csmMomentLit(moments, c.z - shift, texelDepth * texelDepth);
 }
 
 /// Filtered shadow factor of cascade i at a receiver: 1 lit, 0 in shadow. dPdx, dPdy: see

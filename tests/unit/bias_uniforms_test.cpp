@@ -39,8 +39,14 @@ TEST(BiasUniforms, PackUniformsCarriesTheFloorAndTheFormatQuantum) {
   csm::CsmUniforms u = csm::packUniforms(frame, s, o);
   EXPECT_FLOAT_EQ(u.depthFloorTexels, 0.4f);
   EXPECT_FLOAT_EQ(u.depthFloorQuantum, csm::depthQuantum(16));
-  EXPECT_EQ(u.biasReserved.x, 0.0f);
-  EXPECT_EQ(u.biasReserved.y, 0.0f);
+  EXPECT_EQ(u.biasReserved, 0.0f);
+  EXPECT_EQ(u.momentAnisotropy, 1.0f);  // a trilinear moment sampler unless the host says
+  o.momentAnisotropy = 8.0f;
+  EXPECT_EQ(csm::packUniforms(frame, s, o).momentAnisotropy, 8.0f);
+  o.momentAnisotropy = std::nanf("");
+  EXPECT_EQ(csm::packUniforms(frame, s, o).momentAnisotropy, 1.0f);
+  o.momentAnisotropy = 0.0f;
+  EXPECT_EQ(csm::packUniforms(frame, s, o).momentAnisotropy, 1.0f);
   o.depthBits = 32;
   u = csm::packUniforms(frame, s, o);
   EXPECT_FLOAT_EQ(u.depthFloorQuantum, csm::depthQuantum(32));

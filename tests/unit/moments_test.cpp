@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "csm/core.hpp"
 #include "csm/moments.hpp"
@@ -97,6 +98,115 @@ TEST(Moments, ExtremesStayFiniteAndInRange) {
     // Degenerate moments (all zero, as a cleared image would hold) give a number, not NaN.
     const float lit = momentLitFraction(k, glm::vec4(0.0f), 0.5f, 0.0f, s);
     EXPECT_TRUE(lit >= 0.0f && lit <= 1.0f) << kernelName(k);
+  }
+}
+
+// What a trilinear read of a plane's moment mips returns: the moments of level-0 texels (one
+// depth each: the plane's at the texel's centre) box-averaged into the texels of levels L and L+1
+// of footprint `r` (L = floor(log2 r)), then bilinear at point `p` (level-0 texel units) and
+// mixed between the two levels by the fraction of log2 r. `depth(x, y)`: the plane at a point.
+template <typename Plane>
+glm::vec4 trilinearMipRead(PcfKernel k, const Plane& depth, glm::vec2 p, float r,
+                           const ShadowSettings& s) {
+  const float lod = std::log2(r);
+  const int level = int(std::floor(lod));
+  auto levelRead = [&](int l) {
+    const int side = 1 << l;
+    auto texel = [&](int tx, int ty) {  // box average of level-0 texels (tx, ty) at level l
+      glm::dvec4 sum(0.0);
+      for (int y = 0; y < side; ++y)
+        for (int x = 0; x < side; ++x)
+          sum += glm::dvec4(
+              depthMoments(k, depth(float(tx * side + x) + 0.5f, float(ty * side + y) + 0.5f), s));
+      return glm::vec4(sum / double(side * side));
+    };
+    const glm::vec2 f = p / float(side) - 0.5f;
+    const glm::vec2 i0 = glm::floor(f);
+    const glm::vec2 w = f - i0;
+    const int x0 = int(i0.x), y0 = int(i0.y);
+    return glm::mix(glm::mix(texel(x0, y0), texel(x0 + 1, y0), w.x),
+                    glm::mix(texel(x0, y0 + 1), texel(x0 + 1, y0 + 1), w.x), w.y);
+  };
+  const glm::vec4 lo = levelRead(level);
+  return lod > float(level) ? glm::mix(lo, levelRead(level + 1), lod - float(level)) : lo;
+}
+
+// A lit plane read at a mip reads lit with every filter: the receiver's compared depth moves in
+// front of the spread the mip gives its own depths (momentReceiverShift). Without the shift evsm
+// and msm read such a plane as partly shadowed (down to 0.65 where the spread is a tenth of the
+// depth range), the stipple a grazing sun drew on flat ground beyond the first cascades. And the
+// shift is not so large that a parallel occluder a few spreads in front stops shadowing.
+TEST(Moments, APlaneReadAtItsMipIsLitAndStillShadowedByAnOccluderInFront) {
+  const ShadowSettings s;  // the default bleeding reduction, as the renderer reads
+  bool unshiftedDimmed = false;
+  for (PcfKernel k : kPrefilteredKernels) {
+    for (float r : {1.0f, 1.5f, 2.0f, 3.0f, 5.7f, 8.0f, 16.0f, 23.0f}) {
+      for (float spread : {1e-3f, 1e-2f, 3e-2f, 0.1f}) {
+        for (float angle : {0.0f, 0.4f, 0.785f}) {
+          // The slope (stored depth per texel) whose spread over the footprint is `spread` (at
+          // level 0, over a footprint of 2 texels).
+          const float rr = std::max(r, 2.0f);
+          const float slopeLen = spread / std::sqrt((rr * rr - 1.0f) / 3.0f);
+          const glm::vec2 slope = slopeLen * glm::vec2(std::cos(angle), std::sin(angle));
+          // The read point: level-0 texel coordinates away from the origin's texel corners.
+          const glm::vec2 p(300.3f, 301.7f);
+          auto plane = [&](float x, float y) {
+            return 0.5f + glm::dot(slope, glm::vec2(x, y) - p);
+          };
+          const glm::vec4 m = trilinearMipRead(k, plane, p, r, s);
+          const float shift = momentReceiverShift(k, slope, r, s);
+          const std::string what = std::string(kernelName(k)) + " r " + std::to_string(r) +
+                                   " spread " + std::to_string(spread) + " angle " +
+                                   std::to_string(angle);
+          EXPECT_TRUE(std::isfinite(shift) && shift >= 0.0f) << what;
+          if (r <= 1.0f || k == PcfKernel::kVsm) {
+            EXPECT_EQ(shift, 0.0f) << what;
+          }
+          // The receiver as csm.glsl compares it: the normal offset puts it at least
+          // normalOffsetTexels texels of the plane's slope in front of the plane (what level 0
+          // relies on), and the shift.
+          const float receiver = 0.5f - s.normalOffsetTexels * slopeLen;
+          const float lit = momentLitFraction(k, m, receiver - shift, 1e-8f, s);
+          EXPECT_GE(lit, 0.99f) << what;
+          const float unshifted = momentLitFraction(k, m, receiver, 1e-8f, s);
+          if (unshifted < 0.9f) unshiftedDimmed = true;
+          // Shadowed: the same plane behind a parallel occluder plane covering the footprint,
+          // far enough in front that its spread and the receiver's do not overlap (2 spreads
+          // each, at least those of a level-0 bilinear read) beyond the shift.
+          const float gap = 4.0f * momentFootprintSpread(slope, std::max(r, 2.0f)) + shift +
+                            s.normalOffsetTexels * slopeLen + 0.02f;
+          auto occluder = [&](float x, float y) { return plane(x, y) - gap; };
+          const glm::vec4 o = trilinearMipRead(k, occluder, p, r, s);
+          const float occluded = momentLitFraction(k, o, receiver - shift, 1e-8f, s);
+          EXPECT_LE(occluded, 0.05f) << what;
+        }
+      }
+    }
+  }
+  EXPECT_TRUE(unshiftedDimmed) << "the measure must see the dimming the shift removes";
+  EXPECT_FLOAT_EQ(momentFootprintSpread(glm::vec2(3.0f, 4.0f), 2.0f), 5.0f);
+  EXPECT_EQ(momentFootprintSpread(glm::vec2(3.0f, 4.0f), 0.5f), 0.0f);
+  EXPECT_EQ(momentFootprintSpread(glm::vec2(std::nanf(""), 0.0f), 4.0f), 0.0f);
+}
+
+// A mip read stays inside the cascade's box and its stored depth range (3 footprints of reach),
+// never below level 0.
+TEST(Moments, AMipReadStaysInsideTheBoxAndTheDepthRange) {
+  const glm::vec2 flat(0.0f);
+  EXPECT_FLOAT_EQ(momentReadFootprint(8.0f, 1000.0f, 0.5f, flat), 8.0f);
+  EXPECT_FLOAT_EQ(momentReadFootprint(8.0f, 12.0f, 0.5f, flat), 4.0f);  // 12 texels from the edge
+  EXPECT_FLOAT_EQ(momentReadFootprint(8.0f, 1.0f, 0.5f, flat), 1.0f);   // never below level 0
+  EXPECT_FLOAT_EQ(momentReadFootprint(0.5f, 1000.0f, 0.5f, flat), 0.5f);
+  // A plane falling 0.01 per texel toward the light reaches depth 0 30 texels away from a
+  // receiver at 0.3: a footprint of 10 at most.
+  const glm::vec2 slope(0.006f, 0.008f);
+  EXPECT_NEAR(momentReadFootprint(64.0f, 1000.0f, 0.3f, slope), 10.0f, 1e-4f);
+  EXPECT_NEAR(momentReadFootprint(64.0f, 15.0f, 0.3f, slope), 5.0f, 1e-4f);
+  EXPECT_FLOAT_EQ(momentReadFootprint(64.0f, 1000.0f, 0.0f, slope), 1.0f);
+  for (float wanted : {0.0f, 1.0f, 3.0f, 1e9f}) {
+    const float f = momentReadFootprint(wanted, 200.0f, 0.4f, slope);
+    EXPECT_TRUE(std::isfinite(f) && f <= std::max(wanted, 1.0f) && f >= std::min(wanted, 1.0f))
+        << wanted;
   }
 }
 

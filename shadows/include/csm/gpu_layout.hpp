@@ -93,8 +93,11 @@ struct CsmUniforms {
   /// depth format's quantum, depthQuantum()).
   float depthFloorTexels = 0.0f;
   float depthFloorQuantum = 0.0f;
+  /// The moment sampler's largest anisotropy (UniformOptions::momentAnisotropy): 1 a trilinear
+  /// sampler, whose mip csm.glsl picks from the footprint's geometric-mean axis.
+  float momentAnisotropy = 1.0f;
   /// Unused (0).
-  glm::vec2 biasReserved{0.0f};
+  float biasReserved = 0.0f;
   /// Soft shadows (PCSS): tan(light angular diameter / 2) (penumbra radius per metre between
   /// blocker and receiver), and the largest penumbra radius (m; maxPenumbraM / 2).
   float tanHalfLightAngle = 0.0f;
@@ -118,6 +121,12 @@ struct UniformOptions {
   /// Bits of the shadow map's depth format (16: D16_UNORM, 32: D32_SFLOAT): sets the depth floor
   /// the shader adds for the format's quantisation (depthQuantum()).
   std::uint32_t depthBits = 32;
+  /// The largest anisotropy of the sampler the host binds the moments with (prefiltered filters;
+  /// the renderer's own: DeviceInfo::maxSamplerAnisotropy). Above 1 the sampler filters a grazing
+  /// footprint along its long axis itself and csm.glsl hands it the footprint as it is; at 1 (a
+  /// trilinear sampler, which would take the mip of the long axis and blur the short one) the
+  /// shader reads the mip of the footprint's geometric-mean axis. At least 1.
+  float momentAnisotropy = 1.0f;
 };
 
 /// The smallest depth difference (units of stored depth, [0, 1]) that the shadow test can trust

@@ -36,6 +36,42 @@ namespace csm {
 [[nodiscard]] float momentLitFraction(PcfKernel kernel, const glm::vec4& moments, float depth,
                                       float minVariance, const ShadowSettings& settings) noexcept;
 
+/// The footprint a mip read of the moments may take (long axis, level-0 texels): `wanted` (the
+/// pixel's), but no wider than keeps what the read averages (the texels within 3 footprints: the
+/// coarser level's texel is at most 2 footprints wide and bilinear reaches 1.5 of them) inside
+///  - the cascade's box: `edgeTexels` from its nearest edge (beyond it the sampler clamps to the
+///    edge texel or, in a cached layer, wraps to the other side of the box);
+///  - the stored depth range along the receiver's plane: a receiver at `depth` on a plane of
+///    `slopePerTexel` meets depth 0 depth / |slope| texels away, where the shadow pass clamped the
+///    plane's nearer texels to 0 (a sun near the horizon over ground reaching past the light's
+///    box): read in, they are occluders, and darkened lit ground at the far corners of a cascade.
+/// At least 1 (level 0, whose lookups csm.glsl filters by hand). Never NaN for finite input.
+[[nodiscard]] float momentReadFootprint(float wanted, float edgeTexels, float depth,
+                                        const glm::vec2& slopePerTexel) noexcept;
+
+/// The depth spread of a planar receiver over what a mip read averages, in stored depth (one
+/// standard deviation): a pixel whose footprint is `footprintTexels` level-0 texels along its long
+/// axis (r) reads the mip of r, whose box texels and bilinear and trilinear weights average the
+/// moments of texels about sqrt(r^2 / 3) texels from it (at most, per axis, over every sub-texel
+/// position and fraction of the level). Beyond level 0 (which the normal offset and the depth
+/// floor already cover): sqrt((r^2 - 1) / 3) texels times the plane's change of depth per texel
+/// (`slopePerTexel`, csm.glsl's csmReceiverDepthSlope). 0 at r <= 1. Never NaN.
+[[nodiscard]] float momentFootprintSpread(const glm::vec2& slopePerTexel,
+                                          float footprintTexels) noexcept;
+
+/// How far toward the light a receiver's compared depth moves when it reads a mip, so that a lit
+/// plane reads lit however far its footprint spreads its depths (spread: momentFootprintSpread):
+///  - msm one spread: the Hamburger reconstruction reads a plane's spread-out depths as partly
+///    in front of its centre (a plane needs up to 0.84 spreads to read 0.99);
+///  - evsm min(c- spread, 1) spreads (c-: settings.evsmNegativeExponent): the negative warp's
+///    Jensen gap, e^(-c w) averaged over the spread exceeds its value at the centre, which a
+///    receiver c- spread^2 further forward matches for a normal spread;
+///  - vsm none: Chebyshev reads a receiver at the mean of any spread as lit, and a plane's
+///    filtered mean is its centre's depth.
+[[nodiscard]] float momentReceiverShift(PcfKernel kernel, const glm::vec2& slopePerTexel,
+                                        float footprintTexels,
+                                        const ShadowSettings& settings) noexcept;
+
 /// Chebyshev's one-sided upper bound on the lit fraction: 1 in front of the mean.
 [[nodiscard]] float chebyshevUpperBound(float mean, float meanSquare, float depth,
                                         float minVariance) noexcept;

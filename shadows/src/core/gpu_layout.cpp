@@ -1,6 +1,7 @@
 // Packing of a CascadeFrame into the std140 block that csm.glsl declares.
 #include "csm/gpu_layout.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace csm {
@@ -32,7 +33,8 @@ static_assert(offsetof(CsmUniforms, debugMode) == 112 * CSM_MAX_CASCADES + 56);
 static_assert(offsetof(CsmUniforms, wrappedLayers) == 112 * CSM_MAX_CASCADES + 60);
 static_assert(offsetof(CsmUniforms, depthFloorTexels) == 112 * CSM_MAX_CASCADES + 64);
 static_assert(offsetof(CsmUniforms, depthFloorQuantum) == 112 * CSM_MAX_CASCADES + 68);
-static_assert(offsetof(CsmUniforms, biasReserved) == 112 * CSM_MAX_CASCADES + 72);
+static_assert(offsetof(CsmUniforms, momentAnisotropy) == 112 * CSM_MAX_CASCADES + 72);
+static_assert(offsetof(CsmUniforms, biasReserved) == 112 * CSM_MAX_CASCADES + 76);
 static_assert(offsetof(CsmUniforms, tanHalfLightAngle) == 112 * CSM_MAX_CASCADES + 80);
 static_assert(offsetof(CsmUniforms, maxPenumbraRadiusM) == 112 * CSM_MAX_CASCADES + 84);
 static_assert(offsetof(CsmUniforms, fadeEndM) == 112 * CSM_MAX_CASCADES + 88);
@@ -140,6 +142,8 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
   u.wrappedLayers = 0u;
   u.depthFloorTexels = settings.depthFloorTexels;
   u.depthFloorQuantum = depthQuantum(options.depthBits);
+  u.momentAnisotropy =
+      std::isfinite(options.momentAnisotropy) ? std::max(options.momentAnisotropy, 1.0f) : 1.0f;
   const double halfAngleRad = glm::radians(0.5 * settings.lightAngularDiameterDeg);
   u.tanHalfLightAngle = finiteOr0(std::tan(halfAngleRad));
   u.maxPenumbraRadiusM = finiteOr0(0.5 * settings.maxPenumbraM);

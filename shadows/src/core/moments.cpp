@@ -116,6 +116,33 @@ float momentLitFraction(PcfKernel kernel, const glm::vec4& moments, float depth,
   return reduceBleeding(lit, settings.momentBleedReduction);
 }
 
+float momentReadFootprint(float wanted, float edgeTexels, float depth,
+                          const glm::vec2& slopePerTexel) noexcept {
+  const float slope = glm::length(slopePerTexel);
+  const float byDepth = slope > 0.0f ? depth / slope : edgeTexels;
+  const float cap = std::max(std::min(edgeTexels, byDepth) / 3.0f, 1.0f);
+  return std::min(wanted, cap);
+}
+
+float momentFootprintSpread(const glm::vec2& slopePerTexel, float footprintTexels) noexcept {
+  if (!(footprintTexels > 1.0f)) return 0.0f;
+  const float texels = std::sqrt((footprintTexels * footprintTexels - 1.0f) / 3.0f);
+  const float spread = texels * glm::length(slopePerTexel);
+  return std::isfinite(spread) ? spread : 0.0f;
+}
+
+float momentReceiverShift(PcfKernel kernel, const glm::vec2& slopePerTexel, float footprintTexels,
+                          const ShadowSettings& settings) noexcept {
+  const float spread = momentFootprintSpread(slopePerTexel, footprintTexels);
+  if (kernel == PcfKernel::kMsm) return spread;
+  if (kernel != PcfKernel::kEvsm) return 0.0f;
+  // The negative warp's Jensen gap: a normal spread sigma (in w = 2z - 1: 2 sigma) raises the
+  // mean of e^(-c w) by e^(c^2 (2 sigma)^2 / 2), which a receiver c (2 sigma)^2 / 2 = 2 c sigma^2
+  // further forward in w (c sigma^2 in z) matches; at most one spread (the bounded spread of a
+  // footprint never needs more).
+  return std::min(settings.evsmNegativeExponent * spread, 1.0f) * spread;
+}
+
 float momentBlurRadiusTexels(double momentBlurM, double texelM) noexcept {
   if (!(momentBlurM > 0.0) || !(texelM > 0.0)) return 0.0f;
   const double r = momentBlurM / texelM;

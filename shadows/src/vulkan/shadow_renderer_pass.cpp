@@ -173,12 +173,13 @@ void ShadowRenderer::Impl::recordPassStart(VkCommandBuffer cmd, const char* labe
   vkCmdPipelineBarrier2(cmd, &dep2);
 }
 
-// The uniform block of `frame` as every pass packs it: the host's debug mode and the depth
-// format's bits (the depth floor's quantum).
+// The uniform block of `frame` as every pass packs it: the host's debug mode, the depth
+// format's bits (the depth floor's quantum) and the moment sampler's anisotropy.
 CsmUniforms ShadowRenderer::Impl::packFrameUniforms(const CascadeFrame& frame) const {
   UniformOptions uniformOptions;
   uniformOptions.debugMode = debugMode_;
   uniformOptions.depthBits = options_.depthFormat == VK_FORMAT_D16_UNORM ? 16u : 32u;
+  uniformOptions.momentAnisotropy = device_.maxSamplerAnisotropy;
   return packUniforms(frame, settings_, uniformOptions);
 }
 
