@@ -260,7 +260,12 @@ void runBiasMatrix(bool prefiltered, const char* reportName) {
   std::map<double, Totals> perElevation, perElevationPlanes;
   std::map<std::string, uint64_t> interiorPerScene, turnedAwayPerScene;
   {
-    CSM_MAKE_HARNESS(harness);
+    // The prefiltered filters read the mip of each pixel's footprint, as the sample world's lit
+    // pass does; a lit pixel within their reach of a true shadow (kMipFootprintRadii footprints
+    // beyond the texel reach) is near an edge, not acne.
+    csm_measure::HarnessDesc harnessDesc;
+    harnessDesc.implicitLod = prefiltered;
+    CSM_MAKE_HARNESS_DESC(harness, harnessDesc);
     std::vector<BiasScene> scenes;
     {
       csm_measure::TestSceneDesc td;  // rolling terrain, buildings, poles, crates, spheres
@@ -284,6 +289,7 @@ void runBiasMatrix(bool prefiltered, const char* reportName) {
       truthDesc.minFacing = sc.minFacing;
       truthDesc.occluders = &sc.scene;
       truthDesc.surfaceFeatures = true;
+      truthDesc.footprintRadii = prefiltered ? csm_measure::kMipFootprintRadii : 0.0;
       for (const View& view : sc.views) {
         // CSM_BIAS_ELEVATION=e: only that elevation (for investigations; the asserts on leaks
         // per elevation are then skipped).

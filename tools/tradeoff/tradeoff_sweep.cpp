@@ -194,12 +194,6 @@ csm::vk::RendererOptions rendererOptionsOf(const Config& cfg) {
 
 namespace {
 
-// How far a prefiltered filter's tap reaches, in pixel footprints (BiasTruthDesc::footprintRadii):
-// a trilinear tap reads the mip of the footprint's long axis and the next, whose bilinear texels
-// reach about twice that axis from the centre; the long axis is about twice the square root of
-// the footprint's area at 60 degrees of incidence.
-constexpr double kFootprintRadii = 4.0;
-
 /// What every configuration of the sweep is measured with.
 struct SweepRig {
   const Options& o;
@@ -376,7 +370,7 @@ std::optional<Row> measureConfig(const SweepRig& rig, const Config& cfg) {
       // The prefiltered filters average over the pixel's footprint (its mip): a lit pixel within
       // that reach of a shadow reads part of it by design, not by acne.
       csm_measure::BiasTruthDesc bd;
-      bd.footprintRadii = csm::isPrefiltered(cfg.kernel) ? kFootprintRadii : 0.0;
+      bd.footprintRadii = csm::isPrefiltered(cfg.kernel) ? csm_measure::kMipFootprintRadii : 0.0;
       const csm_measure::BiasTruth truth = csm_measure::computeBiasTruth(
           px, accuracyView.width, accuracyView.height, frame, tracer, light, bd);
       const csm_measure::BiasStats b = csm_measure::scoreBias(px, truth, light);

@@ -25,6 +25,13 @@ enum class BiasClass : uint8_t {
   kShadowOther = 4,    ///< in shadow, away from contacts
 };
 
+/// How far a prefiltered filter read at its footprint's mip reaches, in pixel footprints (the
+/// value of BiasTruthDesc::footprintRadii for vsm, evsm and msm under HarnessDesc::implicitLod):
+/// a trilinear tap reads the mip of the footprint's long axis and the next, whose bilinear texels
+/// reach about twice that axis from the centre; the long axis is about twice the square root of
+/// the footprint's area at 60 degrees of incidence.
+inline constexpr double kMipFootprintRadii = 4.0;
+
 /// How the truth classifies pixels.
 struct BiasTruthDesc {
   /// Smallest N.L of a pixel that counts as facing the light (the 0.1).

@@ -110,6 +110,8 @@ class Harness {
   csm::vk::Status configure(const csm::ShadowSettings& settings,
                             const csm::vk::RendererOptions& options = {});
   const csm::ShadowSettings& settings() const { return view_->settings(); }
+  /// HarnessDesc::implicitLod: whether the prefiltered filters read the footprint's mip.
+  bool implicitLod() const { return implicitLod_; }
 
   /// The visible receivers' view-depth range computeFrame (and timeFrame) pass to
   /// computeCascades for receiver-driven splits; nothing (the default) = the full range.
