@@ -133,7 +133,7 @@ glm::vec4 trilinearMipRead(PcfKernel k, const Plane& depth, glm::vec2 p, float r
 
 // A lit plane read at a mip reads lit with every filter: the receiver's compared depth moves in
 // front of the spread the mip gives its own depths (momentReceiverShift). Without the shift evsm
-// and msm read such a plane as partly shadowed (down to 0.65 where the spread is a tenth of the
+// and msm read such a plane as partly shadowed (down to 0.73 where the spread is a tenth of the
 // depth range), the stipple a grazing sun drew on flat ground beyond the first cascades. And the
 // shift is not so large that a parallel occluder a few spreads in front stops shadowing.
 TEST(Moments, APlaneReadAtItsMipIsLitAndStillShadowedByAnOccluderInFront) {
