@@ -544,7 +544,7 @@ float csmMomentLit(vec4 moments, float depth, float minVariance) {
   return clamp((lit - reduction) / (1.0 - reduction), 0.0, 1.0);
 }
 
-/// Mirror of csm::momentReadFootprint: the footprint (long axis, level-0 texels) a mip read may
+/// Mirror of csm::momentReadFootprint: the footprint (level-0 texels) a mip read may
 /// take at box texel distance `edgeTexels` from the box's edge, for a receiver at stored depth
 /// `depth` on a plane of `slopePerTexel`.
 float csmMomentReadFootprint(float wanted, float edgeTexels, float depth, vec2 slopePerTexel) {
@@ -555,8 +555,8 @@ float csmMomentReadFootprint(float wanted, float edgeTexels, float depth, vec2 s
 }
 
 /// Mirror of csm::momentReceiverShift (csm::momentFootprintSpread): how far toward the light the
-/// receiver's compared depth moves when it reads a mip of footprint `footprintTexels` (long axis,
-/// level-0 texels), so that a lit plane whose depths the mip spreads reads lit.
+/// receiver's compared depth moves when it reads a mip of footprint `footprintTexels` (level-0
+/// texels), so that a lit plane whose depths the mip spreads reads lit.
 float csmMomentReceiverShift(vec2 slopePerTexel, float footprintTexels) {
   if (!(footprintTexels > 1.0)) return 0.0;
   const float texels = sqrt((footprintTexels * footprintTexels - 1.0) / 3.0);

@@ -36,9 +36,10 @@ namespace csm {
 [[nodiscard]] float momentLitFraction(PcfKernel kernel, const glm::vec4& moments, float depth,
                                       float minVariance, const ShadowSettings& settings) noexcept;
 
-/// The footprint a mip read of the moments may take (long axis, level-0 texels): `wanted` (the
-/// pixel's), but no wider than keeps what the read averages (the texels within 3 footprints: the
-/// coarser level's texel is at most 2 footprints wide and bilinear reaches 1.5 of them) inside
+/// The footprint a mip read of the moments may take (level-0 texels: the axis whose mip it reads):
+/// `wanted` (the pixel's), but no wider than keeps what the read averages (the texels within 3
+/// footprints: the coarser level's texel is at most 2 footprints wide and bilinear reaches 1.5 of
+/// them) inside
 ///  - the cascade's box: `edgeTexels` from its nearest edge (beyond it the sampler clamps to the
 ///    edge texel or, in a cached layer, wraps to the other side of the box);
 ///  - the stored depth range along the receiver's plane: a receiver at `depth` on a plane of
@@ -50,11 +51,12 @@ namespace csm {
                                         const glm::vec2& slopePerTexel) noexcept;
 
 /// The depth spread of a planar receiver over what a mip read averages, in stored depth (one
-/// standard deviation): a pixel whose footprint is `footprintTexels` level-0 texels along its long
-/// axis (r) reads the mip of r, whose box texels and bilinear and trilinear weights average the
-/// moments of texels about sqrt(r^2 / 3) texels from it (at most, per axis, over every sub-texel
-/// position and fraction of the level). Beyond level 0 (which the normal offset and the depth
-/// floor already cover): sqrt((r^2 - 1) / 3) texels times the plane's change of depth per texel
+/// standard deviation): a read of footprint `footprintTexels` level-0 texels (r, the axis whose
+/// mip it reads; momentReadFootprint) reads the mip of r, whose box texels and bilinear and
+/// trilinear weights average the moments of texels about sqrt(r^2 / 3) texels from it (at most, per
+/// axis, over every sub-texel position and fraction of the level). Beyond level 0 (which the normal
+/// offset and the depth floor already cover): sqrt((r^2 - 1) / 3) texels times the plane's change
+/// of depth per texel
 /// (`slopePerTexel`, csm.glsl's csmReceiverDepthSlope). 0 at r <= 1. Never NaN.
 [[nodiscard]] float momentFootprintSpread(const glm::vec2& slopePerTexel,
                                           float footprintTexels) noexcept;
