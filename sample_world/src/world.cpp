@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <mutex>
 #include <optional>
 #include <thread>
 
@@ -277,17 +278,46 @@ void buildLods(MeshAsset& asset, double maxScale, const ShapeBuilder& build = {}
   std::array<double, kLodCount> measuredM{};  // decimateToError's measured error, -1: none
   for (std::uint32_t l = 1; l < kLodCount; ++l) {
     asset.lodBoundM[l] = maxScale > 0.0 ? static_cast<float>(kLodErrorLadderM[l] / maxScale) : 0.0f;
-    Progress lodProgress;
-    if (progress) {
-      lodProgress = [&, l](const std::string& step) {
-        progress(asset.name + ": LOD " + std::to_string(l) + " of " +
-                 std::to_string(kLodCount - 1) + ", " + step);
-      };
+  }
+  if (maxScale > 0.0) {
+    // Each LOD is decimated from LOD 0 on its own, so the levels run on their own threads (the
+    // same meshes as one after the other, in about the time of the slowest). Progress lines
+    // from the threads are serialised.
+    std::mutex progressMutex;
+    auto decimate = [&](std::uint32_t l) {
+      Progress lodProgress;
+      if (progress) {
+        lodProgress = [&, l](const std::string& step) {
+          const std::lock_guard<std::mutex> lock(progressMutex);
+          progress(asset.name + ": LOD " + std::to_string(l) + " of " +
+                   std::to_string(kLodCount - 1) + ", " + step);
+        };
+      }
+      asset.lods[l] =
+          decimateToError(asset.lods[0], asset.lodBoundM[l], &measuredM[l], lodProgress);
+      if (lodProgress) {
+        char done[96];
+        std::snprintf(done, sizeof done, "done: %u triangles, %.3g m",
+                      asset.lods[l].triangleCount(), measuredM[l]);
+        lodProgress(done);
+      }
+    };
+    // Small meshes take microseconds: threads only where a level is worth one.
+    constexpr std::uint32_t kThreadedTriangles = 20000;
+    if (asset.lods[0].triangleCount() >= kThreadedTriangles) {
+      std::vector<std::thread> levels;
+      for (std::uint32_t l = 2; l < kLodCount; ++l) levels.emplace_back(decimate, l);
+      decimate(1);
+      for (auto& th : levels) th.join();
+    } else {
+      for (std::uint32_t l = 1; l < kLodCount; ++l) decimate(l);
     }
-    asset.lods[l] = maxScale > 0.0 ? decimateToError(asset.lods[0], asset.lodBoundM[l],
-                                                     &measuredM[l], lodProgress)
-                                   : asset.lods[0];
-    if (maxScale <= 0.0) measuredM[l] = -1.0;
+  }
+  for (std::uint32_t l = 1; l < kLodCount; ++l) {
+    if (maxScale <= 0.0) {
+      asset.lods[l] = asset.lods[0];
+      measuredM[l] = -1.0;
+    }
     if (maxScale > 0.0 && build) {
       std::optional<MeshData> cut = cutWithin(build, asset.lods[0], asset.lodBoundM[l]);
       if (cut && cut->triangleCount() < asset.lods[l].triangleCount()) {
