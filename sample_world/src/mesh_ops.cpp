@@ -16,7 +16,6 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <map>
 #include <sstream>
 
 #include "mesh_ops.hpp"
@@ -612,6 +611,11 @@ class TriangleGrid {
 // triangle its centroid, edge midpoints, the points halfway between centroid and corners and,
 // with `spacingM` > 0, a barycentric grid with samples at most spacingM apart along each edge
 // (16 steps per edge at most).
+// The distance to a surface changes by at most the distance moved, so a triangle whose
+// centroid's distance plus its reach (the centroid's farthest corner) stays below the largest
+// distance found so far cannot raise it: its other samples are skipped (with a margin of 1e-4
+// of the maximum for the float rounding, so the result is the one every sample would give).
+// On a finely tessellated mesh against its LOD that skips nearly every triangle.
 double oneSidedDistance(const MeshData& from, const TriangleGrid& to, double spacingM) {
   if (to.empty()) {
     return from.positions.empty() ? 0.0 : std::numeric_limits<double>::infinity();
@@ -623,7 +627,14 @@ double oneSidedDistance(const MeshData& from, const TriangleGrid& to, double spa
     const glm::vec3 a = from.positions[from.indices[t]], b = from.positions[from.indices[t + 1]],
                     c = from.positions[from.indices[t + 2]];
     const glm::vec3 g = (a + b + c) / 3.0f;
-    for (const glm::vec3& p : {g, (a + b) * 0.5f, (b + c) * 0.5f, (c + a) * 0.5f, (g + a) * 0.5f,
+    const float reach = std::sqrt(
+        std::max({glm::dot(a - g, a - g), glm::dot(b - g, b - g), glm::dot(c - g, c - g)}));
+    // The centroid's distance below `skipBelow` skips the triangle; above it, it is exact.
+    const float skipBelow = std::sqrt(worst2) * (1.0f - 1e-4f) - reach;
+    const float centre2 = to.distance2(g, skipBelow > 0.0f ? skipBelow * skipBelow : 0.0f);
+    if (skipBelow > 0.0f && centre2 <= skipBelow * skipBelow) continue;
+    worst2 = std::max(worst2, centre2);
+    for (const glm::vec3& p : {(a + b) * 0.5f, (b + c) * 0.5f, (c + a) * 0.5f, (g + a) * 0.5f,
                                (g + b) * 0.5f, (g + c) * 0.5f}) {
       visit(p);
     }
@@ -816,7 +827,13 @@ MeshData decimateToError(const MeshData& in, double maxErrorM, double* errorM,
     }
     MeshData out = decimateWithin(in, tolerance);
     if (out.indices.size() >= in.indices.size()) break;
+    if (progress) {
+      char step[96];
+      std::snprintf(step, sizeof step, "measuring the error of %u triangles", out.triangleCount());
+      progress(step);
+    }
     const double e = meter.errorM(out);
+    if (progress && e <= maxErrorM) progress("checking the shadow outlines");
     if (e <= maxErrorM && outlines.within(out)) {
       if (errorM != nullptr) *errorM = e;
       return out;
@@ -827,27 +844,40 @@ MeshData decimateToError(const MeshData& in, double maxErrorM, double* errorM,
 
 bool isClosedOutward(const MeshData& m) {
   if (m.indices.empty()) return false;
-  std::map<std::array<float, 3>, std::uint32_t> weld;
-  std::vector<std::uint32_t> id(m.positions.size());
-  for (std::size_t i = 0; i < m.positions.size(); ++i) {
+  // Positions welded by value (sorted, not a map: a 2-million-triangle mesh takes 0.1 s, not 2).
+  std::vector<std::uint32_t> order(m.positions.size());
+  for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
+  auto key = [&](std::uint32_t i) {
     const glm::vec3& p = m.positions[i];
-    id[i] =
-        weld.emplace(std::array<float, 3>{p.x, p.y, p.z}, std::uint32_t(weld.size())).first->second;
+    return std::array<float, 3>{p.x, p.y, p.z};
+  };
+  std::sort(order.begin(), order.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+  std::vector<std::uint32_t> id(m.positions.size());
+  std::uint32_t welded = 0;
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    if (k > 0 && key(order[k - 1]) < key(order[k])) ++welded;
+    id[order[k]] = welded;
   }
-  std::map<std::pair<std::uint32_t, std::uint32_t>, int> edges;
+  // Every directed edge once, and its reverse present: each edge shared by two faces wound
+  // oppositely.
+  std::vector<std::uint64_t> edges;
+  edges.reserve(m.indices.size());
   double volume = 0.0;
   for (std::size_t t = 0; t + 2 < m.indices.size(); t += 3) {
     const std::uint32_t v[3] = {id[m.indices[t]], id[m.indices[t + 1]], id[m.indices[t + 2]]};
     if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) return false;
     for (int e = 0; e < 3; ++e) {
-      if (++edges[{v[e], v[(e + 1) % 3]}] > 1) return false;
+      edges.push_back(std::uint64_t{v[e]} << 32 | v[(e + 1) % 3]);
     }
     const glm::dvec3 a(m.positions[m.indices[t]]), b(m.positions[m.indices[t + 1]]),
         c(m.positions[m.indices[t + 2]]);
     volume += glm::dot(a, glm::cross(b, c));
   }
-  for (const auto& [e, n] : edges) {
-    if (!edges.count({e.second, e.first})) return false;
+  std::sort(edges.begin(), edges.end());
+  if (std::adjacent_find(edges.begin(), edges.end()) != edges.end()) return false;
+  for (const std::uint64_t e : edges) {
+    if (!std::binary_search(edges.begin(), edges.end(), e << 32 | e >> 32)) return false;
   }
   return volume > 0.0;
 }

@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <limits>
 
 #include "csm/names.hpp"
 #include "sample_world/paths.hpp"
@@ -160,6 +162,136 @@ TEST(World, SimplificationErrorIsTheHausdorffDistance) {
   bump.indices = {0, 1, 4, 1, 2, 4, 2, 3, 4, 3, 0, 4};
   EXPECT_NEAR(world::simplificationErrorM(bump, flat), 0.5, 1e-6);
   EXPECT_NEAR(world::simplificationErrorM(flat, bump), 0.5, 1e-6);
+}
+
+namespace {
+
+// The closest point of triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5), in
+// double: an implementation independent of the module's, for the brute force below.
+double distanceToTriangle(const glm::dvec3& p, const glm::dvec3& a, const glm::dvec3& b,
+                          const glm::dvec3& c) {
+  const glm::dvec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return glm::length(p - a);
+  const glm::dvec3 bp = p - b;
+  const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return glm::length(p - b);
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return glm::length(p - (a + ab * (d1 / (d1 - d3))));
+  const glm::dvec3 cp = p - c;
+  const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return glm::length(p - c);
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return glm::length(p - (a + ac * (d2 / (d2 - d6))));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
+    return glm::length(p - (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))));
+  }
+  const double denom = 1.0 / (va + vb + vc);
+  return glm::length(p - (a + ab * (vb * denom) + ac * (vc * denom)));
+}
+
+// simplificationErrorM's samples of `from` (vertices; per triangle the centroid, edge
+// midpoints, centroid-corner midpoints and the barycentric grid at `spacing`), every one
+// measured against every triangle of `to`.
+double bruteOneSided(const world::MeshData& from, const world::MeshData& to, double spacing) {
+  auto distance = [&](const glm::dvec3& p) {
+    double best = std::numeric_limits<double>::max();
+    for (std::size_t t = 0; t + 2 < to.indices.size(); t += 3) {
+      best = std::min(
+          best, distanceToTriangle(p, to.positions[to.indices[t]], to.positions[to.indices[t + 1]],
+                                   to.positions[to.indices[t + 2]]));
+    }
+    return best;
+  };
+  double worst = 0.0;
+  for (const glm::vec3& p : from.positions) worst = std::max(worst, distance(p));
+  for (std::size_t t = 0; t + 2 < from.indices.size(); t += 3) {
+    const glm::dvec3 a = from.positions[from.indices[t]], b = from.positions[from.indices[t + 1]],
+                     c = from.positions[from.indices[t + 2]];
+    const glm::dvec3 g = (a + b + c) / 3.0;
+    for (const glm::dvec3& p : {g, (a + b) * 0.5, (b + c) * 0.5, (c + a) * 0.5, (g + a) * 0.5,
+                                (g + b) * 0.5, (g + c) * 0.5}) {
+      worst = std::max(worst, distance(p));
+    }
+    const double longest = std::max({glm::length(b - a), glm::length(c - b), glm::length(a - c)});
+    const int steps = static_cast<int>(std::min(16.0, std::ceil(longest / spacing)));
+    for (int i = 0; i <= steps; ++i) {
+      for (int j = 0; i + j <= steps; ++j) {
+        worst = std::max(
+            worst, distance(a + (b - a) * (double(i) / steps) + (c - a) * (double(j) / steps)));
+      }
+    }
+  }
+  return worst;
+}
+
+// A height field of n x n quads over [0, size]^2.
+world::MeshData heightField(int n, double size, const std::function<double(double, double)>& h) {
+  world::MeshData m;
+  for (int j = 0; j <= n; ++j) {
+    for (int i = 0; i <= n; ++i) {
+      const double x = size * i / n, z = size * j / n;
+      m.positions.push_back(glm::vec3(glm::dvec3(x, h(x, z), z)));
+    }
+  }
+  for (int j = 0; j < n; ++j) {
+    for (int i = 0; i < n; ++i) {
+      const auto v = static_cast<std::uint32_t>(j * (n + 1) + i);
+      const auto w = static_cast<std::uint32_t>(n + 1);
+      m.indices.insert(m.indices.end(), {v, v + w, v + 1, v + 1, v + w, v + w + 1});
+    }
+  }
+  return m;
+}
+
+}  // namespace
+
+// The error meter skips a triangle whose centroid's distance plus its reach cannot raise the
+// largest distance found: the result must be what measuring every sample gives. A fine bumpy
+// field against a coarse flat one and the reverse, and a coarse triangle whose centroid lies on
+// the other surface while an edge midpoint is farther from it than anything before (the skip
+// without the reach would miss it).
+TEST(World, SimplificationErrorEqualsEverySampleMeasured) {
+  const world::MeshData fine = heightField(
+      36, 4.0, [](double x, double z) { return 0.08 * std::sin(7.0 * x) * std::cos(5.0 * z); });
+  const world::MeshData coarse =
+      heightField(3, 4.0, [](double x, double z) { return 0.05 * std::sin(2.0 * x + z); });
+  for (double spacing : {0.0125, 0.05, 0.4}) {
+    const double fineToCoarse = bruteOneSided(fine, coarse, spacing);
+    const double coarseToFine = bruteOneSided(coarse, fine, spacing);
+    EXPECT_NEAR(world::simplificationErrorM(fine, coarse, spacing),
+                std::max(fineToCoarse, coarseToFine), 1e-5)
+        << spacing;
+    EXPECT_NEAR(world::simplificationErrorM(coarse, fine, spacing),
+                std::max(fineToCoarse, coarseToFine), 1e-5)
+        << spacing;
+  }
+  // `to`: a small patch under each corner and the centroid of a 1 m triangle, and patches
+  // 0.15 m under a small triangle's corners. The small triangle's corners set the maximum at
+  // 0.15 m before the large triangle is measured. Its centroid lies on `to` (0 m) but its edge
+  // midpoints are over 0.25 m from every patch: a skip that left out the centroid's reach
+  // (0.75 m) would stop at 0.15 m.
+  world::MeshData from;
+  from.positions = {{5, 0, 5}, {5.01f, 0, 5}, {5, 0, 5.01f}, {0, 0, 0}, {1, 0, 0}, {0, 0, 1}};
+  from.indices = {0, 1, 2, 3, 4, 5};
+  world::MeshData to;
+  auto patch = [&](glm::vec3 c) {
+    const auto v = static_cast<std::uint32_t>(to.positions.size());
+    to.positions.insert(to.positions.end(),
+                        {c + glm::vec3(-0.02f, 0, -0.02f), c + glm::vec3(0.04f, 0, -0.02f),
+                         c + glm::vec3(-0.02f, 0, 0.04f)});
+    to.indices.insert(to.indices.end(), {v, v + 1, v + 2});
+  };
+  for (const glm::vec3 c : {glm::vec3(0, 0, 0), glm::vec3(1, 0, 0), glm::vec3(0, 0, 1),
+                            glm::vec3(1.0f / 3, 0, 1.0f / 3), glm::vec3(5, -0.15f, 5),
+                            glm::vec3(5.01f, -0.15f, 5), glm::vec3(5, -0.15f, 5.01f)}) {
+    patch(c);
+  }
+  const double fromTo = bruteOneSided(from, to, 0.0125);
+  EXPECT_GT(fromTo, 0.25);
+  EXPECT_NEAR(world::simplificationErrorM(from, to, 0.0125),
+              std::max(fromTo, bruteOneSided(to, from, 0.0125)), 1e-5);
 }
 
 // Every LOD's error is recorded: 0 for terrain (never simplified), positive and growing with the
