@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <future>
 #include <limits>
 #include <mutex>
 #include <optional>
@@ -305,10 +306,13 @@ void buildLods(MeshAsset& asset, double maxScale, const ShapeBuilder& build = {}
     // Small meshes take microseconds: threads only where a level is worth one.
     constexpr std::uint32_t kThreadedTriangles = 20000;
     if (asset.lods[0].triangleCount() >= kThreadedTriangles) {
-      std::vector<std::thread> levels;
-      for (std::uint32_t l = 2; l < kLodCount; ++l) levels.emplace_back(decimate, l);
+      // Futures: a level that throws (out of memory) rethrows here, after every level ended.
+      std::vector<std::future<void>> levels;
+      for (std::uint32_t l = 2; l < kLodCount; ++l) {
+        levels.push_back(std::async(std::launch::async, decimate, l));
+      }
       decimate(1);
-      for (auto& th : levels) th.join();
+      for (auto& level : levels) level.get();
     } else {
       for (std::uint32_t l = 1; l < kLodCount; ++l) decimate(l);
     }
