@@ -844,7 +844,7 @@ MeshData decimateToError(const MeshData& in, double maxErrorM, double* errorM,
 
 bool isClosedOutward(const MeshData& m) {
   if (m.indices.empty()) return false;
-  // Positions welded by value (sorted, not a map: a 2-million-triangle mesh takes 0.1 s, not 2).
+  // Positions welded by value, by sorting (maps took seconds on a 2-million-triangle mesh).
   std::vector<std::uint32_t> order(m.positions.size());
   for (std::uint32_t i = 0; i < order.size(); ++i) order[i] = i;
   auto key = [&](std::uint32_t i) {

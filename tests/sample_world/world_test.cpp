@@ -294,6 +294,43 @@ TEST(World, SimplificationErrorEqualsEverySampleMeasured) {
               std::max(fromTo, bruteOneSided(to, from, 0.0125)), 1e-5);
 }
 
+// isClosedOutward: a cube wound outward is closed, also with every face's corners its own
+// vertices (welded by position); wound inward, with a face missing, a face doubled, a degenerate
+// triangle or a third face on an edge it is not.
+TEST(World, ClosedOutwardNeedsEveryEdgeSharedOnceEachWay) {
+  world::MeshData cube;
+  cube.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
+                    {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+  cube.indices = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                  3, 7, 6, 3, 6, 2, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
+  EXPECT_TRUE(world::isClosedOutward(cube));
+  world::MeshData split;  // every corner of every triangle its own vertex
+  for (std::uint32_t i : cube.indices) {
+    split.indices.push_back(static_cast<std::uint32_t>(split.positions.size()));
+    split.positions.push_back(cube.positions[i]);
+  }
+  EXPECT_TRUE(world::isClosedOutward(split));
+  world::MeshData inward = cube;
+  for (std::size_t t = 0; t < inward.indices.size(); t += 3) {
+    std::swap(inward.indices[t + 1], inward.indices[t + 2]);
+  }
+  EXPECT_FALSE(world::isClosedOutward(inward));
+  world::MeshData open = cube;
+  open.indices.resize(open.indices.size() - 3);
+  EXPECT_FALSE(world::isClosedOutward(open));
+  world::MeshData doubled = cube;
+  doubled.indices.insert(doubled.indices.end(), {0, 2, 1});
+  EXPECT_FALSE(world::isClosedOutward(doubled));
+  world::MeshData degenerate = cube;
+  degenerate.indices.insert(degenerate.indices.end(), {0, 0, 1});
+  EXPECT_FALSE(world::isClosedOutward(degenerate));
+  world::MeshData fin = cube;  // a third face on edge 0-1 (and its reverse elsewhere)
+  fin.positions.push_back({0.5f, -1.0f, 0.0f});
+  fin.indices.insert(fin.indices.end(), {0, 1, 8, 1, 0, 8});
+  EXPECT_FALSE(world::isClosedOutward(fin));
+  EXPECT_FALSE(world::isClosedOutward(world::MeshData{}));
+}
+
 // Every LOD's error is recorded: 0 for terrain (never simplified), positive and growing with the
 // LOD for the simplified trees (buildings keep full detail: 0); clusters carry the largest of their
 // objects' scaled errors.
