@@ -14,6 +14,7 @@
 // texels.
 #include <gtest/gtest.h>
 
+#include <csm/moments.hpp>
 #include <csm/names.hpp>
 #include <csm/vulkan/shadow_view.hpp>
 #include <engine/context.hpp>
@@ -29,6 +30,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -421,6 +423,137 @@ INSTANTIATE_TEST_SUITE_P(Paths, CacheWorld,
                                            Flight{"fast", "evsm"}, Flight{"day", "vsm"},
                                            Flight{"cut", "msm"}),
                          flightName);
+
+// What csm_moments.comp writes, against the CPU from the depths it read: level 0 of every moment
+// layer is the separable Gaussian of the depths' moments (csm::depthMoments; radius
+// momentBlurM / texel, capped at CSM_MOMENT_MAX_BLUR_TEXELS; texels beyond the box's edge read
+// as the far plane; cached layers addressed through their wrap offsets), and every mip texel is
+// the mean of the four below it, bit for bit. Both renderers of the rig (cached: wrapped layers,
+// partial resolves; uncached: full resolves) over frames of `fast` with msm and evsm blurred by
+// 1.5 m (no blur to 5 texels across the cascades at 512^2) and msm by 4 m (up to the cap).
+// Exponentials differ between the device and libm in the last bits (EVSM's reach e^80): level 0 is
+// held to 1e-4 of each value.
+TEST(MomentResolve, Level0IsTheBlurOfTheDepthsMomentsAndEachMipTheMeanOfFour) {
+  const std::pair<const char*, double> runs[] = {{"msm", 1.5}, {"evsm", 1.5}, {"msm", 4.0}};
+  std::uint32_t radiiSeen = 0;  // bit n: a layer blurred with reach n
+  for (const auto& [config, blurM] : runs) {
+    SCOPED_TRACE(std::string(config) + " blur " + std::to_string(blurM));
+    world::AppSettings settings = flightSettings(config);
+    settings.shadow.momentBlurM = blurM;
+    WorldRig rig("fast", settings);
+    const std::uint32_t layers = settings.shadow.cascadeCount;
+    const int res = int(kResolution);
+    const std::size_t layerTexels = std::size_t(res) * std::size_t(res);
+    for (int i = 0; i < 4; ++i) {
+      rig.frame(i, 40);
+      for (int k = 0; k < 2; ++k) {
+        const Side& side = rig.side(k);
+        const csm::CsmUniforms& u = side.renderer->shadowRenderer().uniforms();
+        const auto* depth = static_cast<const float*>(side.layers->mapped());
+        const auto* gpu = static_cast<const glm::vec4*>(side.moments->mapped());
+        csm::ShadowSettings ms = settings.shadow;
+        ms.evsmPositiveExponent = u.moments.z;
+        ms.evsmNegativeExponent = u.moments.w;
+        const glm::vec4 far = csm::depthMoments(ms.kernel, 1.0f, ms);
+        std::vector<glm::vec4> own(layerTexels), alongX(layerTexels);
+        std::uint64_t level0Off = 0, mipOff = 0;
+        std::string first;
+        for (std::uint32_t c = 0; c < layers; ++c) {
+          const float radius =
+              csm::momentBlurRadiusTexels(ms.momentBlurM, u.cascades[c].texelSizeM);
+          const int n = radius >= 0.5f ? int(std::ceil(radius)) : 0;
+          radiiSeen |= 1u << n;
+          const float inv2Sigma2 = n > 0 ? 2.0f / (radius * radius) : 0.0f;
+          std::vector<float> w(std::size_t(n) + 1);
+          for (int t = 0; t <= n; ++t) w[std::size_t(t)] = std::exp(-float(t * t) * inv2Sigma2);
+          int offset[2] = {0, 0};
+          for (int a = 0; a < 2 && u.wrappedLayers != 0; ++a) {
+            const int o = int(std::lround(u.cascades[c].wrapOffset[a]));
+            offset[a] = ((o % res) + res) % res;
+          }
+          const float* d = depth + c * layerTexels;
+          // One axis of the Gaussian at layer texel (x, y); `read` gives a texel's moments.
+          auto blur = [&](int x, int y, int axis, auto&& read) {
+            const int box = (((axis == 0 ? x : y) - offset[axis]) % res + res) % res;
+            glm::vec4 sum(0.0f);
+            float weights = 0.0f;
+            for (int t = -n; t <= n; ++t) {
+              const float wt = w[std::size_t(std::abs(t))];
+              weights += wt;
+              const int b = box + t;
+              if (b < 0 || b >= res) {
+                sum += wt * far;
+                continue;
+              }
+              const int along = (b + offset[axis]) % res;
+              sum += wt * (axis == 0 ? read(along, y) : read(x, along));
+            }
+            return sum / weights;
+          };
+          for (std::size_t t = 0; t < layerTexels; ++t) {
+            own[t] = csm::depthMoments(ms.kernel, d[t], ms);
+          }
+          for (int y = 0; y < res; ++y) {
+            for (int x = 0; x < res; ++x) {
+              alongX[std::size_t(y) * res + x] =
+                  blur(x, y, 0, [&](int tx, int ty) { return own[std::size_t(ty) * res + tx]; });
+            }
+          }
+          for (int y = 0; y < res; ++y) {
+            for (int x = 0; x < res; ++x) {
+              const glm::vec4 want =
+                  blur(x, y, 1, [&](int tx, int ty) { return alongX[std::size_t(ty) * res + tx]; });
+              const glm::vec4 got = gpu[c * layerTexels + std::size_t(y) * res + x];
+              bool off = false;
+              for (int ch = 0; ch < 4; ++ch) {
+                off |=
+                    !(std::abs(got[ch] - want[ch]) <= 1e-4f * std::max(1.0f, std::abs(want[ch])));
+              }
+              if (off && level0Off++ == 0) {
+                first = "layer " + std::to_string(c) + " texel (" + std::to_string(x) + ", " +
+                        std::to_string(y) + "): " + std::to_string(got.x) + " against " +
+                        std::to_string(want.x);
+              }
+            }
+          }
+        }
+        // Each mip level from the one above: 0.25 ((a + b) + (c + d)), exactly as float.
+        const glm::vec4* above = gpu;
+        for (std::uint32_t level = 1; level < side.renderer->shadowRenderer().momentLevels();
+             ++level) {
+          const int up = std::max(res >> (level - 1), 1), side1 = std::max(res >> level, 1);
+          const glm::vec4* here = above + std::size_t(up) * up * layers;
+          for (std::uint32_t c = 0; c < layers; ++c) {
+            for (int y = 0; y < side1; ++y) {
+              for (int x = 0; x < side1; ++x) {
+                auto at = [&](int tx, int ty) {
+                  return above[std::size_t(c) * up * up + std::size_t(ty) * up + tx];
+                };
+                const glm::vec4 top = at(2 * x, 2 * y) + at(2 * x + 1, 2 * y);
+                const glm::vec4 bottom = at(2 * x, 2 * y + 1) + at(2 * x + 1, 2 * y + 1);
+                const glm::vec4 want = 0.25f * (top + bottom);
+                const glm::vec4 got =
+                    here[std::size_t(c) * side1 * side1 + std::size_t(y) * side1 + x];
+                if (std::memcmp(&want, &got, sizeof(want)) != 0 && mipOff++ == 0 && first.empty()) {
+                  first = "level " + std::to_string(level) + " layer " + std::to_string(c) +
+                          " texel (" + std::to_string(x) + ", " + std::to_string(y) + ")";
+                }
+              }
+            }
+          }
+          above = here;
+        }
+        EXPECT_EQ(level0Off, 0u) << "frame " << i << (k == 0 ? " cached: " : " full: ") << first;
+        EXPECT_EQ(mipOff, 0u) << "frame " << i << (k == 0 ? " cached: " : " full: ") << first;
+      }
+    }
+    EXPECT_EQ(engine::validationMessageCount(), 0u);  // each rig counts its own
+  }
+  // The layers were blurred with no reach, short ones and the cap (the shared tile's widest).
+  EXPECT_NE(radiiSeen & 1u, 0u) << std::hex << radiiSeen;
+  EXPECT_NE(radiiSeen & 0xffeu, 0u) << std::hex << radiiSeen;
+  EXPECT_NE(radiiSeen & (1u << CSM_MOMENT_MAX_BLUR_TEXELS), 0u) << std::hex << radiiSeen;
+}
 
 // The moment sampler is anisotropic where the device allows it (glue::kMomentAnisotropy, 8x):
 // the fly-through's msm frame, drawn by two renderers that differ only in that cap (8 and 1),

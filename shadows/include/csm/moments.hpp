@@ -87,7 +87,7 @@ namespace csm {
 [[nodiscard]] float momentBlurRadiusTexels(double momentBlurM, double texelM) noexcept;
 
 /// Device memory of the moment images for `settings` (0 when the kernel is not prefiltered):
-/// the mip-mapped moment array and the blur's scratch (level 0 of one layer), RGBA32F each.
+/// the mip-mapped RGBA32F moment array.
 [[nodiscard]] std::uint64_t momentImageBytes(const ShadowSettings& settings) noexcept;
 
 }  // namespace csm

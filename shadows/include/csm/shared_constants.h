@@ -68,8 +68,13 @@
 // change by noise / (4 floor) = 0.0025, under 1/255. EVSM's warps and MSM's centred moments do not
 // need it.
 #define CSM_VSM_MIN_VARIANCE 1e-5
-// Local size of csm_moments.comp (each invocation one texel of one layer).
-#define CSM_MOMENT_GROUP 8
+// Local size of csm_moments.comp, and the texels of its column each invocation of the blur
+// (pass 0) writes: a workgroup blurs CSM_MOMENT_GROUP_X x (CSM_MOMENT_GROUP_Y x CSM_MOMENT_ROWS)
+// texels, through (8 + 24) x (32 + 24) depths and rows in shared memory at the largest blur:
+// 14.4 KB, within the 16 KB every Vulkan device has. The mips use one texel an invocation.
+#define CSM_MOMENT_GROUP_X 8
+#define CSM_MOMENT_GROUP_Y 8
+#define CSM_MOMENT_ROWS 4
 
 // Specialisation constant ids used by csm.glsl.
 #define CSM_SPEC_KERNEL 0

@@ -152,15 +152,13 @@ float momentBlurRadiusTexels(double momentBlurM, double texelM) noexcept {
 std::uint64_t momentImageBytes(const ShadowSettings& settings) noexcept {
   if (!isPrefiltered(settings.kernel)) return 0;
   if (settings.cascadeCount == 0) return 0;
-  const std::uint64_t level0 =
-      std::uint64_t(settings.resolution) * settings.resolution * settings.cascadeCount * 16u;
-  std::uint64_t mips = 0;
+  // The moments with their mips (the blur needs no image of its own: csm_moments.comp keeps a
+  // workgroup's tile in shared memory).
+  std::uint64_t bytes = 0;
   for (std::uint64_t side = settings.resolution; side >= 1; side /= 2) {
-    mips += side * side * settings.cascadeCount * 16u;
+    bytes += side * side * settings.cascadeCount * 16u;
   }
-  // The moments with their mips, and the blur's scratch (level 0 of one layer: the layers are
-  // resolved one after the other).
-  return mips + level0 / settings.cascadeCount;
+  return bytes;
 }
 
 }  // namespace csm

@@ -1,9 +1,10 @@
 // The prefiltered filters' moment image (ShadowSettings::kernel vsm, evsm or msm): a mip-mapped
 // RGBA32F 2D array beside the depth array, one layer per cascade, and its resolve after every
-// shadow pass: csm_moments.comp turns depths into moments and blurs them separably (x into a
-// one-level scratch image, y into level 0), then a third pass builds the mips (2x2 means). The
-// lighting set binds it at CSM_BINDING_MOMENTS through a trilinear sampler (clamped, or REPEAT for
-// cached cascades, whose layers are addressed toroidally like the depth layers).
+// shadow pass: csm_moments.comp turns depths into moments and blurs them separably into level 0
+// (one dispatch per layer: each workgroup blurs its tile along x in shared memory, then along y),
+// then a second pass builds the mips (2x2 means). The lighting set binds it at
+// CSM_BINDING_MOMENTS through a trilinear sampler (clamped, or REPEAT for cached cascades, whose
+// layers are addressed toroidally like the depth layers).
 //
 // After a cached pass the resolve is partial: only the tiles (kMomentTile texels square) that
 // the rectangles the pass changed touch, widened by the blur, are converted, blurred and
@@ -37,12 +38,19 @@ struct MomentPush {
 };
 
 // The partial resolve's granularity: the changed texels are rounded out to tiles this wide (a
-// power of two, a multiple of CSM_MOMENT_GROUP, larger than CSM_MOMENT_MAX_BLUR_TEXELS so that
-// pass 0 covers pass 1's blur by one tile row each side). Levels 1..log2(kMomentTile) of a tile
+// power of two, larger than CSM_MOMENT_MAX_BLUR_TEXELS). Levels 1..log2(kMomentTile) of a tile
 // are exact sub-rectangles; the levels below are rebuilt whole for a changed layer.
 constexpr std::int32_t kMomentTile = 32;
-static_assert(kMomentTile % CSM_MOMENT_GROUP == 0 && kMomentTile > CSM_MOMENT_MAX_BLUR_TEXELS);
+static_assert(kMomentTile > CSM_MOMENT_MAX_BLUR_TEXELS);
 constexpr std::uint32_t kMomentTileLevels = 5;  // log2(kMomentTile)
+
+// Workgroups of csm_moments.comp over `extent` texels: pass 0's cover CSM_MOMENT_GROUP_X x
+// (CSM_MOMENT_GROUP_Y x CSM_MOMENT_ROWS) texels, pass 2's (the mips) one texel an invocation.
+void dispatchMoments(VkCommandBuffer cmd, std::uint32_t pass, const std::int32_t extent[2]) {
+  const std::int32_t rows = pass == 0 ? CSM_MOMENT_GROUP_Y * CSM_MOMENT_ROWS : CSM_MOMENT_GROUP_Y;
+  vkCmdDispatch(cmd, std::uint32_t((extent[0] + CSM_MOMENT_GROUP_X - 1) / CSM_MOMENT_GROUP_X),
+                std::uint32_t((extent[1] + rows - 1) / rows), 1);
+}
 
 std::int32_t floorDiv32(std::int32_t a, std::int32_t b) noexcept {
   const std::int32_t q = a / b;
@@ -127,8 +135,8 @@ void barrier(VkCommandBuffer cmd, std::span<const VkImageMemoryBarrier2> images,
 
 }  // namespace
 
-// The resolve's set layout (the uniform block, the depth map, the scratch and level 0 as storage
-// images), its pipeline layout and compute pipeline, and the trilinear samplers.
+// The resolve's set layout (the uniform block, the depth map, the mip source and destination as
+// storage images), its pipeline layout and compute pipeline, and the trilinear samplers.
 Status ShadowRenderer::Impl::createMomentResources() {
   VkDevice dev = device_.device;
   {
@@ -217,18 +225,14 @@ void ShadowRenderer::Impl::destroyMomentResources() noexcept {
 
 void ShadowRenderer::Impl::destroyMomentImages(MomentImages& m) noexcept {
   VkDevice dev = device_.device;
-  for (VkImageView v : {m.sampledView, m.storageView, m.scratchView}) {
-    vkDestroyImageView(dev, v, nullptr);
-  }
+  for (VkImageView v : {m.sampledView, m.storageView}) vkDestroyImageView(dev, v, nullptr);
   for (VkImageView v : m.levelViews) vkDestroyImageView(dev, v, nullptr);
   vkDestroyImage(dev, m.image, nullptr);
-  vkDestroyImage(dev, m.scratch, nullptr);
   vkFreeMemory(dev, m.memory, nullptr);
-  vkFreeMemory(dev, m.scratchMemory, nullptr);
   m = MomentImages{};  // the set is freed with its pool
 }
 
-// The moment and scratch images of `settings` (prefiltered kernels only) and the resolve's set,
+// The moment image of `settings` (prefiltered kernels only) and the resolve's sets,
 // allocated from `pool` (the lighting set's, which lives with the images).
 Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
                                                VkDescriptorPool pool, MomentImages& out) {
@@ -268,23 +272,12 @@ Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
   VkResult r = vkCreateImage(dev, &ci, nullptr, &m.image);
   if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImage(csm moments)"));
   setName(handleBits(m.image), VK_OBJECT_TYPE_IMAGE, "csm moments");
-  ci.mipLevels = 1;
-  ci.arrayLayers = 1;  // the layers are resolved one after the other
-  ci.usage = VK_IMAGE_USAGE_STORAGE_BIT;
-  r = vkCreateImage(dev, &ci, nullptr, &m.scratch);
-  if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImage(csm moment scratch)"));
-  setName(handleBits(m.scratch), VK_OBJECT_TYPE_IMAGE, "csm moment scratch");
   VkMemoryRequirements req{};
   vkGetImageMemoryRequirements(dev, m.image, &req);
   Status s = allocate(req, &m.memory, "csm moments memory");
   if (!s.ok()) return fail(s);
   r = vkBindImageMemory(dev, m.image, m.memory, 0);
   if (r != VK_SUCCESS) return fail(vkError(r, "vkBindImageMemory(csm moments)"));
-  vkGetImageMemoryRequirements(dev, m.scratch, &req);
-  s = allocate(req, &m.scratchMemory, "csm moment scratch memory");
-  if (!s.ok()) return fail(s);
-  r = vkBindImageMemory(dev, m.scratch, m.scratchMemory, 0);
-  if (r != VK_SUCCESS) return fail(vkError(r, "vkBindImageMemory(csm moment scratch)"));
 
   auto vi = vkInit<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
   vi.viewType = VK_IMAGE_VIEW_TYPE_2D_ARRAY;
@@ -301,11 +294,6 @@ Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
     r = vkCreateImageView(dev, &vi, nullptr, &m.levelViews[level]);
     if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImageView(csm moments level)"));
   }
-  vi.subresourceRange.baseMipLevel = 0;
-  vi.image = m.scratch;
-  vi.subresourceRange.layerCount = 1;
-  r = vkCreateImageView(dev, &vi, nullptr, &m.scratchView);
-  if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateImageView(csm moment scratch)"));
 
   auto ai = vkInit<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
   ai.descriptorPool = pool;
@@ -323,13 +311,16 @@ Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
   return {};
 }
 
-// The resolve's set: the uniform block, the depth array (nearest), scratch and level 0.
+// The resolve's set: the uniform block, the depth array (nearest) and level 0. Binding 2, the mip
+// pass's source, is never read by the blur; it holds the smallest level (a valid descriptor that
+// is not level 0 itself: an alias of the written level reads as a hazard to validation).
 void ShadowRenderer::Impl::writeMomentSet() const {
   if (moments_.set == VK_NULL_HANDLE) return;
   VkDescriptorBufferInfo bi{uniformBuffer_, 0, sizeof(CsmUniforms)};
   VkDescriptorImageInfo depth{depthSampler_, arrayView_, sampledLayout()};
-  VkDescriptorImageInfo scratch{VK_NULL_HANDLE, moments_.scratchView, VK_IMAGE_LAYOUT_GENERAL};
   VkDescriptorImageInfo level0{VK_NULL_HANDLE, moments_.storageView, VK_IMAGE_LAYOUT_GENERAL};
+  VkDescriptorImageInfo unread{VK_NULL_HANDLE, moments_.levelViews[moments_.levels - 1],
+                               VK_IMAGE_LAYOUT_GENERAL};
   VkWriteDescriptorSet w[4]{};
   for (std::uint32_t i = 0; i < 4; ++i) {
     w[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
@@ -342,7 +333,7 @@ void ShadowRenderer::Impl::writeMomentSet() const {
   w[1].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
   w[1].pImageInfo = &depth;
   w[2].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
-  w[2].pImageInfo = &scratch;
+  w[2].pImageInfo = &unread;
   w[3].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_IMAGE;
   w[3].pImageInfo = &level0;
   vkUpdateDescriptorSets(device_.device, 4, w, 0, nullptr);
@@ -390,11 +381,11 @@ void ShadowRenderer::Impl::recordMomentClear(VkCommandBuffer cmd) {
   barrier(cmd, {&b, 1});
 }
 
-// The rectangles a resolve recomputes in each layer, tile-aligned: pass1 is blurred along y into
-// level 0 (and re-mipped), pass0 converted and blurred along x into the scratch (pass1 with one
-// tile row more on each side, what pass 1's blur reads). Empty: the layer is unchanged.
+// The rectangles a resolve recomputes in each layer, tile-aligned: blurred into level 0 (pass 0
+// reads the depths of the blur's reach around them itself) and re-mipped. Empty: the layer is
+// unchanged.
 struct ShadowRenderer::Impl::MomentRegions {
-  std::array<LayerRects, kMaxCascades> pass1{}, pass0{};
+  std::array<LayerRects, kMaxCascades> rects{};
   std::array<bool, kMaxCascades> whole{};
 };
 
@@ -414,14 +405,13 @@ bool ShadowRenderer::Impl::planMomentRegions(MomentRegions& plan) const {
   }
   const std::int32_t res = static_cast<std::int32_t>(resolution_);
   const std::int32_t tiles = res / kMomentTile;
-  std::vector<std::uint8_t> mark(std::size_t(tiles) * tiles), grown(mark.size());
+  std::vector<std::uint8_t> mark(std::size_t(tiles) * tiles);
   for (std::uint32_t i = 0; i < layerCount_; ++i) {
     const CsmCascadeGpu& c = uniforms_.cascades[i];
     const bool whole = ((momentWholeMask_ >> i) & 1u) != 0 || m.texelM[i] != c.texelSizeM;
     if (whole) {
       plan.whole[i] = true;
-      plan.pass1[i].assign(1, {0, 0, res, res});
-      plan.pass0[i] = plan.pass1[i];
+      plan.rects[i].assign(1, {0, 0, res, res});
       continue;
     }
     // The blur's reach in texels (the shader's ceil(radius), and one more against rounding).
@@ -439,31 +429,17 @@ bool ShadowRenderer::Impl::planMomentRegions(MomentRegions& plan) const {
       const std::int32_t oy = static_cast<std::int32_t>(c.wrapOffset.y);
       markTiles(mark, tiles, 0, oy - reach, res, oy + reach);
     }
-    tileRects(mark, tiles, plan.pass1[i]);
-    if (rectArea(plan.pass1[i]) * 4 >= 3 * std::uint64_t(res) * std::uint64_t(res)) {
+    tileRects(mark, tiles, plan.rects[i]);
+    if (rectArea(plan.rects[i]) * 4 >= 3 * std::uint64_t(res) * std::uint64_t(res)) {
       plan.whole[i] = true;  // most of the layer: one dispatch is cheaper
-      plan.pass1[i].assign(1, {0, 0, res, res});
-      plan.pass0[i] = plan.pass1[i];
-      continue;
+      plan.rects[i].assign(1, {0, 0, res, res});
     }
-    if (reach == 0) {
-      plan.pass0[i] = plan.pass1[i];
-      continue;
-    }
-    grown = mark;
-    for (std::int32_t ty = 0; ty < tiles; ++ty) {
-      for (std::int32_t tx = 0; tx < tiles; ++tx) {
-        if (mark[std::size_t(ty) * tiles + tx] == 0) continue;
-        grown[std::size_t((ty + 1) % tiles) * tiles + tx] = 1;
-        grown[std::size_t((ty + tiles - 1) % tiles) * tiles + tx] = 1;
-      }
-    }
-    tileRects(grown, tiles, plan.pass0[i]);
   }
   return true;
 }
 
-// Pass 0 and pass 1 over each layer's rectangles (every texel without a plan).
+// Pass 0 over each layer's rectangles (every texel without a plan): depths to moments, blurred
+// into level 0. No layer reads what another writes: no barrier between them.
 void ShadowRenderer::Impl::recordMomentDispatches(VkCommandBuffer cmd, const MomentRegions* plan) {
   const std::uint32_t layers = layerCount_;
   const std::int32_t res = static_cast<std::int32_t>(resolution_);
@@ -472,46 +448,22 @@ void ShadowRenderer::Impl::recordMomentDispatches(VkCommandBuffer cmd, const Mom
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentPipelineLayout_, 0, 1,
                           &moments_.set, 0, nullptr);
   MomentPush push;
+  push.pass = 0;
   push.kernel = static_cast<std::uint32_t>(moments_.kernel);
   push.blurM = static_cast<float>(settings_.momentBlurM);
-  // Per layer: x into the scratch, then y into level 0; the scratch's reads finish before the
-  // next layer overwrites it.
-  VkImageMemoryBarrier2 s = imageBarrier(moments_.scratch, 0, 1, 1);
-  s.srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  s.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  s.oldLayout = VK_IMAGE_LAYOUT_GENERAL;
-  s.newLayout = VK_IMAGE_LAYOUT_GENERAL;
-  bool first = true;
   for (std::uint32_t layer = 0; layer < layers; ++layer) {
-    const LayerRects& rects1 = plan != nullptr ? plan->pass1[layer] : all;
-    if (rects1.empty()) continue;
-    if (!first) {  // the previous layer's pass 1 read the scratch
-      s.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
-      s.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-      barrier(cmd, {&s, 1});
-    }
-    first = false;
+    const LayerRects& rects = plan != nullptr ? plan->rects[layer] : all;
     push.layer = layer;
-    for (std::uint32_t pass = 0; pass < 2; ++pass) {
-      push.pass = pass;
-      const LayerRects& rects = pass == 0 && plan != nullptr ? plan->pass0[layer] : rects1;
-      for (const auto& r : rects) {
-        push.origin[0] = r[0];
-        push.origin[1] = r[1];
-        push.extent[0] = r[2] - r[0];
-        push.extent[1] = r[3] - r[1];
-        vkCmdPushConstants(cmd, momentPipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push),
-                           &push);
-        vkCmdDispatch(cmd, std::uint32_t(push.extent[0] + CSM_MOMENT_GROUP - 1) / CSM_MOMENT_GROUP,
-                      std::uint32_t(push.extent[1] + CSM_MOMENT_GROUP - 1) / CSM_MOMENT_GROUP, 1);
-      }
-      if (pass == 0) {  // x's writes before y reads them
-        s.srcAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-        s.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
-        barrier(cmd, {&s, 1});
-      }
+    for (const auto& r : rects) {
+      push.origin[0] = r[0];
+      push.origin[1] = r[1];
+      push.extent[0] = r[2] - r[0];
+      push.extent[1] = r[3] - r[1];
+      vkCmdPushConstants(cmd, momentPipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push),
+                         &push);
+      dispatchMoments(cmd, push.pass, push.extent);
     }
-    cacheStats_[layer].momentTexels = rectArea(rects1);
+    cacheStats_[layer].momentTexels = rectArea(rects);
   }
 }
 
@@ -540,8 +492,7 @@ void ShadowRenderer::Impl::recordMomentMips(VkCommandBuffer cmd, const MomentReg
     push.extent[1] = y1 - y0;
     vkCmdPushConstants(cmd, momentPipelineLayout_, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(push),
                        &push);
-    vkCmdDispatch(cmd, std::uint32_t(push.extent[0] + CSM_MOMENT_GROUP - 1) / CSM_MOMENT_GROUP,
-                  std::uint32_t(push.extent[1] + CSM_MOMENT_GROUP - 1) / CSM_MOMENT_GROUP, 1);
+    dispatchMoments(cmd, push.pass, push.extent);
   };
   for (std::uint32_t level = 1; level < moments_.levels; ++level) {
     const std::int32_t side = std::max(res >> level, 1);
@@ -549,12 +500,12 @@ void ShadowRenderer::Impl::recordMomentMips(VkCommandBuffer cmd, const MomentReg
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentPipelineLayout_, 0, 1,
                             &moments_.mipSets[level], 0, nullptr);
     for (std::uint32_t layer = 0; layer < layers; ++layer) {
-      if (plan != nullptr && plan->pass1[layer].empty()) continue;
+      if (plan != nullptr && plan->rects[layer].empty()) continue;
       if (plan == nullptr || plan->whole[layer] || level > kMomentTileLevels) {
         dispatch(layer, 0, 0, side, side);
         continue;
       }
-      for (const auto& r : plan->pass1[layer]) {
+      for (const auto& r : plan->rects[layer]) {
         dispatch(layer, r[0] >> level, r[1] >> level, r[2] >> level, r[3] >> level);
       }
     }
@@ -562,8 +513,8 @@ void ShadowRenderer::Impl::recordMomentMips(VkCommandBuffer cmd, const MomentReg
 }
 
 // After the shadow pass (the depth layers written and in the sampled layout, the uniform block
-// updated): depth -> moments, blur x, blur y, mips (of what changed after a cached pass, else of
-// everything); then the sampled layout for the consumers.
+// updated): depth -> moments blurred along x and y, mips (of what changed after a cached pass, else
+// of everything); then the sampled layout for the consumers.
 void ShadowRenderer::Impl::recordMomentResolve(VkCommandBuffer cmd) {
   const bool partialPass = momentPartial_;
   momentPartial_ = false;  // the next pass fills its own rectangles
@@ -585,15 +536,15 @@ void ShadowRenderer::Impl::recordMomentResolve(VkCommandBuffer cmd) {
       moments_.wrapOffset[i] = uniforms_.cascades[i].wrapOffset;
     }
   };
-  if (plan != nullptr && std::all_of(regions.pass1.begin(), regions.pass1.end(),
+  if (plan != nullptr && std::all_of(regions.rects.begin(), regions.rects.end(),
                                      [](const LayerRects& r) { return r.empty(); })) {
     remember();  // nothing changed: every moment texel is as a full resolve would write it
     return;
   }
   const std::uint32_t layers = layerCount_;
   // The depth writes and the uniform update before the resolve reads them; earlier readers of
-  // the moments and of the scratch finish before they are overwritten (a full resolve discards
-  // the content, a partial one keeps it).
+  // the moments finish before they are overwritten (a full resolve discards the content, a
+  // partial one keeps it).
   auto mem = vkInit<VkMemoryBarrier2>(VK_STRUCTURE_TYPE_MEMORY_BARRIER_2);
   mem.srcStageMask = VK_PIPELINE_STAGE_2_EARLY_FRAGMENT_TESTS_BIT |
                      VK_PIPELINE_STAGE_2_LATE_FRAGMENT_TESTS_BIT |
@@ -604,20 +555,13 @@ void ShadowRenderer::Impl::recordMomentResolve(VkCommandBuffer cmd) {
   mem.dstAccessMask = VK_ACCESS_2_UNIFORM_READ_BIT | VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
   const VkImageLayout kept =
       plan != nullptr ? VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
-  VkImageMemoryBarrier2 start[2] = {imageBarrier(moments_.image, 0, moments_.levels, layers),
-                                    imageBarrier(moments_.scratch, 0, 1, 1)};
-  start[0].srcStageMask = options_.consumerStages;
-  start[0].dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  start[0].dstAccessMask =
-      VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
-  start[0].oldLayout = kept;
-  start[0].newLayout = VK_IMAGE_LAYOUT_GENERAL;
-  start[1].srcStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  start[1].dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  start[1].dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
-  start[1].oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  start[1].newLayout = VK_IMAGE_LAYOUT_GENERAL;
-  barrier(cmd, start, &mem);
+  VkImageMemoryBarrier2 start = imageBarrier(moments_.image, 0, moments_.levels, layers);
+  start.srcStageMask = options_.consumerStages;
+  start.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  start.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT | VK_ACCESS_2_SHADER_STORAGE_READ_BIT;
+  start.oldLayout = kept;
+  start.newLayout = VK_IMAGE_LAYOUT_GENERAL;
+  barrier(cmd, {&start, 1}, &mem);
 
   recordMomentDispatches(cmd, plan);
   recordMomentMips(cmd, plan);

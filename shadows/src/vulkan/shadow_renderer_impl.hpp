@@ -234,18 +234,15 @@ class ShadowRenderer::Impl {
   bool pendingClear_ = false;
   bool uniformsCleared_ = false;
   std::uint64_t records_ = 0;
-  // The prefiltered filters' moment image, its blur scratch and the resolve's set (moments.cpp);
+  // The prefiltered filters' moment image and the resolve's sets (moments.cpp);
   // all null with a percentage-closer kernel.
   static constexpr std::uint32_t kMaxMomentLevels = 15;  // bit_width(kMaxResolution)
   struct MomentImages {
     VkImage image = VK_NULL_HANDLE;  // RGBA32F, mip-mapped, one layer per cascade
     VkDeviceMemory memory = VK_NULL_HANDLE;
-    VkImage scratch = VK_NULL_HANDLE;  // RGBA32F, level 0 only: the blur along x
-    VkDeviceMemory scratchMemory = VK_NULL_HANDLE;
     VkImageView sampledView = VK_NULL_HANDLE;  // every level (the lighting set)
     VkImageView storageView = VK_NULL_HANDLE;  // level 0 (the resolve writes it)
-    VkImageView scratchView = VK_NULL_HANDLE;
-    VkDescriptorSet set = VK_NULL_HANDLE;  // the resolve's, in the lighting pool
+    VkDescriptorSet set = VK_NULL_HANDLE;      // the resolve's, in the lighting pool
     // Storage views of levels 1.. (levelViews[0] unused: storageView) and the sets that build
     // level k from level k - 1 (mipSets[k]: binding 2 level k - 1, binding 3 level k).
     std::array<VkImageView, kMaxMomentLevels> levelViews{};
