@@ -78,13 +78,6 @@ void main() {
   }
   const int res = int(csmU.resolution);
   const int layer = int(pc.layer);
-  // Layer texel -> box texel (toroidal addressing of cached cascades). A layer texel's neighbour
-  // in the box is its neighbour in the layer (modulo res); only the test of the box's edge needs
-  // box coordinates.
-  const ivec2 offset =
-      csmU.wrappedLayers != 0u
-          ? ivec2(round(csmU.cascades[layer].wrapOffset)) & (res - 1)
-          : ivec2(0);
   // The Gaussian: its 2-sigma radius is blurM metres (mirror of csm::momentBlurRadiusTexels).
   const float texelM = csmU.cascades[layer].texelSizeM;
   const float radius =
@@ -92,15 +85,15 @@ void main() {
                                        : 0.0;
   const int n = radius >= 0.5 ? int(ceil(radius)) : 0;
   const float inv2Sigma2 = n > 0 ? 2.0 / (radius * radius) : 0.0;  // 1 / (2 (r/2)^2)
-  const vec4 far = momentsOf(1.0);
+  // The workgroup's first texel in the dispatch's rectangle.
+  const ivec2 tile = ivec2(gl_WorkGroupID.xy) * ivec2(CSM_MOMENT_GROUP_X, kRows);
   if (n == 0) {
     // No blur (a cascade whose texels are wider than twice momentBlurM): each texel's own moments,
     // through the same arithmetic as the blur's single tap along x and then along y. No shared
     // memory, which lavapipe reads and writes lane by lane.
     const float w0 = exp(-0.0 * inv2Sigma2);
     for (int r = local.y; r < kRows; r += CSM_MOMENT_GROUP_Y) {
-      const ivec2 texel = ivec2(gl_WorkGroupID.xy) * ivec2(CSM_MOMENT_GROUP_X, kRows) +
-                          ivec2(local.x, r);  // in the dispatch's rectangle
+      const ivec2 texel = tile + ivec2(local.x, r);  // in the dispatch's rectangle
       if (any(greaterThanEqual(texel, pc.extent))) break;
       const ivec3 id = ivec3(pc.origin + texel, layer);
       const vec4 alongX = (w0 * momentsOf(texelFetch(depthMap, id, 0).r)) / w0;
@@ -108,8 +101,15 @@ void main() {
     }
     return;
   }
-  // The tile's first texel (the workgroup's, less the reach), in layer coordinates.
-  const ivec2 tile = ivec2(gl_WorkGroupID.xy) * ivec2(CSM_MOMENT_GROUP_X, kRows);
+  // Layer texel -> box texel (toroidal addressing of cached cascades). A layer texel's neighbour
+  // in the box is its neighbour in the layer (modulo res); only the test of the box's edge needs
+  // box coordinates.
+  const ivec2 offset =
+      csmU.wrappedLayers != 0u
+          ? ivec2(round(csmU.cascades[layer].wrapOffset)) & (res - 1)
+          : ivec2(0);
+  const vec4 far = momentsOf(1.0);
+  // The shared tile's first texel (the workgroup's, less the reach), in layer coordinates.
   const ivec2 group = pc.origin + tile - ivec2(n);
   const int w = CSM_MOMENT_GROUP_X + 2 * n, h = kRows + 2 * n;
   // The resolution is a power of two (ShadowSettings::resolution): wrapping is a mask, where an
