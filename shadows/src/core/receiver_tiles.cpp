@@ -4,19 +4,11 @@
 #include <bit>
 #include <cmath>
 
+#include "csm/cache_rects.hpp"
 #include "csm/gpu_layout.hpp"
 #include "csm/moments.hpp"
 
 namespace csm {
-
-namespace {
-
-std::int64_t floorDiv(std::int64_t a, std::int64_t b) noexcept {
-  const std::int64_t q = a / b;
-  return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;
-}
-
-}  // namespace
 
 std::uint32_t ReceiverTileMarks::markedCount(std::uint32_t i) const noexcept {
   std::uint32_t n = 0;

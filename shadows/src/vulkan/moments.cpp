@@ -18,6 +18,7 @@
 
 #include <csm_shaders/csm_moments.comp.spv.h>
 
+#include "csm/cache_rects.hpp"
 #include "csm/moments.hpp"
 #include "shadow_renderer_impl.hpp"
 #include "vk_util.hpp"
@@ -53,8 +54,7 @@ void dispatchMoments(VkCommandBuffer cmd, std::uint32_t pass, const std::int32_t
 }
 
 std::int32_t floorDiv32(std::int32_t a, std::int32_t b) noexcept {
-  const std::int32_t q = a / b;
-  return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;
+  return static_cast<std::int32_t>(csm::floorDiv(a, b));
 }
 
 // Marks the tiles of the texels [x0, x1) x [y0, y1) of a toroidal layer of `tiles` tiles a side
@@ -67,9 +67,9 @@ void markTiles(std::vector<std::uint8_t>& mark, std::int32_t tiles, std::int32_t
   if (tx1 - tx0 >= tiles) tx0 = 0, tx1 = tiles;
   if (ty1 - ty0 >= tiles) ty0 = 0, ty1 = tiles;
   for (std::int32_t ty = ty0; ty < ty1; ++ty) {
-    const std::int32_t row = ((ty % tiles) + tiles) % tiles;
+    const std::int64_t row = csm::floorMod(ty, tiles);
     for (std::int32_t tx = tx0; tx < tx1; ++tx) {
-      mark[std::size_t(row) * tiles + std::size_t(((tx % tiles) + tiles) % tiles)] = 1;
+      mark[std::size_t(row) * std::size_t(tiles) + std::size_t(csm::floorMod(tx, tiles))] = 1;
     }
   }
 }

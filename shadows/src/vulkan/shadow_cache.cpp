@@ -25,6 +25,7 @@
 #include <cstdio>
 #include <string>
 
+#include "csm/cache_rects.hpp"
 #include "csm/light_space.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
 #include "shadow_renderer_impl.hpp"
@@ -33,49 +34,6 @@
 namespace csm::vk {
 
 namespace {
-
-/// A half-open rectangle of world texel indices.
-struct TexelRect {
-  std::int64_t x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-  [[nodiscard]] bool empty() const noexcept { return x0 >= x1 || y0 >= y1; }
-  [[nodiscard]] TexelRect intersect(const TexelRect& o) const noexcept {
-    return {std::max(x0, o.x0), std::max(y0, o.y0), std::min(x1, o.x1), std::min(y1, o.y1)};
-  }
-  [[nodiscard]] std::uint64_t area() const noexcept {
-    return empty() ? 0 : std::uint64_t(x1 - x0) * std::uint64_t(y1 - y0);
-  }
-};
-
-std::int64_t floorDiv(std::int64_t a, std::int64_t b) noexcept {
-  const std::int64_t q = a / b;
-  return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;
-}
-
-std::int64_t floorMod(std::int64_t a, std::int64_t b) noexcept {
-  return a - floorDiv(a, b) * b;
-}
-
-/// The world texel rectangle a world box covers in a cascade (light-space grid about the
-/// origin), widened by one texel each side (a caster covers a texel by its centre) and by
-/// `marginTexels` more (a thin caster's rim).
-TexelRect boxTexels(const AabbWs& box, const glm::dmat3& basisT, double texel,
-                    float marginTexels = 0.0f) noexcept {
-  double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
-  for (int k = 0; k < 8; ++k) {
-    const glm::dvec3 p((k & 1) ? box.maxWs.x : box.minWs.x, (k & 2) ? box.maxWs.y : box.minWs.y,
-                       (k & 4) ? box.maxWs.z : box.minWs.z);
-    const glm::dvec3 q = basisT * p;
-    for (int a = 0; a < 2; ++a) {
-      lo[a] = std::min(lo[a], q[a]);
-      hi[a] = std::max(hi[a], q[a]);
-    }
-  }
-  auto toIndex = [&](double v) {
-    return static_cast<std::int64_t>(std::clamp(std::floor(v / texel), -4e18, 4e18));
-  };
-  const std::int64_t m = 1 + static_cast<std::int64_t>(std::ceil(marginTexels));
-  return {toIndex(lo[0]) - m, toIndex(lo[1]) - m, toIndex(hi[0]) + 1 + m, toIndex(hi[1]) + 1 + m};
-}
 
 /// The stages and accesses of a depth attachment (the depth pass's reads and writes).
 constexpr VkPipelineStageFlags2 kDepthStages =
@@ -111,46 +69,24 @@ glm::mat4 anchorTransform(const Window& w, std::int64_t res, std::int64_t mx, st
   return scaledAffine(linear, t, scale);
 }
 
-// The layer rectangles (and their block shifts) of a world rectangle.
-struct LayerRect {
-  TexelRect world;
-  std::int64_t mx, my;
-  VkRect2D scissor;
-};
-
 // The layer rectangles of world rectangle `r` in a cached window (`Window`: CacheWindow).
 template <class Window>
 void split(const Window& w, std::int64_t res, const TexelRect& r, std::vector<LayerRect>& out) {
-  out.clear();
-  if (r.empty()) return;
-  for (std::int64_t mx = floorDiv(r.x0 - w.anchorX, res); mx <= floorDiv(r.x1 - 1 - w.anchorX, res);
-       ++mx) {
-    for (std::int64_t my = floorDiv(r.y0 - w.anchorY, res);
-         my <= floorDiv(r.y1 - 1 - w.anchorY, res); ++my) {
-      const TexelRect block{w.anchorX + mx * res, w.anchorY + my * res, w.anchorX + (mx + 1) * res,
-                            w.anchorY + (my + 1) * res};
-      const TexelRect part = r.intersect(block);
-      if (part.empty()) continue;
-      LayerRect lr{part, mx, my, {}};
-      lr.scissor.offset = {std::int32_t(part.x0 - block.x0), std::int32_t(part.y0 - block.y0)};
-      lr.scissor.extent = {std::uint32_t(part.x1 - part.x0), std::uint32_t(part.y1 - part.y0)};
-      out.push_back(lr);
-    }
-  }
+  splitIntoLayer(w.anchorX, w.anchorY, res, r, out);
+}
+
+/// A layer rectangle as Vulkan's (a scissor, a clear or copy region).
+VkRect2D vkRect(const TexelRect& t) noexcept {
+  return {{std::int32_t(t.x0), std::int32_t(t.y0)},
+          {std::uint32_t(t.x1 - t.x0), std::uint32_t(t.y1 - t.y0)}};
 }
 
 /// Viewport and scissor of one layer rectangle: the viewport shifted by its block.
 void setLayerRect(VkCommandBuffer cmd, const LayerRect& lr, std::int64_t res) {
   const VkViewport vp{0.0f, 0.0f, float(res), float(res), 0.0f, 1.0f};
   vkCmdSetViewport(cmd, 0, 1, &vp);
-  vkCmdSetScissor(cmd, 0, 1, &lr.scissor);
-}
-
-/// A layer rectangle's texels in the layer ([0, R)^2).
-TexelRect layerTexels(const LayerRect& lr) noexcept {
-  return TexelRect{lr.scissor.offset.x, lr.scissor.offset.y,
-                   lr.scissor.offset.x + std::int64_t(lr.scissor.extent.width),
-                   lr.scissor.offset.y + std::int64_t(lr.scissor.extent.height)};
+  const VkRect2D scissor = vkRect(lr.layer);
+  vkCmdSetScissor(cmd, 0, 1, &scissor);
 }
 
 /// Clears a rectangle of the bound depth attachment to the far plane.
@@ -159,62 +95,6 @@ void clearRect(VkCommandBuffer cmd, const VkRect2D& rect) {
   ca.clearValue.depthStencil = {1.0f, 0};
   const VkClearRect cr{rect, 0, 1};
   vkCmdClearAttachments(cmd, 1, &ca, 1, &cr);
-}
-
-/// The stale parts of a static layer that holds box `old` (when `valid`) for box `box`: the
-/// newly exposed rows and columns and what lies under the `pending` boxes. The whole box when
-/// the layer is not valid or the parts add up to a layer or more (one full render is then no
-/// dearer). Returns whether it is the whole box.
-bool staleRects(bool valid, const TexelRect& old, const TexelRect& box,
-                const std::vector<AabbWs>& pending, const glm::dmat3& basisT, double texel,
-                std::vector<TexelRect>& out) {
-  out.clear();
-  if (valid) {
-    if (box.x0 < old.x0) out.push_back({box.x0, box.y0, std::min(old.x0, box.x1), box.y1});
-    if (box.x1 > old.x1) out.push_back({std::max(old.x1, box.x0), box.y0, box.x1, box.y1});
-    const std::int64_t ox0 = std::max(box.x0, old.x0), ox1 = std::min(box.x1, old.x1);
-    if (box.y0 < old.y0) out.push_back({ox0, box.y0, ox1, std::min(old.y0, box.y1)});
-    if (box.y1 > old.y1) out.push_back({ox0, std::max(old.y1, box.y0), ox1, box.y1});
-    for (const AabbWs& b : pending) {
-      const TexelRect r = boxTexels(b, basisT, texel).intersect(box);
-      if (!r.empty()) out.push_back(r);
-    }
-    std::erase_if(out, [](const TexelRect& r) { return r.empty(); });
-    std::uint64_t sum = 0;
-    for (const TexelRect& r : out) sum += r.area();
-    if (sum < box.area()) return false;
-  }
-  out.assign(1, box);
-  return true;
-}
-
-/// Adds the part of `r` that `rects` does not cover yet, as disjoint rectangles.
-void addDisjoint(std::vector<TexelRect>& rects, const TexelRect& r) {
-  std::vector<TexelRect> todo{r}, next;
-  for (const TexelRect& p : rects) {
-    next.clear();
-    for (const TexelRect& t : todo) {
-      const TexelRect o = t.intersect(p);
-      if (o.empty()) {
-        next.push_back(t);
-        continue;
-      }
-      // t minus o: the rows above and below o, then the columns beside it.
-      if (t.y0 < o.y0) next.push_back({t.x0, t.y0, t.x1, o.y0});
-      if (o.y1 < t.y1) next.push_back({t.x0, o.y1, t.x1, t.y1});
-      if (t.x0 < o.x0) next.push_back({t.x0, o.y0, o.x0, o.y1});
-      if (o.x1 < t.x1) next.push_back({o.x1, o.y0, t.x1, o.y1});
-    }
-    std::swap(todo, next);
-    if (todo.empty()) return;
-  }
-  rects.insert(rects.end(), todo.begin(), todo.end());
-}
-
-std::uint64_t totalArea(const std::vector<TexelRect>& rects) noexcept {
-  std::uint64_t sum = 0;
-  for (const TexelRect& r : rects) sum += r.area();
-  return sum;
 }
 
 /// One caster's part of one stale rectangle (CachedPass::drawPieces).
@@ -584,9 +464,9 @@ struct ShadowRenderer::Impl::CachedPass {
     if (n == 1 || u.area() > sum) return first;
     LayerRect merged = first;
     merged.world = u;
-    merged.scissor.offset = {std::int32_t(first.scissor.offset.x + (u.x0 - first.world.x0)),
-                             std::int32_t(first.scissor.offset.y + (u.y0 - first.world.y0))};
-    merged.scissor.extent = {std::uint32_t(u.x1 - u.x0), std::uint32_t(u.y1 - u.y0)};
+    const std::int64_t dx = first.layer.x0 - first.world.x0;
+    const std::int64_t dy = first.layer.y0 - first.world.y0;
+    merged.layer = {u.x0 + dx, u.y0 + dy, u.x1 + dx, u.y1 + dy};
     saved += n - 1;
     for (std::size_t g = h + 1; g < hits.size(); ++g) {
       const LayerRect& other = pieces[hits[g].piece];
@@ -728,7 +608,7 @@ bool ShadowRenderer::Impl::recordCachedCascade(CachedPass& pass, std::uint32_t i
   for (const TexelRect& r : pass.dirty) {
     split(win, res, r, pass.layerRects);
     for (const LayerRect& lr : pass.layerRects) {
-      const TexelRect t = layerTexels(lr);
+      const TexelRect t = lr.layer;
       changed.push_back(
           {std::int32_t(t.x0), std::int32_t(t.y0), std::int32_t(t.x1), std::int32_t(t.y1)});
     }
@@ -756,7 +636,7 @@ void ShadowRenderer::Impl::recordStaticRects(CachedPass& pass, std::uint32_t i,
   for (const TexelRect& r : pass.dirty) {
     split(win, resolution_, r, pass.layerRects);
     for (const LayerRect& lr : pass.layerRects) {
-      if (!full) clearRect(pass.cmd, lr.scissor);
+      if (!full) clearRect(pass.cmd, vkRect(lr.layer));
       st.staticTexels += lr.world.area();
       pass.staticPieces.push_back(lr);
     }
@@ -780,7 +660,7 @@ bool ShadowRenderer::Impl::planRestore(CachedPass& pass, std::uint32_t i, bool f
   if (!whole) {
     for (const TexelRect& r : pass.dirty) {
       split(sh.window, res, r, pass.layerRects);
-      for (const LayerRect& lr : pass.layerRects) addDisjoint(pass.copyParts, layerTexels(lr));
+      for (const LayerRect& lr : pass.layerRects) addDisjoint(pass.copyParts, lr.layer);
     }
     for (const auto& d : sh.dynamicRects) addDisjoint(pass.copyParts, {d[0], d[1], d[2], d[3]});
     whole = pass.copyParts.size() > 256 ||
@@ -792,14 +672,11 @@ bool ShadowRenderer::Impl::planRestore(CachedPass& pass, std::uint32_t i, bool f
     split(sh.window, res, pass.boxes[i], pass.layerRects);
     for (const TexelRect& p : pass.copyParts) {
       for (const LayerRect& lr : pass.layerRects) {
-        const TexelRect q = p.intersect(layerTexels(lr));
+        const TexelRect q = p.intersect(lr.layer);
         if (q.empty()) continue;
-        const std::int64_t dx = lr.world.x0 - lr.scissor.offset.x;
-        const std::int64_t dy = lr.world.y0 - lr.scissor.offset.y;
-        LayerRect r{{q.x0 + dx, q.y0 + dy, q.x1 + dx, q.y1 + dy}, lr.mx, lr.my, {}};
-        r.scissor.offset = {std::int32_t(q.x0), std::int32_t(q.y0)};
-        r.scissor.extent = {std::uint32_t(q.x1 - q.x0), std::uint32_t(q.y1 - q.y0)};
-        pass.redrawParts.push_back(r);
+        const std::int64_t dx = lr.world.x0 - lr.layer.x0;
+        const std::int64_t dy = lr.world.y0 - lr.layer.y0;
+        pass.redrawParts.push_back({{q.x0 + dx, q.y0 + dy, q.x1 + dx, q.y1 + dy}, lr.mx, lr.my, q});
         st.restoredTexels += q.area();
       }
     }
@@ -831,12 +708,12 @@ void ShadowRenderer::Impl::rememberDynamicRects(CachedPass& pass, std::uint32_t 
     for (const LayerRect& lr : pass.layerRects) {
       if (parts.size() >= 64) {  // many casters: their bounding rectangle
         TexelRect& u = parts[0];
-        const TexelRect t = layerTexels(lr);
+        const TexelRect t = lr.layer;
         u = {std::min(u.x0, t.x0), std::min(u.y0, t.y0), std::max(u.x1, t.x1),
              std::max(u.y1, t.y1)};
         parts.resize(1);
       } else {
-        parts.push_back(layerTexels(lr));
+        parts.push_back(lr.layer);
       }
     }
   }
@@ -914,7 +791,7 @@ void ShadowRenderer::Impl::recordDynamicPass(CachedPass& pass, std::uint32_t i,
   CascadeCacheStats& st = cacheStats_[i];
   beginDepthRendering(pass.cmd, layerViews_[i], 1, false, cascadeLabel(i, "dynamic"), pipeline_);
   pass.bound = nullptr;
-  for (const LayerRect& lr : pass.redrawParts) clearRect(pass.cmd, lr.scissor);
+  for (const LayerRect& lr : pass.redrawParts) clearRect(pass.cmd, vkRect(lr.layer));
   st.restoreTriangles += pass.drawPieces(i, win, list, pass.redrawParts, st.mergedDraws);
   split(win, resolution_, pass.boxes[i], pass.layerRects);
   for (const LayerRect& lr : pass.layerRects) {
