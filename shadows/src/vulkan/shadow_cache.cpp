@@ -150,25 +150,13 @@ void ShadowRenderer::Impl::applyCacheWindows(CascadeFrame& frame) {
     CacheWindow& w = windows_[i];
     const double texel = c.texelSizeLs.x;
     const glm::dvec3 centerLs = basisT * c.boxCenterWs;
-    const std::int64_t boxX = std::llround(centerLs.x / texel) - res / 2;
-    const std::int64_t boxY = std::llround(centerLs.y / texel) - res / 2;
-    const double needNear = centerLs.z + c.depthNearLs;
-    const double needFar = centerLs.z + c.depthFarLs;
-    const double needLen = needFar - needNear;
-    const bool keep = w.valid && w.texel == texel && w.lightDirection == frame.lightDirectionWs &&
-                      needNear >= w.zNear && needFar <= w.zFar && w.zFar - w.zNear <= 2.5 * needLen;
-    if (!keep) {
-      w = CacheWindow{};
-      w.valid = true;
-      w.texel = texel;
-      w.lightDirection = frame.lightDirectionWs;
-      w.anchorX = boxX;
-      w.anchorY = boxY;
-      // World-anchored depth window: multiples of a quarter of the needed range, one quarter
-      // of margin each side (the box centre's depth follows the camera).
-      const double q = needLen * 0.25;
-      w.zNear = std::floor(needNear / q) * q - q;
-      w.zFar = std::ceil(needFar / q) * q + q;
+    const std::int64_t boxX = cacheBoxStart(centerLs.x, texel, res);
+    const std::int64_t boxY = cacheBoxStart(centerLs.y, texel, res);
+    CacheWindowPlacement placed = w;
+    if (placeCacheWindow(placed, texel, frame.lightDirectionWs, boxX, boxY,
+                         centerLs.z + c.depthNearLs, centerLs.z + c.depthFarLs)) {
+      w = CacheWindow{};  // a new window: the static layer holds nothing of it yet
+      static_cast<CacheWindowPlacement&>(w) = placed;
     }
     covered[i] = shownCovers(i, c, basis);
     c.depthNearLs = w.zNear - centerLs.z;
@@ -211,7 +199,6 @@ void ShadowRenderer::Impl::applyCacheBudget(CascadeFrame& frame,
                                             const std::array<bool, kMaxCascades>& covered) {
   const glm::dmat3& basis = frame.lightBasisWs;
   const std::uint64_t budget = options_.cache ? options_.cacheBudgetTexels : 0;
-  std::vector<std::uint32_t> order;
   auto refresh = [&](std::uint32_t i) {
     CacheShown& sh = shown_[i];
     sh.valid = true;
@@ -222,30 +209,20 @@ void ShadowRenderer::Impl::applyCacheBudget(CascadeFrame& frame,
     sh.cascade = frame.cascades[i];
     sh.basis = basis;
   };
+  std::array<CacheRefreshCandidate, kMaxCascades> candidates{};
+  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+    candidates[i] = {!frame.cascades[i].empty, shown_[i].valid, shown_[i].lag, covered[i],
+                     shown_[i].wanted};
+  }
+  const std::uint32_t refreshed = scheduleCacheRefresh(
+      std::span(candidates.data(), frame.cascadeCount), budget, options_.cacheExactCascades);
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     if (frame.cascades[i].empty) continue;
-    if (budget == 0 || i < options_.cacheExactCascades || !shown_[i].valid) {
-      refresh(i);
-    } else {
-      order.push_back(i);
-    }
-  }
-  // The most stale first: frames of lag, one more for a cascade whose box no longer covers its
-  // slice (it shows a lit fringe), so that it goes first among equals but cannot starve a
-  // cascade that lags longer.
-  auto staleness = [&](std::uint32_t i) { return shown_[i].lag + (covered[i] ? 0u : 1u); };
-  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    if (staleness(a) != staleness(b)) return staleness(a) > staleness(b);
-    return !covered[a] && covered[b];
-  });
-  std::uint64_t left = budget;
-  for (std::uint32_t i : order) {
-    CacheShown& sh = shown_[i];
-    if (sh.wanted <= left) {
-      left -= sh.wanted;
+    if ((refreshed >> i) & 1u) {
       refresh(i);
       continue;
     }
+    CacheShown& sh = shown_[i];
     sh.deferred = true;
     ++sh.lag;
     Cascade& c = frame.cascades[i];

@@ -4,6 +4,7 @@
 // ShadowRenderer forward here one to one; their documentation is in shadow_renderer.hpp.
 #pragma once
 
+#include "csm/cache_plan.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
 
 namespace csm::vk {
@@ -306,13 +307,10 @@ class ShadowRenderer::Impl {
   VkPipeline layeredPipeline_ = VK_NULL_HANDLE;  // layered (when supported)
 
   // Cached cascades: the static-depth image, per-cascade windows, pending invalidated boxes.
-  struct CacheWindow {
-    bool valid = false;
-    double texel = 0.0;
-    glm::dvec3 lightDirection{0.0};
-    std::int64_t anchorX = 0, anchorY = 0;  // world texel index drawn at layer texel (0, 0)
-    double zNear = 0.0, zFar = 0.0;         // absolute light-space depth window
-    bool staticValid = false;               // the static layer holds box (boxX, boxY)
+  // The window (csm::placeCacheWindow: texel, light, anchor, depth range) and the static
+  // layer's state in it.
+  struct CacheWindow : CacheWindowPlacement {
+    bool staticValid = false;  // the static layer holds box (boxX, boxY)
     std::int64_t boxX = 0, boxY = 0;
     std::vector<AabbWs> pending;  // invalidated boxes not yet re-rendered in this cascade
   };
