@@ -54,12 +54,12 @@ bool staleRects(bool valid, const TexelRect& old, const TexelRect& box,
 }
 
 void addDisjoint(std::vector<TexelRect>& rects, const TexelRect& r) {
-  std::vector<TexelRect> todo{r}, next;
-  std::erase_if(todo, [](const TexelRect& t) { return t.empty(); });
+  std::vector<TexelRect> remaining{r}, next;
+  std::erase_if(remaining, [](const TexelRect& t) { return t.empty(); });
   for (const TexelRect& p : rects) {
-    if (todo.empty()) return;
+    if (remaining.empty()) return;
     next.clear();
-    for (const TexelRect& t : todo) {
+    for (const TexelRect& t : remaining) {
       const TexelRect o = t.intersect(p);
       if (o.empty()) {
         next.push_back(t);
@@ -71,9 +71,9 @@ void addDisjoint(std::vector<TexelRect>& rects, const TexelRect& r) {
       if (t.x0 < o.x0) next.push_back({t.x0, o.y0, o.x0, o.y1});
       if (o.x1 < t.x1) next.push_back({o.x1, o.y0, t.x1, o.y1});
     }
-    std::swap(todo, next);
+    std::swap(remaining, next);
   }
-  rects.insert(rects.end(), todo.begin(), todo.end());
+  rects.insert(rects.end(), remaining.begin(), remaining.end());
 }
 
 std::uint64_t totalArea(const std::vector<TexelRect>& rects) noexcept {

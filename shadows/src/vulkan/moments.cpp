@@ -53,17 +53,14 @@ void dispatchMoments(VkCommandBuffer cmd, std::uint32_t pass, const std::int32_t
                 std::uint32_t((extent[1] + rows - 1) / rows), 1);
 }
 
-std::int32_t floorDiv32(std::int32_t a, std::int32_t b) noexcept {
-  return static_cast<std::int32_t>(csm::floorDiv(a, b));
-}
-
 // Marks the tiles of the texels [x0, x1) x [y0, y1) of a toroidal layer of `tiles` tiles a side
 // (coordinates may run past its edges: they wrap).
 void markTiles(std::vector<std::uint8_t>& mark, std::int32_t tiles, std::int32_t x0,
                std::int32_t y0, std::int32_t x1, std::int32_t y1) {
   if (x0 >= x1 || y0 >= y1) return;
-  std::int32_t tx0 = floorDiv32(x0, kMomentTile), tx1 = floorDiv32(x1 - 1, kMomentTile) + 1;
-  std::int32_t ty0 = floorDiv32(y0, kMomentTile), ty1 = floorDiv32(y1 - 1, kMomentTile) + 1;
+  auto tileOf = [](std::int32_t t) { return std::int32_t(csm::floorDiv(t, kMomentTile)); };
+  std::int32_t tx0 = tileOf(x0), tx1 = tileOf(x1 - 1) + 1;
+  std::int32_t ty0 = tileOf(y0), ty1 = tileOf(y1 - 1) + 1;
   if (tx1 - tx0 >= tiles) tx0 = 0, tx1 = tiles;
   if (ty1 - ty0 >= tiles) ty0 = 0, ty1 = tiles;
   for (std::int32_t ty = ty0; ty < ty1; ++ty) {

@@ -585,7 +585,7 @@ bool ShadowRenderer::Impl::recordCachedCascade(CachedPass& pass, std::uint32_t i
   for (const TexelRect& r : pass.dirty) {
     split(win, res, r, pass.layerRects);
     for (const LayerRect& lr : pass.layerRects) {
-      const TexelRect t = lr.layer;
+      const TexelRect& t = lr.layer;
       changed.push_back(
           {std::int32_t(t.x0), std::int32_t(t.y0), std::int32_t(t.x1), std::int32_t(t.y1)});
     }
@@ -685,7 +685,7 @@ void ShadowRenderer::Impl::rememberDynamicRects(CachedPass& pass, std::uint32_t 
     for (const LayerRect& lr : pass.layerRects) {
       if (parts.size() >= 64) {  // many casters: their bounding rectangle
         TexelRect& u = parts[0];
-        const TexelRect t = lr.layer;
+        const TexelRect& t = lr.layer;
         u = {std::min(u.x0, t.x0), std::min(u.y0, t.y0), std::max(u.x1, t.x1),
              std::max(u.y1, t.y1)};
         parts.resize(1);
