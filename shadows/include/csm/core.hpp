@@ -10,5 +10,6 @@
 #include "csm/receiver_bounds.hpp"
 #include "csm/selection.hpp"
 #include "csm/splits.hpp"
+#include "csm/thin_casters.hpp"
 #include "csm/types.hpp"
 #include "csm/version.hpp"

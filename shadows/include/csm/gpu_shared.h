@@ -41,5 +41,9 @@
 // model -> shadow clip matrix (64 bytes) then the cascade index; layered (csm_depth_layered.vert)
 // the model -> camera-relative world matrix then the mask of cascades to replicate into.
 #define CSM_DEPTH_PUSH_SIZE 68
+// After them, for the thin casters' geometry stage only (csm_depth_thin.geom): the widening in
+// texels each side for each layer the draw writes (per-layer pass: [0]; layered: [cascade]).
+#define CSM_THIN_PUSH_OFFSET 68
+#define CSM_THIN_PUSH_SIZE (4 * CSM_MAX_CASCADES)
 
 #endif

@@ -380,7 +380,9 @@ struct ShadowRenderer::Impl::CachedPass {
     const DepthPushPerLayer push{anchorTransform(w, res, blockX, blockY, basisT, inst), cascade};
     vkCmdPushConstants(cmd, r.pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                        &push);
-    r.drawIndexedCaster(cmd, inst, mesh, 1);
+    Impl::LayerTexels texels{};
+    texels[0] = w.texel;
+    r.drawIndexedCaster(cmd, inst, mesh, 1, texels);
     return mesh.indexCount / 3;
   }
 

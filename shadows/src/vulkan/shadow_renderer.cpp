@@ -3,6 +3,7 @@
 // shadow_renderer_update.cpp, the pass in shadow_renderer_pass.cpp, the cache's steps in
 // shadow_cache.cpp, the thin casters' in thin_casters.cpp.
 #include "csm/vulkan/shadow_renderer.hpp"
+#include "csm/thin_casters.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -71,6 +72,12 @@ Status validateCasters(std::span<const MeshDraw> meshes,
                           "[0, +inf] metres (kUnknownLodError = not known)",
                           i, k, double(e)));
       }
+    }
+    if (!(inst.thinWidthM >= 0.0f && inst.thinWidthM <= kMaxThinWidthM)) {
+      return Status(ErrorCode::kInvalidArgument,
+                    fmt("casters.instances[%zu].thinWidthM = %g is invalid: allowed [0, 1000] "
+                        "metres (0 = not known)",
+                        i, double(inst.thinWidthM)));
     }
     static constexpr const char* kAxes = "xyz";
     for (int a = 0; a < 3; ++a) {
@@ -252,15 +259,18 @@ Status ShadowRenderer::Impl::createSetLayouts() {
 }
 
 // The depth pipelines' layout: the depth set and the push constants (DepthPushPerLayer or
-// DepthPushLayered, CSM_DEPTH_PUSH_SIZE bytes either way).
+// DepthPushLayered, CSM_DEPTH_PUSH_SIZE bytes either way), then, where the device has a
+// geometry stage, the thin casters' widening (ThinPush).
 Status ShadowRenderer::Impl::createPipelineLayout() {
   VkDevice dev = device_.device;
-  VkPushConstantRange range{VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE};
+  const VkPushConstantRange ranges[2] = {
+      {VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE},
+      {VK_SHADER_STAGE_GEOMETRY_BIT, CSM_THIN_PUSH_OFFSET, CSM_THIN_PUSH_SIZE}};
   auto ci = vkInit<VkPipelineLayoutCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO);
   ci.setLayoutCount = 1;
   ci.pSetLayouts = &depthSetLayout_;
-  ci.pushConstantRangeCount = 1;
-  ci.pPushConstantRanges = &range;
+  ci.pushConstantRangeCount = device_.geometryShaderEnabled ? 2 : 1;
+  ci.pPushConstantRanges = ranges;
   CSM_VK_TRY(vkCreatePipelineLayout(dev, &ci, nullptr, &pipelineLayout_));
   setName(handleBits(pipelineLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT, "csm depth pipeline layout");
   return {};

@@ -123,8 +123,11 @@ class ShadowRenderer::Impl {
   void installThinPipelines(const ThinPlan& plan, Retired& built, std::uint32_t resolution,
                             const RendererOptions& options) noexcept;
   void destroyThinPipeline() noexcept;
+  /// The texel size (metres) of the cascade drawn into each layer of the bound view (per-layer:
+  /// [0]; layered: [cascade]), for the thin casters' widening.
+  using LayerTexels = std::array<double, kMaxCascades>;
   void drawIndexedCaster(VkCommandBuffer cmd, const CasterInstance& instance, const MeshDraw& mesh,
-                         std::uint32_t copies);
+                         std::uint32_t copies, const LayerTexels& layerTexelM);
   void setCasterCull(VkCommandBuffer cmd, const CasterInstance& instance);
   void destroyImage() noexcept;
   void destroyPipelines() noexcept;

@@ -376,7 +376,14 @@ Status ShadowRenderer::Impl::recordCasterListPass(VkCommandBuffer cmd, const Cas
       vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_VERTEX_BIT, 0, CSM_DEPTH_PUSH_SIZE,
                          &push);
     }
-    drawIndexedCaster(cmd, inst, mesh, copies);
+    LayerTexels texels{};
+    if (resolvedMode_ == RenderMode::kLayered) {
+      for (std::uint32_t c = 0; c < frame.cascadeCount; ++c)
+        texels[c] = frame.cascades[c].texelSizeM();
+    } else {
+      texels[0] = frame.cascades[cascades].texelSizeM();
+    }
+    drawIndexedCaster(cmd, inst, mesh, copies, texels);
   };
 
   std::uint32_t nonEmpty = 0;

@@ -36,7 +36,7 @@ namespace {
 bool sameInstance(const CasterInstance& a, const CasterInstance& b) {
   return a.mesh == b.mesh && a.translationWs == b.translationWs && a.linearWs == b.linearWs &&
          a.lodMeshes == b.lodMeshes && a.lodErrorM == b.lodErrorM && a.dynamic == b.dynamic &&
-         a.thin == b.thin && a.closed == b.closed;
+         a.thin == b.thin && a.thinWidthM == b.thinWidthM && a.closed == b.closed;
 }
 
 bool sameBox(const AabbWs& a, const AabbWs& b) {

@@ -1,10 +1,11 @@
 // Thin casters in the depth pass: casters flagged CasterInstance::thin are drawn through a
-// geometry shader that widens each triangle by RendererOptions::thinCasterWidenTexels in the
-// map's plane (csm_depth_thin.geom), so that a cable or an antenna thinner than a texel keeps a
-// continuous shadow. Where the device exposes VK_EXT_conservative_rasterization
-// (DeviceInfo::conservativeRasterizationEnabled) and the widening is half a texel or more (or there
-// is no geometry stage), overestimating conservative rasterisation widens instead, without a
-// geometry stage: it covers about half a texel on its own.
+// geometry shader that widens each triangle in the map's plane (csm_depth_thin.geom) by
+// RendererOptions::thinCasterWidenTexels, or to a full texel where the caster's width
+// (CasterInstance::thinWidthM) is at least half a texel (csm::thinCasterWidenTexels), so that a
+// cable or an antenna thinner than a texel keeps a continuous shadow. Where the device exposes
+// VK_EXT_conservative_rasterization (DeviceInfo::conservativeRasterizationEnabled) and the widening
+// is half a texel or more (or there is no geometry stage), overestimating conservative
+// rasterisation widens instead, without a geometry stage: it covers about half a texel on its own.
 // Everything else is drawn as before, so non-thin casters' depth is bit-identical with the option
 // on or off.
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include <cstdio>
 #include <string>
 
+#include "csm/thin_casters.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
 #include "shadow_renderer_impl.hpp"
 #include "vk_util.hpp"
@@ -74,9 +76,10 @@ Status ShadowRenderer::Impl::buildThinPipelines(std::uint32_t resolution,
     setName(std::uint64_t(thinGeometryModule_), VK_OBJECT_TYPE_SHADER_MODULE,
             "csm_depth_thin.geom");
   }
-  const float spec[2] = {widen, float(resolution)};
-  const VkSpecializationMapEntry entries[2] = {{0, 0, 4}, {1, 4, 4}};
-  const VkSpecializationInfo specInfo{2, entries, sizeof(spec), spec};
+  // The resolution; the widening comes per draw (ThinPush).
+  const float spec[1] = {float(resolution)};
+  const VkSpecializationMapEntry entries[1] = {{1, 0, 4}};
+  const VkSpecializationInfo specInfo{1, entries, sizeof(spec), spec};
   VkPipelineShaderStageCreateInfo stages[2];
   stages[0] =
       vkInit<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO);
@@ -159,13 +162,15 @@ void ShadowRenderer::Impl::installThinPipelines(const ThinPlan& plan, Retired& b
 
 float ShadowRenderer::Impl::thinMarginTexels() const noexcept {
   if (thinPipeline_ == VK_NULL_HANDLE) return 0.0f;
-  // The geometry stage's rim reaches texel centres within thinWidenTexels_ of the triangle;
-  // overestimation covers any texel the widened triangle touches (half a diagonal more).
-  return thinWidenTexels_ + (thinConservative_ ? 0.5f : 0.0f);
+  // The geometry stage's rim reaches texel centres within the widening of the triangle, at most
+  // thinCasterMaxWidenTexels (a caster's width can raise it to a quarter texel); overestimation
+  // covers any texel the widened triangle touches (half a diagonal more).
+  return thinConservative_ ? thinWidenTexels_ + 0.5f : thinCasterMaxWidenTexels(thinWidenTexels_);
 }
 
 void ShadowRenderer::Impl::drawIndexedCaster(VkCommandBuffer cmd, const CasterInstance& instance,
-                                             const MeshDraw& mesh, std::uint32_t copies) {
+                                             const MeshDraw& mesh, std::uint32_t copies,
+                                             const LayerTexels& layerTexelM) {
   // The cached pass draws per layer (the cache refuses kLayered), so the render mode says which
   // pipeline is bound and which widens.
   const bool layered = resolvedMode_ == RenderMode::kLayered;
@@ -173,6 +178,16 @@ void ShadowRenderer::Impl::drawIndexedCaster(VkCommandBuffer cmd, const CasterIn
   const bool widen = instance.thin && thin != VK_NULL_HANDLE;
   setCasterCull(cmd, instance);
   if (widen) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, thin);
+  if (widen && !thinConservative_) {
+    // Each layer's widening for this caster's width (csm::thinCasterWidenTexels).
+    ThinPush push{};
+    for (std::uint32_t l = 0; l < CSM_MAX_CASCADES; ++l) {
+      push.widenTexels[l] =
+          thinCasterWidenTexels(thinWidenTexels_, instance.thinWidthM, layerTexelM[l]);
+    }
+    vkCmdPushConstants(cmd, pipelineLayout_, VK_SHADER_STAGE_GEOMETRY_BIT, CSM_THIN_PUSH_OFFSET,
+                       CSM_THIN_PUSH_SIZE, &push);
+  }
   vkCmdDrawIndexed(cmd, mesh.indexCount, copies, mesh.firstIndex, mesh.vertexOffset, 0);
   if (widen) {
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layered ? layeredPipeline_ : pipeline_);

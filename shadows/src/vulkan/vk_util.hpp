@@ -131,6 +131,13 @@ static_assert(sizeof(DepthPushPerLayer) == CSM_DEPTH_PUSH_SIZE);
 static_assert(sizeof(DepthPushLayered) == CSM_DEPTH_PUSH_SIZE);
 static_assert(offsetof(DepthPushPerLayer, cascade) == 64);
 static_assert(offsetof(DepthPushLayered, cascadeMask) == 64);
+/// Push constants of the thin casters' geometry stage (csm_depth_thin.geom), at
+/// CSM_THIN_PUSH_OFFSET: the widening in texels each side per layer the draw writes.
+struct ThinPush {
+  float widenTexels[CSM_MAX_CASCADES];
+};
+static_assert(sizeof(ThinPush) == CSM_THIN_PUSH_SIZE);
+static_assert(CSM_THIN_PUSH_OFFSET == CSM_DEPTH_PUSH_SIZE);
 
 }  // namespace csm::vk
 

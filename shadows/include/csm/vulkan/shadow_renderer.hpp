@@ -248,6 +248,14 @@ struct CasterInstance {
   /// and for casters whose parts may cross the light's near plane on a device without
   /// depthClamp. Thin casters are never culled.
   bool closed = false;
+  /// A thin caster's true width where it is narrowest, metres (a pole's top diameter, a cable's
+  /// diameter); 0 (the default) = not known; [0, 1000]. Where it is at least half a cascade's
+  /// texel, the geometry stage widens it in that cascade to one full texel (csm::
+  /// thinCasterWidenTexels: at most a quarter texel each side, a shadow at most twice its true
+  /// width), so that it draws as a continuous line instead of dashes; elsewhere, and when not
+  /// known, by RendererOptions::thinCasterWidenTexels. Not read for casters that are not thin,
+  /// nor where conservative rasterisation widens (by half a texel already).
+  float thinWidthM = 0.0f;
 
   /// The mesh drawn for `lod`.
   [[nodiscard]] std::uint32_t meshForLod(std::uint32_t lod) const noexcept {
@@ -454,9 +462,11 @@ class ShadowRenderer {
   /// The anisotropy of the moment sampler (DeviceInfo::maxSamplerAnisotropy; 1: trilinear).
   [[nodiscard]] float momentAnisotropy() const noexcept;
   /// How far, in texels of each cascade, a caster flagged CasterInstance::thin reaches beyond
-  /// its bounds in the depth pass (RendererOptions::thinCasterWidenTexels through the geometry
-  /// stage; half a texel more with conservative rasterisation); 0 when thin casters are drawn as
-  /// they are. ShadowView culls them with this margin (CasterSet::setMarginTexels).
+  /// its bounds in the depth pass (through the geometry stage the most csm::
+  /// thinCasterWidenTexels gives: RendererOptions::thinCasterWidenTexels, at least a quarter
+  /// texel; with conservative rasterisation half a texel more than the option); 0 when thin
+  /// casters are drawn as they are. ShadowView culls them with this margin
+  /// (CasterSet::setMarginTexels).
   [[nodiscard]] float thinMarginTexels() const noexcept;
   /// The layout the image is in after a recorded pass.
   [[nodiscard]] static constexpr VkImageLayout sampledLayout() noexcept {
