@@ -843,7 +843,10 @@ void WorldBuilder::statisticsAndClusters() {
   }
 
   // The terrain chunks, then one cluster per cell (clusterM) and group of casting objects.
-  const int kGroups = 3;  // 0 vegetation + rocks, 1 buildings + tower + user mesh, 2 thin casters
+  // 0 vegetation + rocks, 1 buildings + tower + user mesh, then the thin casters by width (the
+  // depth pass widens a thin caster by its narrowest width, csm::thinCasterWidenTexels): 2
+  // cables, 3 fence segments, 4 poles.
+  const int kGroups = 5;
   auto groupOf = [](Kind k) {
     switch (k) {
       case Kind::kTree:
@@ -853,11 +856,19 @@ void WorldBuilder::statisticsAndClusters() {
       case Kind::kTower:
       case Kind::kUser:
         return 1;
-      default:
+      case Kind::kCable:
         return 2;
+      case Kind::kFence:
+        return 3;
+      default:
+        return 4;
     }
   };
-  static const char* kGroupNames[] = {"vegetation", "buildings", "thin"};
+  static const char* kGroupNames[] = {"vegetation", "buildings", "thin cables", "thin fences",
+                                      "thin poles"};
+  // Narrowest true width per thin group, metres: 3 cm cables, 6 cm rails (12 cm posts), poles
+  // 0.28 m at the top (0.36 m at the foot; the cross arm 0.2 x 0.3 m, seen at 0.2 m or more).
+  static const float kGroupWidthM[] = {0.0f, 0.0f, 0.03f, 0.06f, 0.28f};
   const auto cells = static_cast<std::uint32_t>(std::lround(desc.sizeM / desc.clusterM));
   auto cellOf = [&](const glm::dvec3& p) {
     const auto cx = static_cast<std::uint32_t>(
@@ -894,7 +905,8 @@ void WorldBuilder::statisticsAndClusters() {
         o + glm::dvec3((cell % cells) * desc.clusterM, 0.0, (cell / cells) * desc.clusterM);
     c.boundsWs = {glm::dvec3(std::numeric_limits<double>::max()),
                   glm::dvec3(-std::numeric_limits<double>::max())};
-    c.thin = m % kGroups == 2;
+    c.thin = m % kGroups >= 2;
+    c.thinWidthM = kGroupWidthM[m % kGroups];
     c.closed = true;
     for (std::uint32_t k : members[m]) {
       const Object& ob = w.objects[k];

@@ -169,6 +169,7 @@ void WorldRenderer::setUpShadowView(const World& world, std::optional<float> mom
     in.mesh = static_cast<std::uint32_t>(draws.size());
     in.translationWs = world.clusters[k].originWs;
     in.thin = world.clusters[k].thin;
+    in.thinWidthM = world.clusters[k].thinWidthM;
     in.closed = world.clusters[k].closed;
     for (std::uint32_t l = 1; l < kLodCount; ++l) {
       in.lodErrorM[l - 1] = world.clusters[k].lodErrorM[l];

@@ -32,8 +32,12 @@ int groupOf(world::Kind k) {
     case world::Kind::kTower:
     case world::Kind::kUser:
       return 1;
-    default:
+    case world::Kind::kCable:
       return 2;
+    case world::Kind::kFence:
+      return 3;
+    default:
+      return 4;
   }
 }
 
@@ -63,10 +67,14 @@ void expectClusteredPerCell(const world::World& w) {
     const double fz = (c.originWs.z - w.desc.originWs.z) / cell;
     EXPECT_EQ(fx, std::round(fx)) << c.name;
     EXPECT_EQ(fz, std::round(fz)) << c.name;
-    // The group from the cluster's name (vegetation, buildings, thin).
-    const int g = c.name.rfind("vegetation", 0) == 0  ? 0
-                  : c.name.rfind("buildings", 0) == 0 ? 1
-                                                      : 2;
+    // The group from the cluster's name (vegetation, buildings, thin cables, fences, poles).
+    const int g = c.name.rfind("vegetation", 0) == 0    ? 0
+                  : c.name.rfind("buildings", 0) == 0   ? 1
+                  : c.name.rfind("thin cables", 0) == 0 ? 2
+                  : c.name.rfind("thin fences", 0) == 0 ? 3
+                                                        : 4;
+    EXPECT_EQ(c.thin, g >= 2) << c.name;
+    EXPECT_EQ(c.thinWidthM > 0.0f, g >= 2) << c.name;
     const std::tuple<long, long, int> key{long(std::lround(fx)), long(std::lround(fz)), g};
     EXPECT_TRUE(seen.insert(key).second) << "two clusters for " << c.name;
     auto it = triangles.find(key);

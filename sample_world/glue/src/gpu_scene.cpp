@@ -26,6 +26,7 @@ GpuScene uploadScene(engine::Context& ctx, const Scene& scene, const std::string
   for (const Instance& in : scene.instances()) {
     out.casters.push_back({in.mesh, in.translationWs, in.linearWs});
     out.casters.back().thin = in.thin;
+    out.casters.back().thinWidthM = in.thinWidthM;
     out.casters.back().closed = in.closed;
     out.litDraws.push_back({out.ranges[in.mesh], in.translationWs, in.linearWs, in.color});
   }

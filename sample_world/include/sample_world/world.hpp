@@ -101,9 +101,13 @@ struct CasterCluster {
   std::array<float, kLodCount> lodErrorM{};
   csm::AabbWs boundsWs{};
   std::uint32_t objectCount = 0;
-  /// The cluster of a chunk's thin casters (cables, fence segments, poles): flagged
-  /// csm::vk::CasterInstance::thin (widened in the depth pass) when AppSettings::thinCasters.
+  /// A cluster of a chunk's thin casters (its cables, its fence segments, or its poles: one
+  /// cluster each, since they differ in width): flagged csm::vk::CasterInstance::thin (widened
+  /// in the depth pass) when AppSettings::thinCasters.
   bool thin = false;
+  /// A thin cluster's narrowest true width, metres (csm::vk::CasterInstance::thinWidthM):
+  /// cables 0.03, fence rails 0.06, poles 0.28 (their tops); 0 for other clusters.
+  float thinWidthM = 0.0f;
   /// Every object of the cluster is closed and wound outward at every LOD, none mirrored: its
   /// faces turned away from the light can be culled in the depth pass
   /// (csm::vk::CasterInstance::closed). False for terrain chunks.

@@ -57,7 +57,8 @@ WorldScene sceneFromWorld(const world::World& w, bool flagThin) {
                        {0.6f, 0.65f, 0.5f, 1.0f},
                        c.asset >= 0 ? InstanceKind::kGround : InstanceKind::kBuilding,
                        flagThin && c.thin,
-                       c.closed});
+                       c.closed,
+                       flagThin && c.thin ? c.thinWidthM : 0.0f});
     out.lodMeshes.push_back(std::move(lodMeshes));
     out.lodErrorM.emplace_back(c.lodErrorM.begin(), c.lodErrorM.end());
   }

@@ -36,6 +36,9 @@ struct Instance {
   /// The mesh is closed and wound outward (csm::vk::CasterInstance::closed: its faces turned
   /// away from the light are culled in the depth pass).
   bool closed = false;
+  /// A thin caster's true width where it is narrowest, metres; 0 = not known
+  /// (csm::vk::CasterInstance::thinWidthM).
+  float thinWidthM = 0.0f;
 };
 
 /// A fixed receiver point on a surface (on a triangle of the scene, exactly).
