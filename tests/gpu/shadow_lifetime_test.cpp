@@ -377,6 +377,12 @@ TEST(ShadowView, CascadesDrawTheLodTheirTexelErrorBudgetAllows) {
     }
     instances[1].lodErrorM[0] = -1.0f;
     expectRefused(view.setCasters(meshes, instances, bounds), "instances[1].lodErrorM[0]");
+    instances[1].lodErrorM[0] = 0.0f;
+    for (float bad : {-0.1f, 1001.0f, std::numeric_limits<float>::quiet_NaN(),
+                      std::numeric_limits<float>::infinity()}) {
+      instances[1].thinWidthM = bad;
+      expectRefused(view.setCasters(meshes, instances, bounds), "instances[1].thinWidthM");
+    }
   }
   EXPECT_EQ(validationMessages(), 0u);
 }

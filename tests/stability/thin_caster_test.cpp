@@ -24,8 +24,9 @@ struct ThinScene {
 };
 
 /// `flagThin`: the 1 and 3 cm cables and the antennas are flagged thin (widened in the depth
-/// pass), the 10 cm cables are not.
-ThinScene makeThinScene(const glm::dvec3& toLight, bool flagThin = false) {
+/// pass), the 10 cm cables are not. `giveWidths`: the flagged casters carry their true width
+/// (CasterInstance::thinWidthM).
+ThinScene makeThinScene(const glm::dvec3& toLight, bool flagThin = false, bool giveWidths = false) {
   ThinScene t;
   const uint32_t ground = t.scene.addMesh(csm_measure::makeGroundMesh(false, 240.0, 8, 0.0, -40.0));
   const uint32_t cube = t.scene.addMesh(csm_measure::makeCubeMesh());
@@ -50,7 +51,9 @@ ThinScene makeThinScene(const glm::dvec3& toLight, bool flagThin = false) {
                            m,
                            {0.2f, 0.2f, 0.2f, 1.0f},
                            csm_measure::InstanceKind::kPole,
-                           flagThin && widths[w] < 0.05});
+                           flagThin && widths[w] < 0.05,
+                           false,
+                           giveWidths && flagThin && widths[w] < 0.05 ? float(widths[w]) : 0.0f});
       // The cable's shadow centre line: x in [-5, 5] on the ground.
       for (double x = -5.0; x <= 5.0; x += 0.05) {
         t.receivers.push_back({glm::dvec3(x, 0.0, z + shift.z * h), glm::vec3(0, 1, 0),
@@ -70,7 +73,9 @@ ThinScene makeThinScene(const glm::dvec3& toLight, bool flagThin = false) {
                          m,
                          {0.2f, 0.2f, 0.2f, 1.0f},
                          csm_measure::InstanceKind::kPole,
-                         flagThin});
+                         flagThin,
+                         false,
+                         giveWidths && flagThin ? 0.03f : 0.0f});
     for (double y = 0.3; y <= 3.9; y += 0.05) {
       t.receivers.push_back({foot + glm::dvec3(shift.x * y, 0.0, shift.z * y), glm::vec3(0, 1, 0),
                              csm_measure::InstanceKind::kGround});
@@ -498,12 +503,77 @@ TEST(StabilityThinCasters, LayeredAndCachedPassesWidenLikeThePerLayerPass) {
         }
       }
     }
+    // The casters' true widths, at the default 1/16 texel and 2048^2 (so that the 1 cm cables in
+    // cascade 0 and the 3 cm casters in cascade 2 are half a texel wide or more): each layer
+    // widens by its own cascade's rule (csm::thinCasterWidenTexels), in every mode as in the
+    // per-layer pass.
+    csm::ShadowSettings sizedSettings = testSettings(true);
+    sizedSettings.resolution = 2048;
+    ThinScene sized = makeThinScene(toLight, true, true);
+    harness->setScene(sized.scene);
+    // sizedLost[mode][(width, cascade)]; [modes.size()]: per-layer without the widths.
+    std::vector<std::map<std::pair<double, int>, Bucket>> sizedLost(modes.size() + 1);
+    for (size_t mi = 0; mi <= modes.size(); ++mi) {
+      if (mi == modes.size()) harness->setScene(ts.scene);
+      const Mode& m = modes[mi == modes.size() ? 0 : mi];
+      csm::vk::RendererOptions opt = options(m, true);
+      opt.thinCasterWidenTexels = 0.0625f;
+      CSM_ASSERT_STATUS(harness->configure(sizedSettings, opt));
+      csm::CascadeHistory history;
+      const csm::CascadeFrame frame = harness->computeFrame(camera, light, history);
+      const auto results = harness->probe(frame, receivers, csm::PcfKernel::k1Tap);
+      for (size_t i = 0; i < results.size(); ++i) {
+        const int c = results[i].cascade;
+        if (c < 0) continue;
+        Bucket& b = sizedLost[mi][{widths[i], c}];
+        ++b.n;
+        b.lost += results[i].shadow > 0.5f ? 1 : 0;
+        b.texelM = frame.cascades[size_t(c)].texelSizeM();
+      }
+    }
+    bool ruleActed = false;
+    for (const auto& [key, ref] : sizedLost[0]) {
+      const bool antenna = key.first == 0.0301;
+      const double w = antenna ? 0.03 : key.first;
+      if (ref.n < 50 || w >= 0.05) continue;
+      const double refLost = double(ref.lost) / double(ref.n);
+      const Bucket& unsized = sizedLost[modes.size()][key];
+      const double unsizedLost = double(unsized.lost) / double(unsized.n);
+      const double ratio = w / ref.texelM;
+      const bool inBand = ratio >= 0.5 && ratio < 1.0;
+      for (size_t mi = 0; mi < modes.size(); ++mi) {
+        const Bucket& b = sizedLost[mi][key];
+        ASSERT_EQ(b.n, ref.n) << modes[mi].name;
+        const double lostSized = double(b.lost) / double(b.n);
+        std::printf(
+            "%-9s %-7s %5.1f cm cascade %d (%.2f texel): 1/16 texel, width unknown %6.2f%% -> "
+            "known %6.2f%% lost\n",
+            modes[mi].name, antenna ? "antenna" : "cable", 100.0 * w, key.second, ratio,
+            100.0 * unsizedLost, 100.0 * lostSized);
+        report["runs"].push_back({{"mode", modes[mi].name},
+                                  {"caster", antenna ? "antenna" : "cable"},
+                                  {"width_m", w},
+                                  {"cascade", key.second},
+                                  {"width_texels", ratio},
+                                  {"widen_texels", 0.0625},
+                                  {"lost_fraction_width_unknown", unsizedLost},
+                                  {"lost_fraction_width_known", lostSized}});
+        EXPECT_NEAR(lostSized, refLost, 0.05)
+            << modes[mi].name << " " << w << " m cascade " << key.second << ", with its width";
+      }
+      if (inBand && refLost < unsizedLost - 0.1) ruleActed = true;
+      if (!inBand) {
+        EXPECT_NEAR(refLost, unsizedLost, 1e-12)
+            << "the width rule acted outside its band: " << w << " m cascade " << key.second;
+      }
+    }
+    EXPECT_TRUE(ruleActed) << "no caster at half a texel or more lost less with its width";
   }
   EXPECT_EQ(engine::validationMessageCount(), 0u);
   report["what"] =
       "The scene of thin_casters_widened.json at 1024^2, 1 tap, in each render mode (per-layer, "
       "cached, layered): lost fraction per caster and cascade without and with half a texel of "
-      "widening.";
+      "widening; and at 2048^2, 1/16 texel, with each caster's width unknown and known.";
   csm_measure::writeJson(artefactDir() + "/thin_casters_modes.json", report);
 }
 
