@@ -91,6 +91,29 @@ struct Bucket {
   double texelM = 0.0;
 };
 
+// Probes `receivers` with `kernel` under `settings` and `opt`, each counted in the bucket
+// of its caster's width (`widths`) and its cascade: lost where it reads more than 0.5 lit.
+void bucketLost(csm_measure::Harness& harness, const csm::ShadowSettings& settings,
+                const csm::vk::RendererOptions& opt, const csm::Camera& camera,
+                const csm::DirectionalLight& light, csm::PcfKernel kernel,
+                const std::vector<csm_measure::Receiver>& receivers,
+                const std::vector<double>& widths,
+                std::map<std::pair<double, int>, Bucket>& buckets) {
+  CSM_ASSERT_STATUS(harness.configure(settings, opt));
+  csm::CascadeHistory history;
+  const csm::CascadeFrame frame = harness.computeFrame(camera, light, history);
+  const auto results = harness.probe(frame, receivers, kernel);
+  for (size_t i = 0; i < results.size(); ++i) {
+    const int c = results[i].cascade;
+    if (c < 0) continue;
+    Bucket& b = buckets[{widths[i], c}];
+    ++b.n;
+    b.lost += results[i].shadow > 0.5f ? 1 : 0;
+    b.sumS += results[i].shadow;
+    b.texelM = frame.cascades[size_t(c)].texelSizeM();
+  }
+}
+
 TEST(StabilityThinCasters, ThinCastersKeepTheirShadowWhereTheyCoverTwoTexels) {
   nlohmann::json report;
   report["runs"] = nlohmann::json::array();
@@ -125,20 +148,8 @@ TEST(StabilityThinCasters, ThinCastersKeepTheirShadowWhereTheyCoverTwoTexels) {
       for (csm::PcfKernel kernel : {csm::PcfKernel::kTent3, csm::PcfKernel::k1Tap}) {
         csm::ShadowSettings s = testSettings(true);
         s.resolution = res;
-        CSM_ASSERT_STATUS(harness->configure(s));
-        csm::CascadeHistory history;
-        const csm::CascadeFrame frame = harness->computeFrame(camera, light, history);
-        const auto results = harness->probe(frame, receivers, kernel);
         std::map<std::pair<double, int>, Bucket> buckets;
-        for (size_t i = 0; i < results.size(); ++i) {
-          const int c = results[i].cascade;
-          if (c < 0) continue;
-          Bucket& b = buckets[{widths[i], c}];
-          ++b.n;
-          b.lost += results[i].shadow > 0.5f ? 1 : 0;
-          b.sumS += results[i].shadow;
-          b.texelM = frame.cascades[size_t(c)].texelSizeM();
-        }
+        bucketLost(*harness, s, {}, camera, light, kernel, receivers, widths, buckets);
         for (const auto& [key, b] : buckets) {
           const bool antenna = key.first == 0.0301;
           const double w = antenna ? 0.03 : key.first;
@@ -455,19 +466,8 @@ TEST(StabilityThinCasters, LayeredAndCachedPassesWidenLikeThePerLayerPass) {
     std::vector<std::array<std::map<std::pair<double, int>, Bucket>, 2>> lost(modes.size());
     for (size_t mi = 0; mi < modes.size(); ++mi) {
       for (int on = 0; on < 2; ++on) {
-        CSM_ASSERT_STATUS(harness->configure(testSettings(true), options(modes[mi], on)));
-        csm::CascadeHistory history;
-        const csm::CascadeFrame frame = harness->computeFrame(camera, light, history);
-        const auto results = harness->probe(frame, receivers, csm::PcfKernel::k1Tap);
-        for (size_t i = 0; i < results.size(); ++i) {
-          const int c = results[i].cascade;
-          if (c < 0) continue;
-          Bucket& b = lost[mi][on][{widths[i], c}];
-          ++b.n;
-          b.lost += results[i].shadow > 0.5f ? 1 : 0;
-          b.sumS += results[i].shadow;
-          b.texelM = frame.cascades[size_t(c)].texelSizeM();
-        }
+        bucketLost(*harness, testSettings(true), options(modes[mi], on), camera, light,
+                   csm::PcfKernel::k1Tap, receivers, widths, lost[mi][on]);
       }
     }
     for (const auto& [key, ref] : lost[0][1]) {
@@ -518,18 +518,8 @@ TEST(StabilityThinCasters, LayeredAndCachedPassesWidenLikeThePerLayerPass) {
       const Mode& m = modes[mi == modes.size() ? 0 : mi];
       csm::vk::RendererOptions opt = options(m, true);
       opt.thinCasterWidenTexels = 0.0625f;
-      CSM_ASSERT_STATUS(harness->configure(sizedSettings, opt));
-      csm::CascadeHistory history;
-      const csm::CascadeFrame frame = harness->computeFrame(camera, light, history);
-      const auto results = harness->probe(frame, receivers, csm::PcfKernel::k1Tap);
-      for (size_t i = 0; i < results.size(); ++i) {
-        const int c = results[i].cascade;
-        if (c < 0) continue;
-        Bucket& b = sizedLost[mi][{widths[i], c}];
-        ++b.n;
-        b.lost += results[i].shadow > 0.5f ? 1 : 0;
-        b.texelM = frame.cascades[size_t(c)].texelSizeM();
-      }
+      bucketLost(*harness, sizedSettings, opt, camera, light, csm::PcfKernel::k1Tap, receivers,
+                 widths, sizedLost[mi]);
     }
     bool ruleActed = false;
     for (const auto& [key, ref] : sizedLost[0]) {

@@ -45,6 +45,29 @@ struct Stats {
   double sumMass2 = 0.0, sumMass = 0.0;  // the rendered mass's spread along the line
 };
 
+// The small sample world and its scene with the thin clusters flagged as the fly-through flags
+// them, made once for this file's tests (`error` says why not).
+struct ThinWorld {
+  world::World world;
+  csm_measure::WorldScene scene;
+  std::string error;
+};
+const ThinWorld* thinWorld() {
+  static const ThinWorld made = [] {
+    ThinWorld t;
+    world::WorldError err;
+    std::optional<world::World> w = smallSampleWorld(&err);
+    if (!w) {
+      t.error = err.message.empty() ? "no world" : err.message;
+      return t;
+    }
+    t.world = std::move(*w);
+    t.scene = csm_measure::sceneFromWorld(t.world, true);
+    return t;
+  }();
+  return &made;
+}
+
 // What the image sees of a camera: a world point's screen pixel, and whether it is in view.
 struct ScreenView {
   csm::Camera cam;
@@ -175,10 +198,10 @@ TEST(StabilityThinCasters, CableShadowsInTheImageNoWiderOrDarkerThanTruthByMoreT
   report["runs"] = nlohmann::json::array();
   {
     CSM_MAKE_HARNESS(harness);
-    world::WorldError err;
-    const std::optional<world::World> w = smallSampleWorld(&err);
-    ASSERT_TRUE(w.has_value()) << err.message;
-    const csm_measure::WorldScene ws = csm_measure::sceneFromWorld(*w, true);
+    const ThinWorld& made = *thinWorld();
+    ASSERT_TRUE(made.error.empty()) << made.error;
+    const world::World* w = &made.world;
+    const csm_measure::WorldScene& ws = made.scene;
     harness->setScene(ws.scene);
     const csm_measure::RayTracer tracer(ws.scene);
     // The cables alone: a section is kept only where the full scene's truth is theirs.
@@ -381,10 +404,10 @@ TEST(StabilityThinCasters, PoleShadowsAreContinuousWhereATexelIsAtMostTwiceTheir
   report["runs"] = nlohmann::json::array();
   {
     CSM_MAKE_HARNESS(harness);
-    world::WorldError err;
-    const std::optional<world::World> w = smallSampleWorld(&err);
-    ASSERT_TRUE(w.has_value()) << err.message;
-    const csm_measure::WorldScene ws = csm_measure::sceneFromWorld(*w, true);
+    const ThinWorld& made = *thinWorld();
+    ASSERT_TRUE(made.error.empty()) << made.error;
+    const world::World* w = &made.world;
+    const csm_measure::WorldScene& ws = made.scene;
     // The same world with every thin width unknown (0).
     world::World unknown = *w;
     for (world::CasterCluster& c : unknown.clusters) c.thinWidthM = 0.0f;
