@@ -87,6 +87,36 @@ TEST(Culling, HierarchyMatchesBruteForceAndDropsNothingThatIntersects) {
   }
 }
 
+// Each cascade culled in its own light basis (a cached cascade deferred across a change of
+// light is drawn in the basis it shows): one cull gives, per cascade, what a cull of the whole
+// frame in that cascade's basis gives, the hierarchy as brute force does.
+TEST(Culling, PerCascadeBasesCullEachCascadeInItsOwnBasis) {
+  std::mt19937_64 rng(11);
+  const glm::dvec3 origin(0, 20, 0);
+  CasterSet set;
+  fillRandomScene(set, rng, origin, 600.0, 4000);
+  set.build();
+  const CascadeFrame f = makeFrame(origin, {0.3, -1, 0.2});
+  CascadeFrame turned = f;
+  turned.lightBasisWs = makeFrame(origin, {0.8, -0.6, -0.3}).lightBasisWs;
+  std::array<glm::dmat3, kMaxCascades> bases;
+  bases.fill(turned.lightBasisWs);
+  bases[0] = f.lightBasisWs;
+  CullResult mixed, mixedBrute, own, other;
+  cullCasters(set, f, 0.0f, mixed, std::span(bases.data(), f.cascadeCount));
+  cullCastersBruteForce(set, f, 0.0f, mixedBrute, std::span(bases.data(), f.cascadeCount));
+  cullCasters(set, f, 0.0f, own);
+  cullCasters(set, turned, 0.0f, other);
+  bool differs = false;
+  for (std::uint32_t c = 0; c < f.cascadeCount; ++c) {
+    SCOPED_TRACE(c);
+    EXPECT_EQ(mixed.visible[c], mixedBrute.visible[c]);
+    EXPECT_EQ(mixed.visible[c], c == 0 ? own.visible[c] : other.visible[c]);
+    differs = differs || (c > 0 && own.visible[c] != other.visible[c]);
+  }
+  EXPECT_TRUE(differs);  // the two bases keep different casters
+}
+
 // Moving casters cost what changed: after every kind of change (bounds moved within and far
 // out of their leaf, a sphere turned box, removals, revivals, casters added after the build) the
 // refitted hierarchy gives the answer of brute force over the same casters and of a hierarchy

@@ -4,10 +4,16 @@
 // applies them; see shadows/docs/cache.md.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <span>
+#include <vector>
 
+#include <glm/mat3x3.hpp>
 #include <glm/vec3.hpp>
+
+#include "csm/cache_rects.hpp"
+#include "csm/cascades.hpp"
 
 namespace csm {
 
@@ -54,5 +60,99 @@ struct CacheRefreshCandidate {
 [[nodiscard]] std::uint32_t scheduleCacheRefresh(std::span<const CacheRefreshCandidate> cascades,
                                                  std::uint64_t budgetTexels,
                                                  std::uint32_t exactCascades);
+
+/// A cascade's static layer: its window (placeCacheWindow) and what the layer holds of it.
+struct CacheLayerState : CacheWindowPlacement {
+  bool staticValid = false;              // the layer holds box (boxX, boxY) of the window
+  std::int64_t boxX = 0, boxY = 0;       // world texel of the box's first texel
+  std::vector<AabbWs> pending;           // invalidated world boxes not yet re-rendered
+  std::uint64_t wholeInvalidations = 0;  // times the whole layer was invalidated
+};
+
+/// What a cascade's sampled layer shows: its last refresh (the window, slice and light basis
+/// it was drawn with). A cascade deferred by the budget keeps showing it.
+struct CacheShownState {
+  bool valid = false;
+  bool deferred = false;        // deferred this frame
+  std::uint32_t lagFrames = 0;  // frames since its last refresh
+  CacheLayerState window;       // anchor, texel, depth window (pending unused)
+  Cascade cascade;
+  glm::dmat3 basis{1.0};
+};
+
+/// The cache's state between frames, per cascade: the static layer and what the sampled layer
+/// shows. planCacheFrame() reads and advances it; the renderer records what the plan says and
+/// marks the static layers it re-rendered (markCacheRecorded).
+struct CacheState {
+  std::array<CacheLayerState, kMaxCascades> layers{};
+  std::array<CacheShownState, kMaxCascades> shown{};
+};
+
+/// One cascade's part of a frame's cache plan.
+struct CacheCascadePlan {
+  bool active = false;          // non-empty this frame
+  bool newWindow = false;       // a new window opened this frame (its static layer starts empty)
+  bool covered = false;         // what the layer showed before covers this frame's slice
+  bool refreshed = false;       // drawn this frame; else deferred: it shows its last refresh
+  std::uint32_t lagFrames = 0;  // frames since the refresh it shows (0 when refreshed)
+  /// The light basis of what the layer shows (the frame's unless deferred across a change of
+  /// light): the cascade is drawn, culled and addressed in it.
+  glm::dmat3 basis{1.0};
+  /// The world texels of the box the layer shows, in the window it shows, and where the box's
+  /// first texel sits in the toroidal layer: (box.x0 - anchorX) mod res, likewise y.
+  TexelRect box;
+  std::int64_t wrapX = 0, wrapY = 0;
+  /// What refreshing the static layer renders: its stale rectangles (staleRects: newly exposed
+  /// rows and columns, invalidated boxes), `full` when that is the whole box. Empty for a
+  /// deferred cascade, which draws none of it.
+  std::vector<TexelRect> stale;
+  bool full = false;
+  std::uint64_t staleTexels = 0;  // what its refresh would cost, deferred or not
+  /// The static layer's pending boxes and whole invalidations the stale rectangles account
+  /// for (invalidations after planning: updateCacheStale).
+  std::size_t pendingPlanned = 0;
+  std::uint64_t wholeInvalidations = 0;
+};
+
+/// One frame's cache decisions for every cascade, from planCacheFrame().
+struct CachePlan {
+  std::uint32_t cascadeCount = 0;
+  std::uint32_t resolution = 0;
+  std::uint32_t refreshedMask = 0;  // bit i: cascade i refreshed
+  std::array<CacheCascadePlan, kMaxCascades> cascades{};
+};
+
+/// Whether what a layer shows (`shown`) covers slice `c` of a frame in light basis `basis`
+/// (before its depth window is applied): its box holds the box the slice needs (the slice's
+/// sphere, across a change of light) and its depth window the sphere.
+[[nodiscard]] bool cacheShownCovers(const CacheShownState& shown, const Cascade& c,
+                                    const glm::dmat3& basis) noexcept;
+
+/// The cache's decisions for `frame` (stabilised, at `resolution`), applied to the frame and
+/// the state: each active cascade keeps its window or opens one (placeCacheWindow); its depth
+/// range becomes the window's and its matrix is formed again (cameraRelativeViewProj); its stale
+/// texels are counted; the budget picks the cascades refreshed (scheduleCacheRefresh with
+/// `budgetTexels`, 0: all, and `exactCascades`); a refreshed cascade's shown state becomes this
+/// frame's, a deferred one's cascade becomes what it shows (its matrix formed for this frame's
+/// camera). A frame of another resolution, or none, is left as it is: the plan is then empty.
+CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t resolution,
+                         std::uint64_t budgetTexels, std::uint32_t exactCascades);
+
+/// Brings the stale rectangles of `plan`'s refreshed cascades up to date with what was
+/// invalidated after planning (invalidateCache between planCacheFrame and recording), so the
+/// frame recorded holds them. Cascades invalidated since keep their place in the budget.
+void updateCacheStale(CachePlan& plan, const CacheState& state);
+
+/// After the cascades of `plan` were recorded: each refreshed cascade's static layer holds its
+/// box, and the pending boxes its stale rectangles accounted for are done. A layer invalidated
+/// whole since planning stays invalid.
+void markCacheRecorded(const CachePlan& plan, CacheState& state);
+
+/// Invalidates `boxWs` in every static layer that holds something: added to its pending boxes
+/// (re-rendered at its next refresh), or with 64 pending already, the whole layer.
+void invalidateCache(CacheState& state, const AabbWs& boxWs);
+
+/// Invalidates every static layer whole.
+void invalidateCacheAll(CacheState& state) noexcept;
 
 }  // namespace csm

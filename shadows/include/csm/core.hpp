@@ -1,6 +1,7 @@
 // The whole pure cascade math (no Vulkan): include this, link csm::core.
 #pragma once
 
+#include "csm/cache_plan.hpp"
 #include "csm/cascades.hpp"
 #include "csm/culling.hpp"
 #include "csm/error.hpp"

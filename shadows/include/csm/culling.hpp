@@ -3,6 +3,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "csm/cascades.hpp"
@@ -12,9 +13,10 @@ namespace csm {
 class CasterSet;
 struct CullResult;
 void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minCasterTexels,
-                 CullResult& out);
+                 CullResult& out, std::span<const glm::dmat3> cascadeBasesWs);
 void cullCastersBruteForce(const CasterSet& casters, const CascadeFrame& frame,
-                           float minCasterTexels, CullResult& out);
+                           float minCasterTexels, CullResult& out,
+                           std::span<const glm::dmat3> cascadeBasesWs);
 
 /// Caster bounds in structure-of-arrays form plus a bounding-volume hierarchy over them, so a
 /// query costs in proportion to what lies near the cascades, not to the size of the world.
@@ -79,8 +81,10 @@ class CasterSet {
   void storeSphere(std::uint32_t i, const glm::dvec3& centerWs, double radiusM);
   void storeBox(std::uint32_t i, const glm::dvec3& minWs, const glm::dvec3& maxWs);
   void refit(std::uint32_t i);
-  friend void cullCasters(const CasterSet&, const CascadeFrame&, float, CullResult&);
-  friend void cullCastersBruteForce(const CasterSet&, const CascadeFrame&, float, CullResult&);
+  friend void cullCasters(const CasterSet&, const CascadeFrame&, float, CullResult&,
+                          std::span<const glm::dmat3>);
+  friend void cullCastersBruteForce(const CasterSet&, const CascadeFrame&, float, CullResult&,
+                                    std::span<const glm::dmat3>);
   struct Node {
     // World-space AABB of everything below the node; children or leaf range.
     glm::dvec3 minWs;
@@ -118,11 +122,16 @@ struct CullResult {
 /// span fewer than `minCasterTexels` of that cascade's texels (0: keep all). Exact per caster
 /// (sphere-box and box-box separating-axis tests); the hierarchy only skips what cannot
 /// intersect. Reuses `out`'s storage.
+///
+/// Each cascade's box is in `cascadeBasesWs[c]` where that is given (a cached cascade deferred
+/// across a change of light is drawn in the basis its layer shows: CacheCascadePlan::basis),
+/// else in the frame's light basis.
 void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minCasterTexels,
-                 CullResult& out);
+                 CullResult& out, std::span<const glm::dmat3> cascadeBasesWs = {});
 
 /// The same answer by testing every caster against every cascade (reference for tests).
 void cullCastersBruteForce(const CasterSet& casters, const CascadeFrame& frame,
-                           float minCasterTexels, CullResult& out);
+                           float minCasterTexels, CullResult& out,
+                           std::span<const glm::dmat3> cascadeBasesWs = {});
 
 }  // namespace csm

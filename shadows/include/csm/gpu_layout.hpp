@@ -141,6 +141,17 @@ struct UniformOptions {
 [[nodiscard]] CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settings,
                                        const UniformOptions& options = {}) noexcept;
 
+struct CachePlan;
+
+/// The block of a frame that a cache plan (planCacheFrame) was applied to, for the cached
+/// renderer's toroidal layers: packUniforms, with wrapped layers, each cascade's wrap offset
+/// and, for a cascade deferred across a change of light, its world texel grid's origin in the
+/// basis its layer shows. Never produces NaN.
+[[nodiscard]] CsmUniforms packCachedUniforms(const CascadeFrame& frame,
+                                             const ShadowSettings& settings,
+                                             const UniformOptions& options,
+                                             const CachePlan& plan) noexcept;
+
 /// One specialization constant of the lighting pipeline: its constant_id in csm.glsl
 /// (CSM_SPEC_*) and its value (a 32-bit int or bool, as the shader declares it).
 struct SpecConstant {

@@ -25,10 +25,10 @@ struct Volume {
   glm::dvec3 worldLo, worldHi;  // the volume projected on the world axes, about its centre
 };
 
-Volume makeVolume(const CascadeFrame& frame, const Cascade& c, float minCasterTexels) noexcept {
+Volume makeVolume(const glm::dmat3& basisWs, const Cascade& c, float minCasterTexels) noexcept {
   Volume v;
   v.centerWs = c.boxCenterWs;
-  for (int k = 0; k < 3; ++k) v.axis[k] = frame.lightBasisWs[k];
+  for (int k = 0; k < 3; ++k) v.axis[k] = basisWs[k];
   v.hx = c.halfExtentLs.x;
   v.hy = c.halfExtentLs.y;
   v.zFar = c.depthFarLs;
@@ -444,10 +444,17 @@ bool casterVisible(const Volume& v, const glm::dvec3& c, const glm::dvec3& e, bo
   return sphere ? sphereIntersects(g, c, e.x) : boxIntersects(g, c, e, true);
 }
 
+// The light basis cascade `ci` is culled in: its own where given, else the frame's.
+const glm::dmat3& cascadeBasis(const CascadeFrame& frame, std::span<const glm::dmat3> bases,
+                               std::uint32_t ci) noexcept {
+  return ci < bases.size() ? bases[ci] : frame.lightBasisWs;
+}
+
 }  // namespace
 
 void cullCastersBruteForce(const CasterSet& casters, const CascadeFrame& frame,
-                           float minCasterTexels, CullResult& out) {
+                           float minCasterTexels, CullResult& out,
+                           std::span<const glm::dmat3> cascadeBasesWs) {
   out.nodesVisited = 0;
   out.castersTested = 0;
   for (auto& list : out.visible) list.clear();
@@ -455,7 +462,7 @@ void cullCastersBruteForce(const CasterSet& casters, const CascadeFrame& frame,
   for (std::uint32_t ci = 0; ci < frame.cascadeCount; ++ci) {
     const Cascade& cascade = frame.cascades[ci];
     if (cascade.empty) continue;
-    const Volume v = makeVolume(frame, cascade, minCasterTexels);
+    const Volume v = makeVolume(cascadeBasis(frame, cascadeBasesWs, ci), cascade, minCasterTexels);
     for (std::uint32_t i = 0; i < n; ++i) {
       if (casters.kind_[i] == CasterSet::kRemoved) continue;
       const glm::dvec3 c(casters.centerX_[i], casters.centerY_[i], casters.centerZ_[i]);
@@ -469,9 +476,9 @@ void cullCastersBruteForce(const CasterSet& casters, const CascadeFrame& frame,
 }
 
 void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minCasterTexels,
-                 CullResult& out) {
+                 CullResult& out, std::span<const glm::dmat3> cascadeBasesWs) {
   if (!casters.built_) {
-    cullCastersBruteForce(casters, frame, minCasterTexels, out);
+    cullCastersBruteForce(casters, frame, minCasterTexels, out, cascadeBasesWs);
     return;
   }
   out.nodesVisited = 0;
@@ -483,7 +490,8 @@ void cullCasters(const CasterSet& casters, const CascadeFrame& frame, float minC
   std::uint32_t rootMask = 0;
   for (std::uint32_t ci = 0; ci < frame.cascadeCount; ++ci) {
     if (frame.cascades[ci].empty) continue;
-    volumes[ci] = makeVolume(frame, frame.cascades[ci], minCasterTexels);
+    volumes[ci] =
+        makeVolume(cascadeBasis(frame, cascadeBasesWs, ci), frame.cascades[ci], minCasterTexels);
     nodeVolumes[ci] = grown(volumes[ci], casters.maxMargin_);
     rootMask |= 1u << ci;
   }

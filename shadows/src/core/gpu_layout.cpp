@@ -1,6 +1,8 @@
 // Packing of a CascadeFrame into the std140 block that csm.glsl declares.
 #include "csm/gpu_layout.hpp"
 
+#include "csm/cache_plan.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -81,14 +83,17 @@ float finiteOr0(double v) noexcept {
 
 // Index of the map's texel (0, 0) on the world-anchored grid (light-space coordinate / texel),
 // modulo CSM_WORLD_TEXEL_PERIOD, in double: exact whatever the distance from the origin.
-glm::vec2 worldTexelOrigin(const Cascade& c, const CascadeFrame& frame) noexcept {
+// The world texel grid's origin of cascade `c` in light basis `basis` (the frame's, or the one a
+// deferred cached cascade shows), modulo CSM_WORLD_TEXEL_PERIOD.
+glm::vec2 worldTexelOrigin(const Cascade& c, const CascadeFrame& frame,
+                           const glm::dmat3& basis) noexcept {
   const double period = CSM_WORLD_TEXEL_PERIOD;
   const double res = static_cast<double>(frame.resolution);
   glm::vec2 out(0.0f);
   for (int a = 0; a < 2; ++a) {
     const double texel = c.texelSizeLs[a];
     if (!(texel > 0.0)) continue;
-    const double centre = glm::dot(frame.lightBasisWs[a], c.boxCenterWs) / texel;
+    const double centre = glm::dot(basis[a], c.boxCenterWs) / texel;
     // Stabilised: the box centre sits on a grid line (an integer) and the map spans res / 2
     // texels either side of it.
     const double origin = std::round(centre) - std::round(0.5 * res);
@@ -124,7 +129,7 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
     g.kernelScale = finiteOr0(scale);
     g.blendStartM = finiteOr0(farM - band * (farM - nearM));
     g.depthRangeM = finiteOr0(c.depthFarLs - c.depthNearLs);
-    g.worldTexelOrigin = worldTexelOrigin(c, frame);
+    g.worldTexelOrigin = worldTexelOrigin(c, frame, frame.lightBasisWs);
   }
   const glm::dvec3 fwd = frame.cameraForwardWs;
   const glm::dvec3 dir = frame.lightDirectionWs;
@@ -153,6 +158,23 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
   }
   u.moments = glm::vec4(settings.momentBleedReduction, settings.msmMomentBias,
                         settings.evsmPositiveExponent, settings.evsmNegativeExponent);
+  return u;
+}
+
+CsmUniforms packCachedUniforms(const CascadeFrame& frame, const ShadowSettings& settings,
+                               const UniformOptions& options, const CachePlan& plan) noexcept {
+  CsmUniforms u = packUniforms(frame, settings, options);
+  u.wrappedLayers = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
+  const std::uint32_t count = std::min(plan.cascadeCount, frame.cascadeCount);
+  for (std::uint32_t i = 0; i < count; ++i) {
+    const CacheCascadePlan& p = plan.cascades[i];
+    if (!p.active || frame.cascades[i].empty) continue;
+    CsmCascadeGpu& g = u.cascades[i];
+    if (p.basis != frame.lightBasisWs) {
+      g.worldTexelOrigin = worldTexelOrigin(frame.cascades[i], frame, p.basis);
+    }
+    g.wrapOffset = glm::vec2(float(p.wrapX), float(p.wrapY));
+  }
   return u;
 }
 

@@ -42,7 +42,7 @@ constexpr VkAccessFlags2 kDepthAccess =
     VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_READ_BIT | VK_ACCESS_2_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
 
 // The light-space point a window's block (mx, my) is projected about, and the scale to clip
-// space (`Window`: ShadowRenderer::Impl::CacheWindow, a private type deduced here): layer pixel x =
+// space (`Window`: a csm::CacheWindowPlacement or what derives from it): layer pixel x =
 // world texel index - anchorX - mx * R. Every block is drawn with the same viewport [0, R)^2;
 // its geometry is shifted in light space (in double) instead, so what a block draws lies inside
 // the clip volume (a viewport shifted off the attachment would rely on fragments outside the
@@ -69,7 +69,7 @@ glm::mat4 anchorTransform(const Window& w, std::int64_t res, std::int64_t mx, st
   return scaledAffine(linear, t, scale);
 }
 
-// The layer rectangles of world rectangle `r` in a cached window (`Window`: CacheWindow).
+// The layer rectangles of world rectangle `r` in a cached window (a CacheWindowPlacement).
 template <class Window>
 void split(const Window& w, std::int64_t res, const TexelRect& r, std::vector<LayerRect>& out) {
   splitIntoLayer(w.anchorX, w.anchorY, res, r, out);
@@ -137,98 +137,16 @@ bool ShadowRenderer::Impl::windowedFor(const ShadowSettings& settings,
   return options.cache || (settings.diagnostics.stabilize && mode == RenderMode::kPerLayer);
 }
 
+// The cache's plan for the frame (csm::planCacheFrame: windows, depth ranges, stale texels,
+// the budget's choice, boxes and wrap offsets), applied to the frame; culling and recording
+// follow it.
 void ShadowRenderer::Impl::applyCacheWindows(CascadeFrame& frame) {
-  if (!windowed() || frame.resolution != resolution_) return;
-  const std::int64_t res = resolution_;
-  const glm::dmat3& basis = frame.lightBasisWs;
-  const glm::dmat3 basisT = glm::transpose(basis);
-  std::array<bool, kMaxCascades> covered{};
-  std::vector<TexelRect> stale;
-  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
-    Cascade& c = frame.cascades[i];
-    if (c.empty) continue;
-    CacheWindow& w = windows_[i];
-    const double texel = c.texelSizeLs.x;
-    const glm::dvec3 centerLs = basisT * c.boxCenterWs;
-    const std::int64_t boxX = cacheBoxStart(centerLs.x, texel, res);
-    const std::int64_t boxY = cacheBoxStart(centerLs.y, texel, res);
-    CacheWindowPlacement placed = w;
-    if (placeCacheWindow(placed, texel, frame.lightDirectionWs, boxX, boxY,
-                         centerLs.z + c.depthNearLs, centerLs.z + c.depthFarLs)) {
-      w = CacheWindow{};  // a new window: the static layer holds nothing of it yet
-      static_cast<CacheWindowPlacement&>(w) = placed;
-    }
-    covered[i] = shownCovers(i, c, basis);
-    c.depthNearLs = w.zNear - centerLs.z;
-    c.depthFarLs = w.zFar - centerLs.z;
-    c.viewProjCr = cameraRelativeViewProj(basis, frame.cameraPositionWs, c);
-    staleRects(w.staticValid, {w.boxX, w.boxY, w.boxX + res, w.boxY + res},
-               {boxX, boxY, boxX + res, boxY + res}, w.pending, basisT, texel, stale);
-    shown_[i].wanted = totalArea(stale);
+  if (!windowed()) {
+    plan_ = {};
+    return;
   }
-  applyCacheBudget(frame, covered);
-}
-
-// Whether what the layer of cascade `i` shows covers this frame's slice `c` (before its depth
-// window is applied): its box holds the box the slice needs (the sphere, across a change of
-// light), its depth window the sphere.
-bool ShadowRenderer::Impl::shownCovers(std::uint32_t i, const Cascade& c,
-                                       const glm::dmat3& basis) const {
-  const CacheShown& sh = shown_[i];
-  if (!sh.valid) return false;
-  const glm::dvec3 centerLs = glm::transpose(basis) * c.boxCenterWs;
-  const glm::dmat3 shownT = glm::transpose(sh.basis);
-  const glm::dvec3 shownCenter = shownT * sh.cascade.boxCenterWs;
-  const glm::dvec3 sphere = shownT * c.sphereCenterWs;
-  const bool sameLight = sh.basis == basis;
-  const glm::dvec3 needCenter = sameLight ? centerLs : sphere;
-  const double needHalf = sameLight && c.neededHalfExtentM > 0.0
-                              ? std::min(c.neededHalfExtentM, c.halfExtentLs.x)
-                              : (sameLight ? c.halfExtentLs.x : c.sphereRadiusM);
-  const double half = sh.cascade.halfExtentLs.x;
-  return std::abs(needCenter.x - shownCenter.x) + needHalf <= half &&
-         std::abs(needCenter.y - shownCenter.y) + needHalf <= half &&
-         sphere.z - c.sphereRadiusM >= sh.window.zNear &&
-         sphere.z + c.sphereRadiusM <= sh.window.zFar;
-}
-
-// The budget: the exact cascades, and those never shown, are refreshed whatever they cost; the
-// others in order of staleness while their refresh fits what is left of the budget. A deferred
-// cascade shows its last refresh.
-void ShadowRenderer::Impl::applyCacheBudget(CascadeFrame& frame,
-                                            const std::array<bool, kMaxCascades>& covered) {
-  const glm::dmat3& basis = frame.lightBasisWs;
   const std::uint64_t budget = options_.cache ? options_.cacheBudgetTexels : 0;
-  auto refresh = [&](std::uint32_t i) {
-    CacheShown& sh = shown_[i];
-    sh.valid = true;
-    sh.deferred = false;
-    sh.lag = 0;
-    sh.window = windows_[i];
-    sh.window.pending.clear();
-    sh.cascade = frame.cascades[i];
-    sh.basis = basis;
-  };
-  std::array<CacheRefreshCandidate, kMaxCascades> candidates{};
-  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
-    candidates[i] = {!frame.cascades[i].empty, shown_[i].valid, shown_[i].lag, covered[i],
-                     shown_[i].wanted};
-  }
-  const std::uint32_t refreshed = scheduleCacheRefresh(
-      std::span(candidates.data(), frame.cascadeCount), budget, options_.cacheExactCascades);
-  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
-    if (frame.cascades[i].empty) continue;
-    if ((refreshed >> i) & 1u) {
-      refresh(i);
-      continue;
-    }
-    CacheShown& sh = shown_[i];
-    sh.deferred = true;
-    ++sh.lag;
-    Cascade& c = frame.cascades[i];
-    c = sh.cascade;
-    c.viewProjCr = cameraRelativeViewProj(sh.basis, frame.cameraPositionWs, c);
-  }
+  plan_ = planCacheFrame(frame, cache_, resolution_, budget, options_.cacheExactCascades);
 }
 
 Status ShadowRenderer::Impl::invalidate(const AabbWs& boxWs) {
@@ -236,23 +154,12 @@ Status ShadowRenderer::Impl::invalidate(const AabbWs& boxWs) {
     return Status(ErrorCode::kInvalidArgument, e->message());
   }
   if (!options_.cache) return {};
-  for (CacheWindow& w : windows_) {
-    if (!w.staticValid) continue;  // re-rendered whole anyway
-    if (w.pending.size() >= 64) {
-      w.staticValid = false;  // many boxes: one full render
-      w.pending.clear();
-    } else {
-      w.pending.push_back(boxWs);
-    }
-  }
+  invalidateCache(cache_, boxWs);
   return {};
 }
 
 void ShadowRenderer::Impl::invalidateAll() noexcept {
-  for (CacheWindow& w : windows_) {
-    w.staticValid = false;
-    w.pending.clear();
-  }
+  invalidateCacheAll(cache_);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -371,7 +278,8 @@ struct ShadowRenderer::Impl::CachedPass {
 
   // Draws caster `idx` (at the LOD of the uncached pass: the schedule and the texel error
   // budget) under the current viewport and scissor; returns its triangles.
-  std::uint64_t drawCaster(std::uint32_t cascade, const CacheWindow& w, std::uint32_t idx) {
+  std::uint64_t drawCaster(std::uint32_t cascade, const CacheWindowPlacement& w,
+                           std::uint32_t idx) {
     const CasterInstance& inst = casters.instances[idx];
     const MeshDraw& mesh = casters.meshes[inst.meshForLod(
         casterLod(inst, r.options_.cascadeLod[cascade], w.texel, r.options_.lodMaxErrorTexels))];
@@ -387,7 +295,7 @@ struct ShadowRenderer::Impl::CachedPass {
   }
 
   // Draws the casters of `list` with dynamic == `dynamic` that overlap `lr`; returns triangles.
-  std::uint64_t drawRect(std::uint32_t cascade, const CacheWindow& w,
+  std::uint64_t drawRect(std::uint32_t cascade, const CacheWindowPlacement& w,
                          const std::vector<std::uint32_t>& list, bool dynamic,
                          const LayerRect& lr) {
     std::uint64_t triangles = 0;
@@ -405,7 +313,7 @@ struct ShadowRenderer::Impl::CachedPass {
   // than the parts together: drawing it over texels that are valid leaves them bit-identical
   // (they already hold the minimum over every static caster, this one included). Otherwise
   // once per piece. Returns triangles; counts the draws saved in `saved`.
-  std::uint64_t drawPieces(std::uint32_t cascade, const CacheWindow& w,
+  std::uint64_t drawPieces(std::uint32_t cascade, const CacheWindowPlacement& w,
                            const std::vector<std::uint32_t>& list,
                            const std::vector<LayerRect>& pieces, std::uint64_t& saved) {
     std::uint64_t triangles = 0;
@@ -456,16 +364,17 @@ struct ShadowRenderer::Impl::CachedPass {
 };
 
 // The frame must carry the windows (applyCacheWindows before culling). Each cascade is drawn in
-// the window and light basis its layer shows (shown_: this frame's unless deferred).
+// the window and light basis its layer shows (this frame's unless deferred), as planned.
 Status ShadowRenderer::Impl::checkCacheWindows(const CascadeFrame& frame) const {
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     const Cascade& c = frame.cascades[i];
     if (c.empty) continue;
-    const CacheWindow& w = shown_[i].window;
-    const double centerZ = glm::dot(shown_[i].basis[2], c.boxCenterWs);
+    const CacheShownState& sh = cache_.shown[i];
+    const CacheWindowPlacement& w = sh.window;
+    const double centerZ = glm::dot(sh.basis[2], c.boxCenterWs);
     const double tol = 1e-6 * std::max(1.0, std::abs(w.zFar - w.zNear));
-    if (!shown_[i].valid || !w.valid || w.texel != c.texelSizeLs.x ||
-        std::abs(centerZ + c.depthNearLs - w.zNear) > tol ||
+    if (!sh.valid || !w.valid || i >= plan_.cascadeCount || !plan_.cascades[i].active ||
+        w.texel != c.texelSizeLs.x || std::abs(centerZ + c.depthNearLs - w.zNear) > tol ||
         std::abs(centerZ + c.depthFarLs - w.zFar) > tol) {
       return Status(ErrorCode::kInvalidArgument,
                     fmt("frame.cascades[%u] has no cache window: call applyCacheWindows(frame) "
@@ -476,32 +385,12 @@ Status ShadowRenderer::Impl::checkCacheWindows(const CascadeFrame& frame) const 
   return {};
 }
 
-// The uniform block of the cached pass (toroidal addressing: each cascade's wrap offset) and
-// each cascade's box in the window it shows.
+// The uniform block of the cached pass, packed from the plan (toroidal addressing: each
+// cascade's wrap offset; a cascade deferred across a change of light addressed in the basis it
+// shows), and each cascade's box in the window it shows.
 void ShadowRenderer::Impl::packCachedUniforms(const CascadeFrame& frame, CachedPass& pass) {
-  const std::int64_t res = resolution_;
-  uniforms_ = packFrameUniforms(frame);
-  uniforms_.wrappedLayers = 1u;  // toroidal addressing: csm.glsl adds each cascade's wrap offset
-  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
-    const Cascade& c = frame.cascades[i];
-    if (c.empty) continue;
-    const CacheWindow& w = shown_[i].window;
-    if (shown_[i].basis != frame.lightBasisWs) {
-      // Deferred across a change of light: its world-grid origin in the basis it shows.
-      CascadeFrame old = frame;
-      old.lightBasisWs = shown_[i].basis;
-      const CsmCascadeGpu shown = packFrameUniforms(old).cascades[i];
-      uniforms_.cascades[i].blendStartM = shown.blendStartM;
-      uniforms_.cascades[i].depthRangeM = shown.depthRangeM;
-      uniforms_.cascades[i].worldTexelOrigin = shown.worldTexelOrigin;
-    }
-    const glm::dvec3 centerLs = glm::transpose(shown_[i].basis) * c.boxCenterWs;
-    const std::int64_t bx = std::llround(centerLs.x / w.texel) - res / 2;
-    const std::int64_t by = std::llround(centerLs.y / w.texel) - res / 2;
-    pass.boxes[i] = {bx, by, bx + res, by + res};
-    uniforms_.cascades[i].wrapOffset.x = float(floorMod(bx - w.anchorX, res));
-    uniforms_.cascades[i].wrapOffset.y = float(floorMod(by - w.anchorY, res));
-  }
+  uniforms_ = csm::packCachedUniforms(frame, settings_, uniformOptions(), plan_);
+  for (std::uint32_t i = 0; i < plan_.cascadeCount; ++i) pass.boxes[i] = plan_.cascades[i].box;
 }
 
 // The cached pass's start: its label, the uniform block (write after the previous frame's
@@ -531,7 +420,8 @@ void ShadowRenderer::Impl::recordCachedBegin(VkCommandBuffer cmd, bool wasUndefi
   img[1].dstStageMask = kDepthStages;
   img[1].dstAccessMask = kDepthAccess;
   if (!staticInitialised_) {
-    for (CacheWindow& w : windows_) w.staticValid = false;
+    invalidateCacheAll(cache_);
+    updateCacheStale(plan_, cache_);
   }
   staticInitialised_ = true;
   recordPassStart(cmd, "csm shadow pass (cached)",
@@ -545,35 +435,24 @@ void ShadowRenderer::Impl::recordCachedBegin(VkCommandBuffer cmd, bool wasUndefi
 bool ShadowRenderer::Impl::recordCachedCascade(CachedPass& pass, std::uint32_t i,
                                                const std::vector<std::uint32_t>& list) {
   const std::int64_t res = resolution_;
-  CacheWindow& w = windows_[i];        // the static layer's state
-  CacheShown& sh = shown_[i];          // what the sampled layer shows (drawn in its window)
-  const CacheWindow& win = sh.window;  // = w's window unless deferred
-  pass.basisT = glm::transpose(sh.basis);
+  const CacheCascadePlan& p = plan_.cascades[i];
+  const CacheWindowPlacement& win = cache_.shown[i].window;  // the window the layer shows
+  DynamicDrawn& drawn = dynamicDrawn_[i];
+  pass.basisT = glm::transpose(p.basis);
   CascadeCacheStats& st = cacheStats_[i];
-  st.deferred = sh.deferred;
-  st.lagFrames = sh.lag;
-  st.wantedTexels = sh.wanted;
-  const TexelRect box = pass.boxes[i];
+  st.deferred = !p.refreshed;
+  st.lagFrames = p.lagFrames;
+  st.wantedTexels = p.staleTexels;
   bool dynamicNow = false;
   pass.computeCasterRects(list, win.texel);
   for (std::uint32_t idx : list) dynamicNow = dynamicNow || pass.casters.instances[idx].dynamic;
 
-  // What of the static layer is stale: everything (new window), the newly exposed rows and
-  // columns, and what lies under invalidated boxes. A deferred cascade draws none of it.
-  pass.dirty.clear();
-  bool full = false;
-  if (!sh.deferred) {
-    full = staleRects(w.staticValid, {w.boxX, w.boxY, w.boxX + res, w.boxY + res}, box, w.pending,
-                      pass.basisT, w.texel, pass.dirty);
-    st.newWindow = !w.staticValid;
-  }
-  const bool copy = !pass.dirty.empty() || dynamicNow || sh.dynamicLast;
-  if (!sh.deferred) {
-    w.staticValid = true;
-    w.boxX = box.x0;
-    w.boxY = box.y0;
-    w.pending.clear();
-  }
+  // What of the static layer is stale (planned: everything for a new window, the newly exposed
+  // rows and columns, what lies under invalidated boxes). A deferred cascade draws none of it.
+  pass.dirty = p.stale;
+  const bool full = p.full;
+  if (p.refreshed) st.newWindow = p.newWindow;
+  const bool copy = !pass.dirty.empty() || dynamicNow || drawn.last;
   if (!copy) return false;  // the sampled layer already holds this frame's depth
   if (cascadeHook_) cascadeHook_(pass.cmd, i);
 
@@ -592,13 +471,13 @@ bool ShadowRenderer::Impl::recordCachedCascade(CachedPass& pass, std::uint32_t i
           {std::int32_t(t.x0), std::int32_t(t.y0), std::int32_t(t.x1), std::int32_t(t.y1)});
     }
   }
-  changed.insert(changed.end(), sh.dynamicRects.begin(), sh.dynamicRects.end());
+  changed.insert(changed.end(), drawn.rects.begin(), drawn.rects.end());
   rememberDynamicRects(pass, i, list);  // none when !dynamicNow
-  changed.insert(changed.end(), sh.dynamicRects.begin(), sh.dynamicRects.end());
+  changed.insert(changed.end(), drawn.rects.begin(), drawn.rects.end());
   recordStaticCopy(pass.cmd, i, pass.copyRegions, whole);
   st.copied = !pass.copyRegions.empty();
   if (dynamicNow || !pass.redrawParts.empty()) recordDynamicPass(pass, i, list);
-  sh.dynamicLast = dynamicNow;
+  drawn.last = dynamicNow;
   return true;
 }
 
@@ -606,7 +485,7 @@ bool ShadowRenderer::Impl::recordCachedCascade(CachedPass& pass, std::uint32_t i
 // layer, cleared on load) and drawn with the static casters.
 void ShadowRenderer::Impl::recordStaticRects(CachedPass& pass, std::uint32_t i,
                                              const std::vector<std::uint32_t>& list, bool full) {
-  const CacheWindow& win = shown_[i].window;
+  const CacheWindowPlacement& win = cache_.shown[i].window;
   CascadeCacheStats& st = cacheStats_[i];
   // Both images are DEPTH_ATTACHMENT_OPTIMAL while drawn (see recordStaticCopy).
   beginDepthRendering(pass.cmd, staticViews_[i], 1, full, cascadeLabel(i, "static"), pipeline_);
@@ -631,24 +510,25 @@ void ShadowRenderer::Impl::recordStaticRects(CachedPass& pass, std::uint32_t i,
 // when they are most of it, or with kWholeLayer. Returns whether the whole layer is copied.
 bool ShadowRenderer::Impl::planRestore(CachedPass& pass, std::uint32_t i, bool full) {
   const std::int64_t res = resolution_;
-  const CacheShown& sh = shown_[i];
+  const CacheWindowPlacement& win = cache_.shown[i].window;
+  const DynamicDrawn& drawn = dynamicDrawn_[i];
   CascadeCacheStats& st = cacheStats_[i];
   pass.copyParts.clear();
   pass.redrawParts.clear();
   bool whole = full || settings_.diagnostics.cacheRestore == CacheRestore::kWholeLayer;
   if (!whole) {
     for (const TexelRect& r : pass.dirty) {
-      split(sh.window, res, r, pass.layerRects);
+      split(win, res, r, pass.layerRects);
       for (const LayerRect& lr : pass.layerRects) addDisjoint(pass.copyParts, lr.layer);
     }
-    for (const auto& d : sh.dynamicRects) addDisjoint(pass.copyParts, {d[0], d[1], d[2], d[3]});
+    for (const auto& d : drawn.rects) addDisjoint(pass.copyParts, {d[0], d[1], d[2], d[3]});
     whole = pass.copyParts.size() > 256 ||
             totalArea(pass.copyParts) * 4 >= 3 * std::uint64_t(res * res);
   }
   if (whole) pass.copyParts.assign(1, TexelRect{0, 0, res, res});
   if (!whole && settings_.diagnostics.cacheRestore == CacheRestore::kRedraw) {
     // The restored rectangles, with the block each lies in (as the box's own split).
-    split(sh.window, res, pass.boxes[i], pass.layerRects);
+    split(win, res, pass.boxes[i], pass.layerRects);
     for (const TexelRect& p : pass.copyParts) {
       for (const LayerRect& lr : pass.layerRects) {
         const TexelRect q = p.intersect(lr.layer);
@@ -678,12 +558,13 @@ bool ShadowRenderer::Impl::planRestore(CachedPass& pass, std::uint32_t i, bool f
 // The layer rectangles this frame's dynamic casters in `list` cover (restored next time).
 void ShadowRenderer::Impl::rememberDynamicRects(CachedPass& pass, std::uint32_t i,
                                                 const std::vector<std::uint32_t>& list) {
-  CacheShown& sh = shown_[i];
-  sh.dynamicRects.clear();
+  const CacheWindowPlacement& win = cache_.shown[i].window;
+  DynamicDrawn& drawn = dynamicDrawn_[i];
+  drawn.rects.clear();
   std::vector<TexelRect> parts;
   for (std::uint32_t idx : list) {
     if (!pass.casters.instances[idx].dynamic) continue;
-    split(sh.window, resolution_, pass.casterRects[idx].intersect(pass.boxes[i]), pass.layerRects);
+    split(win, resolution_, pass.casterRects[idx].intersect(pass.boxes[i]), pass.layerRects);
     for (const LayerRect& lr : pass.layerRects) {
       if (parts.size() >= 64) {  // many casters: their bounding rectangle
         TexelRect& u = parts[0];
@@ -697,7 +578,7 @@ void ShadowRenderer::Impl::rememberDynamicRects(CachedPass& pass, std::uint32_t 
     }
   }
   for (const TexelRect& t : parts) {
-    sh.dynamicRects.push_back(
+    drawn.rects.push_back(
         {std::int32_t(t.x0), std::int32_t(t.y0), std::int32_t(t.x1), std::int32_t(t.y1)});
   }
 }
@@ -766,7 +647,7 @@ void ShadowRenderer::Impl::recordStaticCopy(VkCommandBuffer cmd, std::uint32_t i
 // cleared and drawn with the static casters, then the dynamic casters over the box.
 void ShadowRenderer::Impl::recordDynamicPass(CachedPass& pass, std::uint32_t i,
                                              const std::vector<std::uint32_t>& list) {
-  const CacheWindow& win = shown_[i].window;
+  const CacheWindowPlacement& win = cache_.shown[i].window;
   CascadeCacheStats& st = cacheStats_[i];
   beginDepthRendering(pass.cmd, layerViews_[i], 1, false, cascadeLabel(i, "dynamic"), pipeline_);
   pass.bound = nullptr;
@@ -825,9 +706,9 @@ const CascadeFrame* ShadowRenderer::Impl::windowedFrame(const CascadeFrame& fram
 // vertices, viewport and tiles as the cached pass, so the same depth in every texel.
 void ShadowRenderer::Impl::recordFullCascade(CachedPass& pass, std::uint32_t i,
                                              const std::vector<std::uint32_t>& list) {
-  const CacheWindow& win = shown_[i].window;
+  const CacheWindowPlacement& win = cache_.shown[i].window;
   CascadeCacheStats& st = cacheStats_[i];
-  pass.basisT = glm::transpose(shown_[i].basis);
+  pass.basisT = glm::transpose(plan_.cascades[i].basis);
   pass.computeCasterRects(list, win.texel);
   if (cascadeHook_) cascadeHook_(pass.cmd, i);
   beginDepthRendering(pass.cmd, layerViews_[i], 1, true, cascadeLabel(i, "full"), pipeline_);
@@ -885,12 +766,14 @@ Status ShadowRenderer::Impl::recordCachedPass(VkCommandBuffer cmd, const Cascade
   for (LayerRects& r : momentRects_) r.clear();
   bool any = false;
   std::uint32_t copiedMask = 0;
+  updateCacheStale(plan_, cache_);  // boxes invalidated since the plan was made
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     if (frame.cascades[i].empty) continue;
     if (!recordCachedCascade(pass, i, listOf(i))) continue;
     any = true;
     copiedMask |= 1u << i;
   }
+  markCacheRecorded(plan_, cache_);
   if (cascadeHook_ && any) cascadeHook_(cmd, kCascadeHookEnd);
 
   recordCachedEnd(cmd, copiedMask);
@@ -916,7 +799,7 @@ Status ShadowRenderer::Impl::recordWindowedCallbackPass(VkCommandBuffer cmd,
     if (frame.cascades[c].empty) continue;
     if (cascadeHook_) cascadeHook_(cmd, c);
     any = true;
-    const CacheWindow& win = shown_[c].window;
+    const CacheWindowPlacement& win = cache_.shown[c].window;
     beginDepthRendering(cmd, layerViews_[c], 1, true, cascadeLabel(c, "full"), pipeline_);
     split(win, resolution_, pass.boxes[c], pass.layerRects);
     for (const LayerRect& lr : pass.layerRects) {

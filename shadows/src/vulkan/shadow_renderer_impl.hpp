@@ -57,15 +57,9 @@ class ShadowRenderer::Impl {
   [[nodiscard]] const std::array<CascadeCacheStats, kMaxCascades>& cacheStats() const noexcept {
     return cacheStats_;
   }
-  /// The light basis the content of cascade `i` was rendered with (the frame's, unless the
-  /// cascade is deferred by the budget across a change of light direction); ShadowView culls a
-  /// deferred cascade's casters with it.
-  [[nodiscard]] const glm::dmat3& cacheLightBasis(std::uint32_t i) const noexcept {
-    return shown_[std::min<std::uint32_t>(i, kMaxCascades - 1)].basis;
-  }
-  [[nodiscard]] bool cacheDeferred(std::uint32_t i) const noexcept {
-    return i < kMaxCascades && shown_[i].deferred;
-  }
+  /// The plan of the frame last windowed (applyCacheWindows; empty when not windowed):
+  /// ShadowView culls each cascade in the light basis it gives.
+  [[nodiscard]] const CachePlan& cachePlan() const noexcept { return plan_; }
   [[nodiscard]] VkDeviceSize cacheBytes() const noexcept { return cacheBytes_; }
   [[nodiscard]] VkImage staticImage() const noexcept { return staticImage_; }
 
@@ -136,6 +130,7 @@ class ShadowRenderer::Impl {
   void recordClear(VkCommandBuffer cmd);
   void collectRetired(bool all) noexcept;
   bool countRecord();
+  [[nodiscard]] UniformOptions uniformOptions() const noexcept;
   CsmUniforms packFrameUniforms(const CascadeFrame& frame) const;
   void recordPassStart(VkCommandBuffer cmd, const char* label,
                        std::span<const VkImageMemoryBarrier2> images);
@@ -166,9 +161,6 @@ class ShadowRenderer::Impl {
   CascadeDrawContext drawContext(VkCommandBuffer cmd, const CascadeFrame& frame,
                                  std::uint32_t cascade, const CullResult* visible) const;
   const CascadeFrame* windowedFrame(const CascadeFrame& frame, CascadeFrame& own);
-  // applyCacheWindows()'s steps (shadow_cache.cpp).
-  bool shownCovers(std::uint32_t cascade, const Cascade& c, const glm::dmat3& basis) const;
-  void applyCacheBudget(CascadeFrame& frame, const std::array<bool, kMaxCascades>& covered);
   // recordCachedPass()'s steps (shadow_cache.cpp). CachedPass: the pass's drawing state.
   struct CachedPass;
   Status checkCacheWindows(const CascadeFrame& frame) const;
@@ -309,31 +301,19 @@ class ShadowRenderer::Impl {
   VkPipeline pipeline_ = VK_NULL_HANDLE;         // per-layer
   VkPipeline layeredPipeline_ = VK_NULL_HANDLE;  // layered (when supported)
 
-  // Cached cascades: the static-depth image, per-cascade windows, pending invalidated boxes.
-  // The window (csm::placeCacheWindow: texel, light, anchor, depth range) and the static
-  // layer's state in it.
-  struct CacheWindow : CacheWindowPlacement {
-    bool staticValid = false;  // the static layer holds box (boxX, boxY)
-    std::int64_t boxX = 0, boxY = 0;
-    std::vector<AabbWs> pending;  // invalidated boxes not yet re-rendered in this cascade
-  };
-  // What the sampled layer of a cascade shows (its last refresh): the window, box and basis it
-  // was rendered with; a cascade deferred by the budget keeps showing it.
-  struct CacheShown {
-    bool valid = false;
-    bool deferred = false;  // deferred this frame
-    std::uint32_t lag = 0;  // frames since its last refresh
-    CacheWindow window;     // anchor, texel, depth window (pending/dynamicRects unused)
-    Cascade cascade;
-    glm::dmat3 basis{1.0};
-    std::uint64_t wanted = 0;  // static texels its refresh costs this frame
-    bool dynamicLast = false;  // dynamic casters were drawn into the sampled layer last time
-    // Layer rectangles ([x0, y0, x1, y1) texels) dynamic casters were drawn into last time.
-    std::vector<std::array<std::int32_t, 4>> dynamicRects;
+  // Cached cascades: the static-depth image and the cache's state (csm::CacheState: each
+  // static layer's window and what each sampled layer shows), the plan of the frame being
+  // recorded (csm::planCacheFrame, made by applyCacheWindows) and, per cascade, where dynamic
+  // casters were drawn into the sampled layer last time (restored the next).
+  struct DynamicDrawn {
+    bool last = false;  // dynamic casters were drawn into the sampled layer last time
+    // Layer rectangles ([x0, y0, x1, y1) texels) they were drawn into.
+    std::vector<std::array<std::int32_t, 4>> rects;
   };
   static Status checkCacheOptions(const ShadowSettings& settings, const RendererOptions& options);
-  std::array<CacheWindow, kMaxCascades> windows_{};
-  std::array<CacheShown, kMaxCascades> shown_{};
+  CacheState cache_{};
+  CachePlan plan_{};
+  std::array<DynamicDrawn, kMaxCascades> dynamicDrawn_{};
   std::array<CascadeCacheStats, kMaxCascades> cacheStats_{};
   VkImage staticImage_ = VK_NULL_HANDLE;
   VkDeviceMemory staticMemory_ = VK_NULL_HANDLE;

@@ -175,12 +175,16 @@ void ShadowRenderer::Impl::recordPassStart(VkCommandBuffer cmd, const char* labe
 
 // The uniform block of `frame` as every pass packs it: the host's debug mode, the depth
 // format's bits (the depth floor's quantum) and the moment sampler's anisotropy.
+UniformOptions ShadowRenderer::Impl::uniformOptions() const noexcept {
+  UniformOptions options;
+  options.debugMode = debugMode_;
+  options.depthBits = options_.depthFormat == VK_FORMAT_D16_UNORM ? 16u : 32u;
+  options.momentAnisotropy = device_.maxSamplerAnisotropy;
+  return options;
+}
+
 CsmUniforms ShadowRenderer::Impl::packFrameUniforms(const CascadeFrame& frame) const {
-  UniformOptions uniformOptions;
-  uniformOptions.debugMode = debugMode_;
-  uniformOptions.depthBits = options_.depthFormat == VK_FORMAT_D16_UNORM ? 16u : 32u;
-  uniformOptions.momentAnisotropy = device_.maxSamplerAnisotropy;
-  return packUniforms(frame, settings_, uniformOptions);
+  return packUniforms(frame, settings_, uniformOptions());
 }
 
 void ShadowRenderer::Impl::recordBegin(VkCommandBuffer cmd, const CascadeFrame& frame) {

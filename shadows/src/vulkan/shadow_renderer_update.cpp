@@ -217,8 +217,9 @@ Status ShadowRenderer::Impl::update(const ShadowSettings& settings,
     pendingClear_ = true;
     // A new image (resolution, count, format, cache) invalidates every cached cascade.
     retireStaticImage();
-    windows_ = {};
-    shown_ = {};
+    cache_ = {};
+    plan_ = {};
+    dynamicDrawn_ = {};
     if (options.cache) installStaticImage(staticImage, staticBytes);
   }
   installThinPipelines(thin, thinPipelines, settings.resolution, options);

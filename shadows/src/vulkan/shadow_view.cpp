@@ -376,24 +376,6 @@ void ShadowView::applyThinMargins() {
   }
 }
 
-// A cascade the cache budget deferred across a change of light still shows the light basis it
-// was rendered with: its (dynamic) casters are culled in that basis.
-void ShadowView::cullDeferred(const CascadeFrame& frame) {
-  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
-    if (frame.cascades[i].empty || !state_->renderer_->impl_->cacheDeferred(i) ||
-        state_->renderer_->impl_->cacheLightBasis(i) == frame.lightBasisWs) {
-      continue;
-    }
-    CascadeFrame old = frame;
-    old.lightBasisWs = state_->renderer_->impl_->cacheLightBasis(i);
-    old.lightDirectionWs = old.lightBasisWs[2];
-    for (std::uint32_t j = 0; j < old.cascadeCount; ++j) old.cascades[j].empty = j != i;
-    CullResult one;
-    cullCasters(state_->casterSet_, old, state_->settings_.minCasterTexels, one);
-    state_->cull_.visible[i] = std::move(one.visible[i]);
-  }
-}
-
 Status ShadowView::setSceneBounds(const AabbWs* boundsWs) {
   if (boundsWs == nullptr) {
     state_->hasSceneBounds_ = false;
@@ -453,9 +435,17 @@ Status ShadowView::compute(const Camera& camera, const DirectionalLight& light) 
   return {};
 }
 
+// One cull of the frame's casters, each cascade in the light basis the cache's plan draws it in
+// (a cascade deferred across a change of light: the basis its layer shows).
 void ShadowView::cullInto(const CascadeFrame& frame) {
-  cullCasters(state_->casterSet_, frame, state_->settings_.minCasterTexels, state_->cull_);
-  cullDeferred(frame);
+  const CachePlan& plan = state_->renderer_->impl_->cachePlan();
+  std::array<glm::dmat3, kMaxCascades> bases;
+  for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
+    const bool planned = i < plan.cascadeCount && plan.cascades[i].active;
+    bases[i] = planned ? plan.cascades[i].basis : frame.lightBasisWs;
+  }
+  cullCasters(state_->casterSet_, frame, state_->settings_.minCasterTexels, state_->cull_,
+              std::span(bases.data(), frame.cascadeCount));
   state_->castersChanged_ = false;
 }
 

@@ -483,10 +483,13 @@ class ShadowRenderer {
   [[nodiscard]] VkBuffer uniformBuffer() const noexcept;
 
   // --- Cached cascades (RendererOptions::cache) -------------------------------------------------
-  /// Fits each non-empty cascade of `frame` into its cached depth window (world-anchored,
-  /// quantised, with hysteresis; a new window when the texel size, the light, the needed depth
-  /// range no longer fits) and rewrites the cascade's depth range and
-  /// viewProjCr to that window's. Call it before culling (ShadowView does); the cached
+  /// Plans the frame's cache (csm::planCacheFrame): fits each non-empty cascade of `frame` into
+  /// its cached depth window (world-anchored, quantised, with hysteresis; a new window when the
+  /// texel size, the light, the needed depth range no longer fits), rewrites the cascade's depth
+  /// range and viewProjCr to that window's, and picks what the budget refreshes (a deferred
+  /// cascade becomes what its layer shows). The next record follows that plan, so call it once
+  /// per frame, before culling (ShadowView does; a cascade deferred across a change of light is
+  /// culled in the basis its layer shows, ShadowView culls it so); the cached
   /// recordShadowPass refuses a frame it was not applied to (uncached, it windows a copy of the
   /// frame itself). No-op unless the cascades are windowed (settings.diagnostics.stabilize,
   /// per-layer).

@@ -245,7 +245,6 @@ class ShadowView {
   ShadowView();
   void adoptCasters(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances);
   void applyThinMargins();
-  void cullDeferred(const CascadeFrame& frame);
   void cullInto(const CascadeFrame& frame);
 
   void dropReceiverDepth() noexcept;
