@@ -2,6 +2,7 @@
 //   build/bin/csm_bench [--benchmark_filter=...]
 #include <benchmark/benchmark.h>
 
+#include <array>
 #include <cmath>
 #include <map>
 #include <random>
@@ -124,19 +125,23 @@ BENCHMARK(BM_CullBruteForce)
     ->ArgName("casters")
     ->Unit(benchmark::kMicrosecond);
 
-// Moving casters at what they cost (issue 26's target: 10^5 static casters with 10^3 of them
-// moved every frame, update + cull in at most 0.3 ms): each frame moves `moved` casters of the
-// world, spread over all of it (vehicles drive everywhere), by a metre along x (they return every
-// 64 frames, so the hierarchy's refitted nodes stay what a steady flow of traffic makes of them),
-// then culls the four cascades.
+// Moving casters at what they cost (target: 10^5 static casters with 10^3 of them moved every
+// frame, update + cull + plan in at most 0.3 ms): each frame moves `moved` casters of the world,
+// spread over all of it (vehicles drive everywhere), by a metre along x (they return every 64
+// frames, so the hierarchy's refitted nodes stay what a steady flow of traffic makes of them),
+// plans the cached frame (csm::planCacheFrame: windows, stale texels, the budget; with `plan` 1)
+// and culls the four cascades once, each in the plan's light basis.
 void BM_MoveCasters(benchmark::State& state) {
   const auto count = static_cast<std::size_t>(state.range(0));
   const auto moved = static_cast<std::uint32_t>(state.range(1));
+  const bool plan = state.range(2) != 0;
   World w = makeWorld(count, 1.0);
   std::vector<csm::AabbWs> home(count);
   for (std::uint32_t i = 0; i < count; ++i) home[i] = w.casters.bounds(i);
   const std::uint32_t stride = static_cast<std::uint32_t>(count) / moved;
   csm::CullResult out;
+  csm::CacheState cache;
+  std::array<glm::dmat3, csm::kMaxCascades> bases;
   std::uint64_t frame = 0;
   for (auto _ : state) {
     const glm::dvec3 d(static_cast<double>(frame++ % 64), 0.0, 0.0);
@@ -144,7 +149,17 @@ void BM_MoveCasters(benchmark::State& state) {
       const std::uint32_t i = k * stride;
       (void)w.casters.setBox(i, home[i].minWs + d, home[i].maxWs + d);
     }
-    csm::cullCasters(w.casters, w.frame, 0.0f, out);
+    if (!plan) {
+      csm::cullCasters(w.casters, w.frame, 0.0f, out);
+      benchmark::DoNotOptimize(out);
+      continue;
+    }
+    csm::CascadeFrame f = w.frame;
+    const csm::CachePlan p =
+        csm::planCacheFrame(f, cache, f.resolution, std::uint64_t(f.resolution) * f.resolution, 1);
+    for (std::uint32_t c = 0; c < f.cascadeCount; ++c) bases[c] = p.cascades[c].basis;
+    csm::cullCasters(w.casters, f, 0.0f, out, std::span(bases.data(), f.cascadeCount));
+    csm::markCacheRecorded(p, cache);
     benchmark::DoNotOptimize(out);
   }
   std::size_t visible = 0;
@@ -153,11 +168,38 @@ void BM_MoveCasters(benchmark::State& state) {
   state.counters["nodes"] = static_cast<double>(out.nodesVisited);
 }
 BENCHMARK(BM_MoveCasters)
-    ->Args({100000, 1000})
-    ->Args({100000, 100})
-    ->Args({1000000, 1000})
-    ->ArgNames({"casters", "moved"})
+    ->Args({100000, 1000, 0})
+    ->Args({100000, 1000, 1})
+    ->Args({100000, 100, 1})
+    ->Args({1000000, 1000, 1})
+    ->ArgNames({"casters", "moved", "plan"})
     ->Unit(benchmark::kMicrosecond);
+
+// The cache's plan of one frame alone (csm::planCacheFrame: 4 cascades of 2048^2, a camera
+// flying 0.43 m a frame, so the boxes move and stale rows and columns are counted), on frames
+// computed beforehand.
+void BM_PlanCacheFrame(benchmark::State& state) {
+  csm::ShadowSettings s;
+  s.cascadeCount = 4;
+  std::vector<csm::CascadeFrame> frames;
+  for (int f = 0; f < 256; ++f) {
+    frames.push_back(
+        csm::computeCascades(s, flyingCamera(f), csm::DirectionalLight{{0.3, -0.8, 0.2}}).value());
+  }
+  csm::CacheState cache;
+  std::size_t k = 0;
+  std::uint64_t stale = 0;
+  for (auto _ : state) {
+    csm::CascadeFrame f = frames[k++ % frames.size()];
+    const csm::CachePlan p = csm::planCacheFrame(f, cache, s.resolution, 0, 1);
+    csm::markCacheRecorded(p, cache);
+    stale += p.cascades[0].staleTexels;
+    benchmark::DoNotOptimize(f);
+  }
+  state.counters["stale_c0"] =
+      benchmark::Counter(static_cast<double>(stale), benchmark::Counter::kAvgIterations);
+}
+BENCHMARK(BM_PlanCacheFrame)->Unit(benchmark::kMicrosecond);
 
 void BM_BuildHierarchy(benchmark::State& state) {
   World w = makeWorld(static_cast<std::size_t>(state.range(0)), 1.0);
