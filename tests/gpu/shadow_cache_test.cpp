@@ -600,6 +600,12 @@ TEST_P(CacheBudget, NearExactFarLagConsistentlyAndConverge) {
       // Capped: cascades beyond the exact one, after their first frame (nothing to show yet).
       if (c > 0 && !shownLayer[c].empty()) capped += stats[c].staticTexels;
       const std::vector<std::uint32_t> layer = layerOf(rig, 0, c);
+      // The renderer's public plan says what it recorded: refreshed or deferred, and the basis
+      // a host culls the cascade in (the old light's for a deferred one).
+      const csm::CachePlan& plan = rig.views_[0].view->renderer().cachePlan();
+      ASSERT_EQ(plan.cascades[c].refreshed, !stats[c].deferred) << where;
+      ASSERT_TRUE(plan.cascades[c].basis == (stats[c].deferred ? shownBasis[c] : fr.lightBasisWs))
+          << where;
       if (!stats[c].deferred) {
         ASSERT_EQ(stats[c].lagFrames, 0u) << where;
         ASSERT_TRUE(layer == layerOf(rig, 1, c)) << where << ": refreshed but not bit-identical";

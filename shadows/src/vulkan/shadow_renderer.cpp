@@ -561,6 +561,9 @@ VkBuffer ShadowRenderer::uniformBuffer() const noexcept {
 void ShadowRenderer::applyCacheWindows(CascadeFrame& frame) {
   impl_->applyCacheWindows(frame);
 }
+const CachePlan& ShadowRenderer::cachePlan() const noexcept {
+  return impl_->cachePlan();
+}
 Status ShadowRenderer::invalidate(const AabbWs& boxWs) {
   return impl_->invalidate(boxWs);
 }

@@ -1,6 +1,6 @@
 // The renderer's state and steps behind csm::vk::ShadowRenderer's public interface (private to
 // the module: shadow_renderer.cpp, shadow_cache.cpp, thin_casters.cpp and shadow_view.cpp, which
-// reads the cache's light bases to cull deferred cascades). The public methods of
+// culls each cascade in the light basis of the cache's plan). The public methods of
 // ShadowRenderer forward here one to one; their documentation is in shadow_renderer.hpp.
 #pragma once
 

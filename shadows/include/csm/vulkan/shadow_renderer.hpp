@@ -37,6 +37,7 @@
 #include <string>
 #include <vector>
 
+#include "csm/cache_plan.hpp"
 #include "csm/cascades.hpp"
 #include "csm/culling.hpp"
 #include "csm/gpu_layout.hpp"
@@ -494,6 +495,12 @@ class ShadowRenderer {
   /// frame itself). No-op unless the cascades are windowed (settings.diagnostics.stabilize,
   /// per-layer).
   void applyCacheWindows(CascadeFrame& frame);
+  /// The plan applyCacheWindows() made for the frame last windowed (empty when the cascades are
+  /// not windowed): per cascade, whether it is refreshed or deferred, its box and wrap offset,
+  /// and the light basis it is drawn in. A host that culls itself culls cascade c in
+  /// cachePlan().cascades[c].basis where that cascade is active (csm::cullCasters' per-cascade
+  /// bases), as ShadowView does.
+  [[nodiscard]] const CachePlan& cachePlan() const noexcept;
   /// Marks the static depth under a world box stale in every cascade (a static caster added,
   /// removed or moved; terrain streamed in): only the texels under it are re-rendered at the
   /// next record. Invalid boxes are refused.
