@@ -568,6 +568,7 @@ TEST_P(CacheBudget, NearExactFarLagConsistentlyAndConverge) {
   std::array<glm::dmat3, kCascades> shownBasis{};
   std::array<std::vector<std::uint32_t>, kCascades> shownLayer;
   std::uint64_t deferredFrames = 0;
+  std::uint64_t oldBasisFrames = 0;  // cascade-frames deferred across a change of light
   std::uint32_t maxLag = 0;
   int convergedAt = -1;
   for (int f = 0; f < moving + still; ++f) {
@@ -591,6 +592,27 @@ TEST_P(CacheBudget, NearExactFarLagConsistentlyAndConverge) {
     const auto& stats = rig.views_[0].view->renderer().cacheStats();
     const csm::CascadeFrame& fr = rig.views_[0].view->frame();
     const csm::CascadeFrame& ref = rig.views_[1].view->frame();
+    // The view culled each cascade once, in the basis the plan draws it in: its lists are a
+    // cull of the same casters with the plan's bases (a deferred cascade across a change of
+    // light: the old light's).
+    {
+      csm::CasterSet set;
+      for (const csm::AabbWs& b : rig.bounds_) ASSERT_TRUE(set.addBox(b.minWs, b.maxWs).ok());
+      set.build();
+      const csm::CachePlan& plan = rig.views_[0].view->renderer().cachePlan();
+      std::array<glm::dmat3, kCascades> bases;
+      for (std::uint32_t c = 0; c < kCascades; ++c) {
+        bases[c] = plan.cascades[c].active ? plan.cascades[c].basis : fr.lightBasisWs;
+        if (plan.cascades[c].active && !(bases[c] == fr.lightBasisWs)) ++oldBasisFrames;
+      }
+      csm::CullResult expected;
+      csm::cullCasters(set, fr, csm::ShadowSettings{}.minCasterTexels, expected,
+                       std::span(bases.data(), fr.cascadeCount));
+      for (std::uint32_t c = 0; c < fr.cascadeCount; ++c) {
+        ASSERT_EQ(rig.views_[0].view->cull().visible[c], expected.visible[c])
+            << path << " frame " << f << " cascade " << c << ": not culled in the plan's basis";
+      }
+    }
     std::uint64_t capped = 0;
     bool allExact = true;
     for (std::uint32_t c = 0; c < kCascades; ++c) {
@@ -640,10 +662,14 @@ TEST_P(CacheBudget, NearExactFarLagConsistentlyAndConverge) {
     }
   }
   std::printf(
-      "[cache budget] %s: %llu cascade-frames deferred, largest lag %u frames, exact "
-      "%d frames after the camera stopped\n",
-      path.c_str(), static_cast<unsigned long long>(deferredFrames), maxLag, convergedAt);
+      "[cache budget] %s: %llu cascade-frames deferred (%llu across a change of light), largest "
+      "lag %u frames, exact %d frames after the camera stopped\n",
+      path.c_str(), static_cast<unsigned long long>(deferredFrames),
+      static_cast<unsigned long long>(oldBasisFrames), maxLag, convergedAt);
   EXPECT_GT(deferredFrames, 0u) << "the budget never deferred anything: the test tests nothing";
+  if (path == "sun") {
+    EXPECT_GT(oldBasisFrames, 0u) << "no cascade deferred across a change of light";
+  }
   ASSERT_GE(convergedAt, 0) << "never converged after the camera stopped";
   EXPECT_LE(convergedAt, int(kCascades) - 1) << "one frame per lagging cascade at most";
   EXPECT_EQ(engine::validationMessageCount(), 0u);
