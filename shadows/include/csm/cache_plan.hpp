@@ -73,9 +73,8 @@ struct CacheLayerState : CacheWindowPlacement {
 /// it was drawn with). A cascade deferred by the budget keeps showing it.
 struct CacheShownState {
   bool valid = false;
-  bool deferred = false;        // deferred this frame
   std::uint32_t lagFrames = 0;  // frames since its last refresh
-  CacheLayerState window;       // anchor, texel, depth window (pending unused)
+  CacheWindowPlacement window;  // anchor, texel, depth window
   Cascade cascade;
   glm::dmat3 basis{1.0};
 };
@@ -90,10 +89,10 @@ struct CacheState {
 
 /// One cascade's part of a frame's cache plan.
 struct CacheCascadePlan {
-  bool active = false;          // non-empty this frame
-  bool newWindow = false;       // a new window opened this frame (its static layer starts empty)
-  bool covered = false;         // what the layer showed before covers this frame's slice
-  bool refreshed = false;       // drawn this frame; else deferred: it shows its last refresh
+  bool active = false;     // non-empty this frame
+  bool newWindow = false;  // its static layer holds nothing (a new window, or invalidated whole)
+  bool covered = false;    // what the layer showed before covers this frame's slice
+  bool refreshed = false;  // drawn this frame; else deferred: it shows its last refresh
   std::uint32_t lagFrames = 0;  // frames since the refresh it shows (0 when refreshed)
   /// The light basis of what the layer shows (the frame's unless deferred across a change of
   /// light): the cascade is drawn, culled and addressed in it.

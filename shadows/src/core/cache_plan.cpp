@@ -151,14 +151,11 @@ CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t r
     p.refreshed = ((plan.refreshedMask >> i) & 1u) != 0;
     if (p.refreshed) {
       sh.valid = true;
-      sh.deferred = false;
       sh.lagFrames = 0;
       sh.window = state.layers[i];
-      sh.window.pending.clear();
       sh.cascade = c;
       sh.basis = basis;
     } else {
-      sh.deferred = true;
       ++sh.lagFrames;
       c = sh.cascade;
       c.viewProjCr = cameraRelativeViewProj(sh.basis, frame.cameraPositionWs, c);
