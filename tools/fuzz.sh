@@ -21,43 +21,87 @@ headers=(sample_world/src/*.hpp sample_world/include/sample_world/*.hpp shadows/
          engine/include/engine/*.hpp
          tools/fuzz.sh)
 mkdir -p "$out/obj"
-object() {  # source [defines...] -> prints the object's path; rebuilt when anything is newer
-  local src=$1
+# Compiles and fuzzer runs go nproc at a time (each is single-threaded); a batch is waited for
+# pid by pid, so that every failure is seen.
+parallel=$(nproc)
+pids=()
+wait_batch() {
+  local p
+  for p in "${pids[@]}"; do wait "$p"; done  # set -e: a failed compile stops the script
+  pids=()
+}
+object() {  # source [defines...] -> prints the object's path; compiled (in the background) when
+  local src=$1  # anything is newer
   shift
   local obj="$out/obj/$(echo "$src $*" | tr -c 'A-Za-z0-9_.\n' '_').o"
   local newest
   newest=$(ls -t "$src" "${headers[@]}" | head -n1)
   if [[ ! -f $obj || $newest -nt $obj ]]; then
+    if (( ${#pids[@]} >= parallel )); then wait_batch >&2; fi
     echo "fuzz.sh: compiling $src $*" >&2
-    "$cxx" "${flags[@]}" -fsanitize=fuzzer-no-link "$@" -c "$src" -o "$obj"
+    "$cxx" "${flags[@]}" -fsanitize=fuzzer-no-link "$@" -c "$src" -o "$obj" &
+    pids+=("$!")
   fi
-  echo "$obj"
+  objects+=("$obj")
 }
 link() {  # name objects...
   local name=$1
   shift
   "$cxx" "${flags[@]}" -fsanitize=fuzzer "$@" -o "$out/fuzz_$name" -lOpenMeshCore -lOpenMeshTools
 }
-mesh_objs=("$(object sample_world/src/mesh_parse.cpp)" "$(object sample_world/src/mesh_ops.cpp)")
+objects=()
+object sample_world/src/mesh_parse.cpp
+object sample_world/src/mesh_ops.cpp
+mesh_objs=("${objects[@]}")
+harness_objs=()
 for f in obj ply off; do
-  link "$f" "$(object tests/fuzz/fuzz_mesh.cpp -DCSM_FUZZ_FORMAT=\"$f\")" "${mesh_objs[@]}"
+  objects=()
+  object tests/fuzz/fuzz_mesh.cpp -DCSM_FUZZ_FORMAT=\"$f\"
+  harness_objs+=("${objects[0]}")
 done
-config_objs=("$(object tests/fuzz/fuzz_config.cpp)" "$(object sample_world/src/settings.cpp)")
-for c in shadows/src/core/*.cpp; do config_objs+=("$(object "$c")"); done
-link config "${config_objs[@]}"
+objects=()
+object tests/fuzz/fuzz_config.cpp
+object sample_world/src/settings.cpp
+for c in shadows/src/core/*.cpp; do object "$c"; done
+config_objs=("${objects[@]}")
+wait_batch
+k=0
+for f in obj ply off; do
+  link "$f" "${harness_objs[$k]}" "${mesh_objs[@]}" &
+  pids+=("$!")
+  k=$((k + 1))
+done
+link config "${config_objs[@]}" &
+pids+=("$!")
+wait_batch
 
 status=0
-for f in obj ply off config; do
+run() {  # name: one harness for the budget; its output in $out/log_NAME.txt
+  local f=$1
   mkdir -p "$out/corpus_$f" "$out/findings_$f"
-  echo "fuzz.sh: running $f (${budget[*]})"
   # -rss_limit_mb: 2 GB (the battery's bound); -timeout: 10 s for one input.
-  if ! "$out/fuzz_$f" "$out/corpus_$f" "tests/fuzz/corpus/$f" "${budget[@]}" -rss_limit_mb=2048 \
-      -timeout=10 -max_len=65536 -artifact_prefix="$out/findings_$f/" -print_final_stats=1 \
-      >"$out/log_$f.txt" 2>&1; then
+  "$out/fuzz_$f" "$out/corpus_$f" "tests/fuzz/corpus/$f" "${budget[@]}" -rss_limit_mb=2048 \
+    -timeout=10 -max_len=65536 -artifact_prefix="$out/findings_$f/" -print_final_stats=1 \
+    >"$out/log_$f.txt" 2>&1
+}
+report() {  # name pid: waits for the harness and says what it found
+  local f=$1
+  if ! wait "$2"; then
     echo "fuzz.sh: $f FOUND SOMETHING: see $out/log_$f.txt and $out/findings_$f/"
     tail -n 40 "$out/log_$f.txt"
     status=1
   fi
   grep -E "stat::number_of_executed_units|stat::peak_rss_mb" "$out/log_$f.txt" | sed "s/^/  $f /"
+}
+names=(obj ply off config)
+for ((i = 0; i < ${#names[@]}; i += parallel)); do
+  batch=("${names[@]:i:parallel}")
+  running=()
+  for f in "${batch[@]}"; do
+    echo "fuzz.sh: running $f (${budget[*]})"
+    run "$f" &
+    running+=("$!")
+  done
+  for j in "${!batch[@]}"; do report "${batch[$j]}" "${running[$j]}"; done
 done
 exit $status
