@@ -30,7 +30,18 @@ add_custom_command(OUTPUT ${_csm_moments_hdr}
           ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
           ${CSM_SHARED_INCLUDE_DIR}/csm/gpu_shared.h
   COMMENT "glslang csm_moments.comp" VERBATIM)
-add_custom_target(csm_depth_range_shader DEPENDS ${_csm_range_hdr} ${_csm_moments_hdr})
+# The same resolve writing RG32F (vsm's two moments, where the device stores that format).
+set(_csm_moments_rg_hdr ${CSM_SHADER_OUT}/csm_shaders/csm_moments_rg.comp.spv.h)
+add_custom_command(OUTPUT ${_csm_moments_rg_hdr}
+  COMMAND ${GLSLANG_VALIDATOR} --quiet --target-env vulkan1.2 -DCSM_MOMENTS_RG
+          -I${CSM_MODULE_SHADER_DIR} -I${CSM_SHARED_INCLUDE_DIR} --vn csm_moments_rg_comp_spv
+          -o ${_csm_moments_rg_hdr} ${CSM_MODULE_SHADER_DIR}/csm_moments.comp
+  DEPENDS ${CSM_MODULE_SHADER_DIR}/csm_moments.comp ${CSM_MODULE_SHADER_DIR}/csm.glsl
+          ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
+          ${CSM_SHARED_INCLUDE_DIR}/csm/gpu_shared.h
+  COMMENT "glslang csm_moments.comp (RG32F)" VERBATIM)
+add_custom_target(csm_depth_range_shader
+  DEPENDS ${_csm_range_hdr} ${_csm_moments_hdr} ${_csm_moments_rg_hdr})
 
 add_library(csm_vulkan STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer.cpp

@@ -309,12 +309,15 @@ void Context::createDevice(const ContextDesc& desc) {
   enabled.features.fillModeNonSolid = supported.features.fillModeNonSolid;
   enabled.features.samplerAnisotropy = supported.features.samplerAnisotropy;
   enabled.features.geometryShader = supported.features.geometryShader;
+  enabled.features.shaderStorageImageExtendedFormats =
+      supported.features.shaderStorageImageExtendedFormats;
 
   features_.depthClamp = enabled.features.depthClamp;
   features_.depthBiasClamp = enabled.features.depthBiasClamp;
   features_.fillModeNonSolid = enabled.features.fillModeNonSolid;
   features_.samplerAnisotropy = enabled.features.samplerAnisotropy;
   features_.geometryShader = enabled.features.geometryShader;
+  features_.shaderStorageImageExtendedFormats = enabled.features.shaderStorageImageExtendedFormats;
   features_.multiview = e11.multiview;
   features_.shaderOutputLayer = e12.shaderOutputLayer;
   features_.timestamps = timestampValidBits_ > 0;

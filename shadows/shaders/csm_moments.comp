@@ -21,8 +21,16 @@
 layout(local_size_x = CSM_MOMENT_GROUP_X, local_size_y = CSM_MOMENT_GROUP_Y) in;
 
 layout(set = 0, binding = 1) uniform sampler2DArray depthMap;
+// The moment image's format: RGBA32F, or RG32F for vsm's two moments (compiled with
+// CSM_MOMENTS_RG; needs shaderStorageImageExtendedFormats). Loads of RG32F read (r, g, 0, 1) and
+// stores keep r, g: the same bits in those channels as the RGBA32F image's.
+#ifdef CSM_MOMENTS_RG
+layout(set = 0, binding = 2, rg32f) uniform readonly image2DArray mipSource;  // pass 2
+layout(set = 0, binding = 3, rg32f) uniform writeonly image2DArray momentsOut;
+#else
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2DArray mipSource;  // pass 2
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2DArray momentsOut;
+#endif
 
 layout(push_constant) uniform Push {
   uint pass;    // 0: depth -> moments, blurred along x and y into level 0; 2: a mip level

@@ -100,19 +100,20 @@ class WorldRig {
                                            engine::MemoryUsage::Readback, "cache world readback");
       if (csm::isPrefiltered(settings.shadow.kernel)) {
         side.moments = std::make_unique<engine::Buffer>(
-            *ctx_, momentBytes(), VK_BUFFER_USAGE_TRANSFER_DST_BIT, engine::MemoryUsage::Readback,
-            "cache world moment readback");
+            *ctx_, side.renderer->shadowRenderer().momentBytes(), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+            engine::MemoryUsage::Readback, "cache world moment readback");
       }
     }
   }
 
-  /// Bytes of every level of every moment layer (RGBA32F), level after level.
-  VkDeviceSize momentBytes() const {
-    VkDeviceSize bytes = 0;
-    for (std::uint32_t side = kResolution; side >= 1; side /= 2) {
-      bytes += VkDeviceSize(side) * side * 16 * settings_.shadow.cascadeCount;
-    }
-    return bytes;
+  /// Bytes of every level of every moment layer, level after level (both sides' format: RG32F
+  /// for vsm on a device with extended storage formats, else RGBA32F).
+  VkDeviceSize momentBytes() const { return sides_[0].renderer->shadowRenderer().momentBytes(); }
+
+  /// Bytes of a moment texel.
+  std::uint32_t momentTexelBytes() const {
+    return sides_[0].renderer->shadowRenderer().momentFormat() == VK_FORMAT_R32G32_SFLOAT ? 8u
+                                                                                          : 16u;
   }
 
   ~WorldRig() {
@@ -239,7 +240,7 @@ class WorldRig {
       region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, level, 0, layers};
       region.imageExtent = {side, side, 1};
       regions.push_back(region);
-      offset += VkDeviceSize(side) * side * 16 * layers;
+      offset += VkDeviceSize(side) * side * momentTexelBytes() * layers;
     }
     readImage(r.momentImage(), {VK_IMAGE_ASPECT_COLOR_BIT, 0, levels, 0, layers}, regions,
               *side.moments);

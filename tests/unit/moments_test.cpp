@@ -218,10 +218,20 @@ TEST(Moments, BlurRadiusAndMemory) {
   ShadowSettings s;
   s.resolution = 256;
   s.cascadeCount = 2;
-  EXPECT_EQ(momentImageBytes(s), 0u);  // a percentage-closer kernel keeps no moments
-  s.kernel = PcfKernel::kMsm;
-  // 2 layers x 87,381 texels (256^2 + 128^2 + ... + 1) x 16 bytes, and no blur scratch.
-  EXPECT_EQ(momentImageBytes(s), 2796192u);
+  for (bool two : {false, true}) {
+    EXPECT_EQ(momentImageBytes(s, two), 0u);  // a percentage-closer kernel keeps no moments
+    EXPECT_EQ(momentTexelBytes(s.kernel, two), 0u);
+  }
+  // 2 layers x 87,381 texels (256^2 + 128^2 + ... + 1) x 16 bytes, and no blur scratch; vsm's
+  // two moments in two channels where the device stores them so: 8 bytes.
+  for (PcfKernel k : {PcfKernel::kMsm, PcfKernel::kEvsm, PcfKernel::kVsm}) {
+    s.kernel = k;
+    EXPECT_EQ(momentImageBytes(s, false), 2796192u) << kernelName(k);
+    EXPECT_EQ(momentImageBytes(s, true), k == PcfKernel::kVsm ? 1398096u : 2796192u)
+        << kernelName(k);
+  }
+  s.cascadeCount = 0;
+  EXPECT_EQ(momentImageBytes(s, true), 0u);
 }
 
 TEST(Moments, SettingsOutOfRangeAreRefusedByName) {

@@ -34,11 +34,13 @@ struct DeviceFeatures {
   bool depthBiasClamp = false;
   bool fillModeNonSolid = false;
   bool samplerAnisotropy = false;
-  bool multiview = false;          ///< VkPhysicalDeviceVulkan11Features::multiview
-  bool shaderOutputLayer = false;  ///< VkPhysicalDeviceVulkan12Features::shaderOutputLayer
-  bool timestamps = false;         ///< the queue has timestampValidBits > 0
-  bool geometryShader = false;     ///< VkPhysicalDeviceFeatures::geometryShader
+  bool multiview = false;                  ///< VkPhysicalDeviceVulkan11Features::multiview
+  bool shaderOutputLayer = false;          ///< VkPhysicalDeviceVulkan12Features::shaderOutputLayer
+  bool timestamps = false;                 ///< the queue has timestampValidBits > 0
+  bool geometryShader = false;             ///< VkPhysicalDeviceFeatures::geometryShader
   bool conservativeRasterization = false;  ///< VK_EXT_conservative_rasterization enabled
+  /// VkPhysicalDeviceFeatures::shaderStorageImageExtendedFormats (storage images such as RG32F)
+  bool shaderStorageImageExtendedFormats = false;
 };
 
 /// Owns the Vulkan instance and device. Throws NoDeviceError when there is no loader, no driver

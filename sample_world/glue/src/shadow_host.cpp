@@ -25,6 +25,7 @@ csm::vk::DeviceInfo shadowDeviceInfo(const engine::Context& ctx,
   info.geometryShaderEnabled = ctx.features().geometryShader;
   info.conservativeRasterizationEnabled = ctx.features().conservativeRasterization;
   info.debugUtilsEnabled = ctx.debugUtilsEnabled();
+  info.storageImageExtendedFormatsEnabled = ctx.features().shaderStorageImageExtendedFormats;
   info.maxSamplerAnisotropy =
       ctx.features().samplerAnisotropy
           ? std::clamp(momentAnisotropy.value_or(defaultMomentAnisotropy(ctx)), 1.0f,

@@ -86,8 +86,15 @@ namespace csm {
 /// at most CSM_MOMENT_MAX_BLUR_TEXELS. 0 when either is not positive.
 [[nodiscard]] float momentBlurRadiusTexels(double momentBlurM, double texelM) noexcept;
 
+/// Bytes a texel of the moment image takes for `kernel`: 8 for vsm where the device stores two
+/// 32-bit channels (`twoChannels`: csm::vk::DeviceInfo::storageImageExtendedFormatsEnabled and
+/// the format's support), else 16 (evsm and msm keep four moments); 0 for a percentage-closer
+/// kernel.
+[[nodiscard]] std::uint32_t momentTexelBytes(PcfKernel kernel, bool twoChannels) noexcept;
+
 /// Device memory of the moment images for `settings` (0 when the kernel is not prefiltered):
-/// the mip-mapped RGBA32F moment array.
-[[nodiscard]] std::uint64_t momentImageBytes(const ShadowSettings& settings) noexcept;
+/// the mip-mapped moment array, momentTexelBytes(settings.kernel, twoChannels) a texel.
+[[nodiscard]] std::uint64_t momentImageBytes(const ShadowSettings& settings,
+                                             bool twoChannels) noexcept;
 
 }  // namespace csm

@@ -149,14 +149,19 @@ float momentBlurRadiusTexels(double momentBlurM, double texelM) noexcept {
   return static_cast<float>(std::min(r, double(CSM_MOMENT_MAX_BLUR_TEXELS)));
 }
 
-std::uint64_t momentImageBytes(const ShadowSettings& settings) noexcept {
-  if (!isPrefiltered(settings.kernel)) return 0;
-  if (settings.cascadeCount == 0) return 0;
+std::uint32_t momentTexelBytes(PcfKernel kernel, bool twoChannels) noexcept {
+  if (!isPrefiltered(kernel)) return 0;
+  return kernel == PcfKernel::kVsm && twoChannels ? 8u : 16u;
+}
+
+std::uint64_t momentImageBytes(const ShadowSettings& settings, bool twoChannels) noexcept {
+  const std::uint64_t texel = momentTexelBytes(settings.kernel, twoChannels);
+  if (texel == 0 || settings.cascadeCount == 0) return 0;
   // The moments with their mips (the blur needs no image of its own: csm_moments.comp keeps a
   // workgroup's tile in shared memory).
   std::uint64_t bytes = 0;
   for (std::uint64_t side = settings.resolution; side >= 1; side /= 2) {
-    bytes += side * side * settings.cascadeCount * 16u;
+    bytes += side * side * settings.cascadeCount * texel;
   }
   return bytes;
 }

@@ -1,10 +1,10 @@
 // The prefiltered filters' moment image (ShadowSettings::kernel vsm, evsm or msm): a mip-mapped
-// RGBA32F 2D array beside the depth array, one layer per cascade, and its resolve after every
-// shadow pass: csm_moments.comp turns depths into moments and blurs them separably into level 0
-// (one dispatch per layer: each workgroup blurs its tile along x in shared memory, then along y),
-// then a second pass builds the mips (2x2 means). The lighting set binds it at
-// CSM_BINDING_MOMENTS through a trilinear sampler (clamped, or REPEAT for cached cascades, whose
-// layers are addressed toroidally like the depth layers).
+// RGBA32F 2D array (RG32F for vsm where the device stores it) beside the depth array, one layer per
+// cascade, and its resolve after every shadow pass: csm_moments.comp turns depths into moments and
+// blurs them separably into level 0 (one dispatch per layer: each workgroup blurs its tile along x
+// in shared memory, then along y), then a second pass builds the mips (2x2 means). The lighting set
+// binds it at CSM_BINDING_MOMENTS through a trilinear sampler (clamped, or REPEAT for cached
+// cascades, whose layers are addressed toroidally like the depth layers).
 //
 // After a cached pass the resolve is partial: only the tiles (kMomentTile texels square) that
 // the rectangles the pass changed touch, widened by the blur, are converted, blurred and
@@ -17,6 +17,7 @@
 #include <string>
 
 #include <csm_shaders/csm_moments.comp.spv.h>
+#include <csm_shaders/csm_moments_rg.comp.spv.h>
 
 #include "csm/cache_rects.hpp"
 #include "csm/moments.hpp"
@@ -27,7 +28,11 @@ namespace csm::vk {
 
 namespace {
 
-constexpr VkFormat kMomentFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+// What the moment image needs of its format: sampled with linear filtering, and stored by the
+// resolve.
+constexpr VkFormatFeatureFlags kMomentFeatures = VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
+                                                 VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT |
+                                                 VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT;
 
 struct MomentPush {
   std::uint32_t pass = 0;
@@ -162,11 +167,14 @@ Status ShadowRenderer::Impl::createMomentResources() {
     setName(handleBits(momentPipelineLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT,
             "csm moment pipeline layout");
   }
-  {
+  // The resolve writes RGBA32F; a second build of it writes RG32F (vsm's two moments), which
+  // needs shaderStorageImageExtendedFormats.
+  auto pipeline = [&](std::span<const std::uint32_t> code, VkPipeline* out,
+                      const char* name) -> Status {
     VkShaderModule module = VK_NULL_HANDLE;
     auto mi = vkInit<VkShaderModuleCreateInfo>(VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO);
-    mi.codeSize = sizeof(csm_moments_comp_spv);
-    mi.pCode = csm_moments_comp_spv;
+    mi.codeSize = code.size_bytes();
+    mi.pCode = code.data();
     CSM_VK_TRY(vkCreateShaderModule(dev, &mi, nullptr, &module));
     auto ci = vkInit<VkComputePipelineCreateInfo>(VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO);
     ci.stage = vkInit<VkPipelineShaderStageCreateInfo>(
@@ -175,12 +183,17 @@ Status ShadowRenderer::Impl::createMomentResources() {
     ci.stage.module = module;
     ci.stage.pName = "main";
     ci.layout = momentPipelineLayout_;
-    const VkResult r =
-        vkCreateComputePipelines(dev, device_.pipelineCache, 1, &ci, nullptr, &momentPipeline_);
+    const VkResult r = vkCreateComputePipelines(dev, device_.pipelineCache, 1, &ci, nullptr, out);
     vkDestroyShaderModule(dev, module, nullptr);
     if (r != VK_SUCCESS) return vkError(r, "vkCreateComputePipelines(csm moments)");
-    setName(handleBits(momentPipeline_), VK_OBJECT_TYPE_PIPELINE, "csm moment resolve");
+    setName(handleBits(*out), VK_OBJECT_TYPE_PIPELINE, name);
+    return {};
+  };
+  Status ps = pipeline(csm_moments_comp_spv, &momentPipeline_, "csm moment resolve");
+  if (ps.ok() && device_.storageImageExtendedFormatsEnabled) {
+    ps = pipeline(csm_moments_rg_comp_spv, &momentPipelineRg_, "csm moment resolve (RG32F)");
   }
+  if (!ps.ok()) return ps;
   {
     auto ci = vkInit<VkSamplerCreateInfo>(VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO);
     ci.magFilter = VK_FILTER_LINEAR;
@@ -206,9 +219,24 @@ Status ShadowRenderer::Impl::createMomentResources() {
   return {};
 }
 
+// RG32F for vsm (two moments) where the host enabled shaderStorageImageExtendedFormats and the
+// device samples, filters and stores the format; else RGBA32F (buildMomentImages checks it).
+VkFormat ShadowRenderer::Impl::momentFormatFor(PcfKernel kernel) const {
+  if (kernel == PcfKernel::kVsm && momentPipelineRg_ != VK_NULL_HANDLE) {
+    VkFormatProperties fp{};
+    vkGetPhysicalDeviceFormatProperties(device_.physicalDevice, VK_FORMAT_R32G32_SFLOAT, &fp);
+    if ((fp.optimalTilingFeatures & kMomentFeatures) == kMomentFeatures) {
+      return VK_FORMAT_R32G32_SFLOAT;
+    }
+  }
+  return VK_FORMAT_R32G32B32A32_SFLOAT;
+}
+
 void ShadowRenderer::Impl::destroyMomentResources() noexcept {
   VkDevice dev = device_.device;
   vkDestroyPipeline(dev, momentPipeline_, nullptr);
+  vkDestroyPipeline(dev, momentPipelineRg_, nullptr);
+  momentPipelineRg_ = VK_NULL_HANDLE;
   vkDestroyPipelineLayout(dev, momentPipelineLayout_, nullptr);
   vkDestroyDescriptorSetLayout(dev, momentSetLayout_, nullptr);
   vkDestroySampler(dev, momentSampler_, nullptr);
@@ -234,21 +262,20 @@ void ShadowRenderer::Impl::destroyMomentImages(MomentImages& m) noexcept {
 Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
                                                VkDescriptorPool pool, MomentImages& out) {
   VkDevice dev = device_.device;
+  const VkFormat format = momentFormatFor(settings.kernel);
   VkFormatProperties fp{};
-  vkGetPhysicalDeviceFormatProperties(device_.physicalDevice, kMomentFormat, &fp);
-  const VkFormatFeatureFlags need = VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
-                                    VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT |
-                                    VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT;
-  if ((fp.optimalTilingFeatures & need) != need) {
-    return Status(
-        ErrorCode::kUnsupportedFormat,
-        fmt("settings.kernel = %s needs VK_FORMAT_R32G32B32A32_SFLOAT with linear "
-            "filtering and storage (features 0x%x of 0x%x): allowed a "
-            "percentage-closer kernel on this device",
-            kernelName(settings.kernel), unsigned(fp.optimalTilingFeatures), unsigned(need)));
+  vkGetPhysicalDeviceFormatProperties(device_.physicalDevice, format, &fp);
+  if ((fp.optimalTilingFeatures & kMomentFeatures) != kMomentFeatures) {
+    return Status(ErrorCode::kUnsupportedFormat,
+                  fmt("settings.kernel = %s needs VK_FORMAT_R32G32B32A32_SFLOAT with linear "
+                      "filtering and storage (features 0x%x of 0x%x): allowed a "
+                      "percentage-closer kernel on this device",
+                      kernelName(settings.kernel), unsigned(fp.optimalTilingFeatures),
+                      unsigned(kMomentFeatures)));
   }
   MomentImages m;
   m.kernel = settings.kernel;
+  m.format = format;
   m.levels = static_cast<std::uint32_t>(std::bit_width(settings.resolution));
   auto fail = [&](Status st) {
     destroyMomentImages(m);
@@ -256,7 +283,7 @@ Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
   };
   auto ci = vkInit<VkImageCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO);
   ci.imageType = VK_IMAGE_TYPE_2D;
-  ci.format = kMomentFormat;
+  ci.format = format;
   ci.extent = {settings.resolution, settings.resolution, 1};
   ci.mipLevels = m.levels;
   ci.arrayLayers = settings.cascadeCount;
@@ -278,7 +305,7 @@ Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
 
   auto vi = vkInit<VkImageViewCreateInfo>(VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO);
   vi.viewType = VK_IMAGE_VIEW_TYPE_2D_ARRAY;
-  vi.format = kMomentFormat;
+  vi.format = format;
   vi.image = m.image;
   vi.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, m.levels, 0, settings.cascadeCount};
   r = vkCreateImageView(dev, &vi, nullptr, &m.sampledView);
@@ -441,7 +468,10 @@ void ShadowRenderer::Impl::recordMomentDispatches(VkCommandBuffer cmd, const Mom
   const std::uint32_t layers = layerCount_;
   const std::int32_t res = static_cast<std::int32_t>(resolution_);
   const LayerRects all(1, {0, 0, res, res});
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentPipeline_);
+  // The mips (recordMomentMips) run on the same pipeline.
+  vkCmdBindPipeline(
+      cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
+      moments_.format == VK_FORMAT_R32G32_SFLOAT ? momentPipelineRg_ : momentPipeline_);
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentPipelineLayout_, 0, 1,
                           &moments_.set, 0, nullptr);
   MomentPush push;

@@ -3,6 +3,7 @@
 // shadow_renderer_update.cpp, the pass in shadow_renderer_pass.cpp, the cache's steps in
 // shadow_cache.cpp, the thin casters' in thin_casters.cpp.
 #include "csm/vulkan/shadow_renderer.hpp"
+#include "csm/moments.hpp"
 #include "csm/thin_casters.hpp"
 
 #include <algorithm>
@@ -195,6 +196,15 @@ Status ShadowRenderer::Impl::init(const DeviceInfo& device, const VertexLayout& 
                   fmt("DeviceInfo::maxSamplerAnisotropy = %g is invalid: allowed [1, %g] (the "
                       "device's maxSamplerAnisotropy; above 1 with samplerAnisotropy enabled)",
                       double(device.maxSamplerAnisotropy), double(std::max(1.0f, maxAnisotropy))));
+  }
+  if (device.storageImageExtendedFormatsEnabled) {
+    VkPhysicalDeviceFeatures features{};
+    vkGetPhysicalDeviceFeatures(device.physicalDevice, &features);
+    if (features.shaderStorageImageExtendedFormats != VK_TRUE) {
+      return Status(ErrorCode::kInvalidArgument,
+                    "DeviceInfo::storageImageExtendedFormatsEnabled = true is invalid: the device "
+                    "does not support shaderStorageImageExtendedFormats (allowed: false)");
+    }
   }
   loadDebugUtils();
   s = createSetLayouts();
@@ -584,6 +594,13 @@ VkImage ShadowRenderer::momentImage() const noexcept {
 }
 std::uint32_t ShadowRenderer::momentLevels() const noexcept {
   return impl_->moments_.levels;
+}
+VkFormat ShadowRenderer::momentFormat() const noexcept {
+  return impl_->moments_.format;
+}
+VkDeviceSize ShadowRenderer::momentBytes() const noexcept {
+  if (impl_->moments_.image == VK_NULL_HANDLE) return 0;
+  return momentImageBytes(impl_->settings_, impl_->moments_.format == VK_FORMAT_R32G32_SFLOAT);
 }
 VkDescriptorSetLayout ShadowRenderer::lightingSetLayout() const noexcept {
   return impl_->lightingSetLayout();

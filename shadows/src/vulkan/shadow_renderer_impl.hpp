@@ -234,7 +234,7 @@ class ShadowRenderer::Impl {
   // all null with a percentage-closer kernel.
   static constexpr std::uint32_t kMaxMomentLevels = 15;  // bit_width(kMaxResolution)
   struct MomentImages {
-    VkImage image = VK_NULL_HANDLE;  // RGBA32F, mip-mapped, one layer per cascade
+    VkImage image = VK_NULL_HANDLE;  // `format`, mip-mapped, one layer per cascade
     VkDeviceMemory memory = VK_NULL_HANDLE;
     VkImageView sampledView = VK_NULL_HANDLE;  // every level (the lighting set)
     VkImageView storageView = VK_NULL_HANDLE;  // level 0 (the resolve writes it)
@@ -245,6 +245,8 @@ class ShadowRenderer::Impl {
     std::array<VkDescriptorSet, kMaxMomentLevels> mipSets{};
     std::uint32_t levels = 0;
     PcfKernel kernel = PcfKernel::kTent3;
+    // RG32F (vsm where the device stores it) or RGBA32F; the resolve's pipeline follows it.
+    VkFormat format = VK_FORMAT_UNDEFINED;
     // What the last resolve recorded into this image was computed with: a partial resolve
     // (recordMomentResolve after a cached pass) is exact only where nothing else changed.
     bool resolved = false;
@@ -275,7 +277,9 @@ class ShadowRenderer::Impl {
   MomentImages moments_{};
   VkDescriptorSetLayout momentSetLayout_ = VK_NULL_HANDLE;
   VkPipelineLayout momentPipelineLayout_ = VK_NULL_HANDLE;
-  VkPipeline momentPipeline_ = VK_NULL_HANDLE;
+  VkPipeline momentPipeline_ = VK_NULL_HANDLE;    // writes RGBA32F
+  VkPipeline momentPipelineRg_ = VK_NULL_HANDLE;  // writes RG32F (extended formats enabled)
+  [[nodiscard]] VkFormat momentFormatFor(PcfKernel kernel) const;
   VkSampler momentSampler_ = VK_NULL_HANDLE;
   VkSampler wrapMomentSampler_ = VK_NULL_HANDLE;
 

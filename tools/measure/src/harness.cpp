@@ -171,7 +171,7 @@ uint64_t Harness::shadowMapBytes() const {
   const csm::ShadowSettings& settings = view_->settings();
   return uint64_t(settings.resolution) * settings.resolution * settings.cascadeCount *
              engine::bytesPerTexel(view_->renderer().depthFormat()) +
-         csm::momentImageBytes(settings);
+         view_->renderer().momentBytes();
 }
 
 csm::CascadeFrame Harness::computeFrame(const csm::Camera& camera,

@@ -22,7 +22,8 @@ inline constexpr float kMomentAnisotropy = 8.0f;
 [[nodiscard]] float defaultMomentAnisotropy(const engine::Context& ctx);
 
 /// The module's view of an engine context: its device, queue family and the features it
-/// enabled (depth clamp, shaderOutputLayer, debug utils, sampler anisotropy: the moment
+/// enabled (depth clamp, shaderOutputLayer, debug utils, extended storage formats, sampler
+/// anisotropy: the moment
 /// sampler's maxSamplerAnisotropy is `momentAnisotropy` (else defaultMomentAnisotropy) capped by
 /// the device's limit, 1 where the feature is off).
 [[nodiscard]] csm::vk::DeviceInfo shadowDeviceInfo(

@@ -88,6 +88,12 @@ struct DeviceInfo {
   /// The host's own cap on the shadow-map side in texels (a memory budget, a console's limit);
   /// 0 = only the device's limits. update() refuses a larger resolution with kDeviceLimit.
   std::uint32_t maxResolution = 0;
+  /// VkPhysicalDeviceFeatures::shaderStorageImageExtendedFormats is enabled on the device. The
+  /// vsm filter then keeps its two moments as R32G32_SFLOAT, 64 bits a texel, where the device
+  /// stores and linearly filters that format; otherwise (and for evsm and msm, which keep four)
+  /// as R32G32B32A32_SFLOAT, 128 bits (ShadowRenderer::momentFormat()). The shadows are the
+  /// same either way: the two channels hold the same bits.
+  bool storageImageExtendedFormatsEnabled = false;
 };
 
 /// Most LODs a caster instance may name (LOD 0 = its full-detail mesh).
@@ -513,11 +519,18 @@ class ShadowRenderer {
   [[nodiscard]] VkDeviceSize cacheBytes() const noexcept;
   /// The static-depth image (DEPTH_ATTACHMENT_OPTIMAL after a cached record; null without cache).
   [[nodiscard]] VkImage staticImage() const noexcept;
-  /// Prefiltered kernels (vsm, evsm, msm): the moment image (RGBA32F, momentLevels() mips, one
-  /// layer per cascade, addressed like the depth layers; SHADER_READ_ONLY_OPTIMAL after a
-  /// record) that csm.glsl samples; null and 0 with a percentage-closer kernel.
+  /// Prefiltered kernels (vsm, evsm, msm): the moment image (momentFormat(), momentLevels()
+  /// mips, one layer per cascade, addressed like the depth layers; SHADER_READ_ONLY_OPTIMAL
+  /// after a record) that csm.glsl samples; null and 0 with a percentage-closer kernel.
   [[nodiscard]] VkImage momentImage() const noexcept;
   [[nodiscard]] std::uint32_t momentLevels() const noexcept;
+  /// The moment image's format: R32G32_SFLOAT for vsm where
+  /// DeviceInfo::storageImageExtendedFormatsEnabled allows it, else R32G32B32A32_SFLOAT;
+  /// VK_FORMAT_UNDEFINED with a percentage-closer kernel.
+  [[nodiscard]] VkFormat momentFormat() const noexcept;
+  /// Device memory of the moment image with its mips (0 with a percentage-closer kernel):
+  /// csm::momentImageBytes of the settings and momentFormat()'s texel size.
+  [[nodiscard]] VkDeviceSize momentBytes() const noexcept;
 
   /// Descriptor set layout of csm.glsl's resources: CSM_BINDING_UNIFORMS (uniform buffer),
   /// CSM_BINDING_SHADOW_MAP (comparison sampler + array view), CSM_BINDING_SHADOW_DEPTH (depth
