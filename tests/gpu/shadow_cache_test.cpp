@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <csm/core.hpp>
+#include <csm/moments.hpp>
 #include <csm/vulkan/shadow_view.hpp>
 #include <engine/context.hpp>
 #include <engine/debug.hpp>
