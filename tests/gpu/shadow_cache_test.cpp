@@ -21,6 +21,7 @@
 #include <cstring>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -28,6 +29,37 @@ namespace {
 
 constexpr std::uint32_t kResolution = 512;
 constexpr std::uint32_t kCascades = 3;
+
+/// Copies `regions` of `image` (in the renderer's sampled layout, last written by its pass or
+/// moment resolve) into `buffer`, then returns the image to that layout.
+void copyToBuffer(VkCommandBuffer cmd, VkImage image, const VkImageSubresourceRange& range,
+                  std::span<const VkBufferImageCopy> regions, VkBuffer buffer) {
+  VkImageMemoryBarrier2 b{};
+  b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
+  b.srcStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+  b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  b.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
+  b.oldLayout = csm::vk::ShadowRenderer::sampledLayout();
+  b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.image = image;
+  b.subresourceRange = range;
+  VkDependencyInfo dep{};
+  dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
+  dep.imageMemoryBarrierCount = 1;
+  dep.pImageMemoryBarriers = &b;
+  vkCmdPipelineBarrier2(cmd, &dep);
+  vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer,
+                         static_cast<std::uint32_t>(regions.size()), regions.data());
+  b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
+  b.srcAccessMask = VK_ACCESS_2_NONE;
+  b.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  b.dstAccessMask = VK_ACCESS_2_NONE;
+  b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  b.newLayout = csm::vk::ShadowRenderer::sampledLayout();
+  vkCmdPipelineBarrier2(cmd, &dep);
+}
 
 /// One view and the buffer its layers are read back into.
 struct ViewRig {
@@ -185,35 +217,12 @@ class CacheRig {
         ASSERT_TRUE(s.ok()) << s.message();
       }
       for (ViewRig& rig : views_) {
-        VkImage image = rig.view->renderer().image();
-        VkImageMemoryBarrier2 b{};
-        b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
-        b.srcStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-        b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-        b.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-        b.oldLayout = csm::vk::ShadowRenderer::sampledLayout();
-        b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-        b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-        b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-        b.image = image;
-        b.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, kCascades};
-        VkDependencyInfo dep{};
-        dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-        dep.imageMemoryBarrierCount = 1;
-        dep.pImageMemoryBarriers = &b;
-        vkCmdPipelineBarrier2(cmd, &dep);
         VkBufferImageCopy region{};
         region.imageSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 0, kCascades};
         region.imageExtent = {kResolution, kResolution, 1};
-        vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                               rig.readback->handle(), 1, &region);
-        b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-        b.srcAccessMask = VK_ACCESS_2_NONE;
-        b.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-        b.dstAccessMask = VK_ACCESS_2_NONE;
-        b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-        b.newLayout = csm::vk::ShadowRenderer::sampledLayout();
-        vkCmdPipelineBarrier2(cmd, &dep);
+        copyToBuffer(cmd, rig.view->renderer().image(),
+                     {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, kCascades}, {&region, 1},
+                     rig.readback->handle());
       }
     });
   }
@@ -908,22 +917,6 @@ void copyMoments(VkCommandBuffer cmd, const csm::vk::ShadowView& view, std::uint
                  engine::Buffer& buffer) {
   const csm::vk::ShadowRenderer& r = view.renderer();
   const std::uint32_t levels = r.momentLevels();
-  VkImageMemoryBarrier2 b{};
-  b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
-  b.srcStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  b.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-  b.oldLayout = csm::vk::ShadowRenderer::sampledLayout();
-  b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = r.momentImage();
-  b.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, levels, 0, kCascades};
-  VkDependencyInfo dep{};
-  dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &b;
-  vkCmdPipelineBarrier2(cmd, &dep);
   std::vector<VkBufferImageCopy> regions;
   VkDeviceSize offset = 0;
   for (std::uint32_t level = 0; level < levels; ++level) {
@@ -935,16 +928,8 @@ void copyMoments(VkCommandBuffer cmd, const csm::vk::ShadowView& view, std::uint
     regions.push_back(region);
     offset += VkDeviceSize(side) * side * texelBytes * kCascades;
   }
-  vkCmdCopyImageToBuffer(cmd, r.momentImage(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                         buffer.handle(), static_cast<std::uint32_t>(regions.size()),
-                         regions.data());
-  b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  b.srcAccessMask = VK_ACCESS_2_NONE;
-  b.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-  b.dstAccessMask = VK_ACCESS_2_NONE;
-  b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-  b.newLayout = csm::vk::ShadowRenderer::sampledLayout();
-  vkCmdPipelineBarrier2(cmd, &dep);
+  copyToBuffer(cmd, r.momentImage(), {VK_IMAGE_ASPECT_COLOR_BIT, 0, levels, 0, kCascades}, regions,
+               buffer.handle());
 }
 
 // VSM keeps its two moments in an RG32F image where the host enabled
