@@ -23,9 +23,8 @@ inline constexpr float kMomentAnisotropy = 8.0f;
 
 /// The module's view of an engine context: its device, queue family and the features it
 /// enabled (depth clamp, shaderOutputLayer, debug utils, extended storage formats, sampler
-/// anisotropy: the moment
-/// sampler's maxSamplerAnisotropy is `momentAnisotropy` (else defaultMomentAnisotropy) capped by
-/// the device's limit, 1 where the feature is off).
+/// anisotropy: the moment sampler's maxSamplerAnisotropy is `momentAnisotropy` (else
+/// defaultMomentAnisotropy) capped by the device's limit, 1 where the feature is off).
 [[nodiscard]] csm::vk::DeviceInfo shadowDeviceInfo(
     const engine::Context& ctx, std::optional<float> momentAnisotropy = std::nullopt);
 
