@@ -5,6 +5,7 @@
 
 #include <csm/core.hpp>
 #include <csm/gpu_layout.hpp>
+#include <csm/moments.hpp>
 
 #include <cmath>
 #include <cstddef>
@@ -39,7 +40,7 @@ TEST(BiasUniforms, PackUniformsCarriesTheFloorAndTheFormatQuantum) {
   csm::CsmUniforms u = csm::packUniforms(frame, s, o);
   EXPECT_FLOAT_EQ(u.depthFloorTexels, 0.4f);
   EXPECT_FLOAT_EQ(u.depthFloorQuantum, csm::depthQuantum(16));
-  EXPECT_EQ(u.biasReserved, 0.0f);
+  EXPECT_EQ(u.momentQuantized, 0u);
   EXPECT_EQ(u.momentAnisotropy, 1.0f);  // a trilinear moment sampler unless the host says
   o.momentAnisotropy = 8.0f;
   EXPECT_EQ(csm::packUniforms(frame, s, o).momentAnisotropy, 8.0f);
@@ -51,6 +52,20 @@ TEST(BiasUniforms, PackUniformsCarriesTheFloorAndTheFormatQuantum) {
   u = csm::packUniforms(frame, s, o);
   EXPECT_FLOAT_EQ(u.depthFloorQuantum, csm::depthQuantum(32));
   EXPECT_FLOAT_EQ(u.normalOffsetTexels, s.normalOffsetTexels);
+  // Quantised moments: only msm reads them, with a moment bias raised to the format's floor.
+  o.msmQuantizedMoments = true;
+  EXPECT_EQ(csm::packUniforms(frame, s, o).momentQuantized, 0u);  // tent 3x3 keeps no moments
+  s.kernel = csm::PcfKernel::kMsm;
+  u = csm::packUniforms(frame, s, o);
+  EXPECT_EQ(u.momentQuantized, 1u);
+  EXPECT_EQ(u.moments.y, csm::kMsmQuantizedMinMomentBias);
+  s.msmMomentBias = 1e-3f;  // a larger bias is kept
+  EXPECT_EQ(csm::packUniforms(frame, s, o).moments.y, 1e-3f);
+  o.msmQuantizedMoments = false;
+  s.msmMomentBias = 3e-5f;
+  u = csm::packUniforms(frame, s, o);
+  EXPECT_EQ(u.momentQuantized, 0u);
+  EXPECT_EQ(u.moments.y, 3e-5f);
 }
 
 TEST(BiasUniforms, DefaultsAreValidAndNeedNoRasterSlopeBias) {

@@ -3,6 +3,7 @@
 // extremes (no NaN, no overflow at the largest EVSM exponent), and the settings' refusals.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -222,16 +223,99 @@ TEST(Moments, BlurRadiusAndMemory) {
     EXPECT_EQ(momentImageBytes(s, two), 0u);  // a percentage-closer kernel keeps no moments
     EXPECT_EQ(momentTexelBytes(s.kernel, two), 0u);
   }
-  // 2 layers x 87,381 texels (256^2 + 128^2 + ... + 1) x 16 bytes, and no blur scratch; vsm's
-  // two moments in two channels where the device stores them so: 8 bytes.
+  // 2 layers x 87,381 texels (256^2 + 128^2 + ... + 1) x 16 bytes, and no blur scratch; where
+  // the device stores the compact formats, vsm's two moments in two 32-bit channels and msm's
+  // four quantised to 16 bits: 8 bytes. evsm's exponentials need 32-bit floats.
   for (PcfKernel k : {PcfKernel::kMsm, PcfKernel::kEvsm, PcfKernel::kVsm}) {
     s.kernel = k;
     EXPECT_EQ(momentImageBytes(s, false), 2796192u) << kernelName(k);
-    EXPECT_EQ(momentImageBytes(s, true), k == PcfKernel::kVsm ? 1398096u : 2796192u)
+    EXPECT_EQ(momentImageBytes(s, true), k == PcfKernel::kEvsm ? 2796192u : 1398096u)
         << kernelName(k);
+    EXPECT_EQ(momentTexelBytes(k, true), k == PcfKernel::kEvsm ? 16u : 8u) << kernelName(k);
   }
   s.cascadeCount = 0;
   EXPECT_EQ(momentImageBytes(s, true), 0u);
+}
+
+// MSM's 64-bit moments (CSM_MSM_QUANTIZE_*, which csm.glsl and csm_moments.comp share): the
+// paper's optimised quantisation of (z, z^2, z^3, z^4) (Peters and Klein 2015, sec. 4.3),
+// composed with the centring w = 2 z - 1, computed here in double from the paper's matrix.
+TEST(Moments, MsmQuantisationIsThePapersComposedWithTheCentring) {
+  const double paper[4][4] = {{-2.07224649, 13.7948857237, 0.105877704, 9.7924062118},
+                              {32.23703778, -59.4683975703, -1.9077466311, -33.7652110555},
+                              {-68.571074599, 82.0359750338, 9.3496555107, 47.9456096605},
+                              {39.3703274134, -35.364903257, -6.6543490743, -23.9728048165}};
+  const double offset0 = 0.035955884801;
+  const ShadowSettings s;
+  double worstQ = 0.0, worstRoundTrip = 0.0, lowest = 1.0, highest = 0.0;
+  for (int n = 0; n <= 4096; ++n) {
+    const double z = n / 4096.0;
+    const double b[4] = {z, z * z, z * z * z, z * z * z * z};
+    const glm::vec4 centred = depthMoments(PcfKernel::kMsm, float(z), s);
+    const glm::vec4 q = msmQuantize(centred);
+    for (int j = 0; j < 4; ++j) {
+      double want = j == 0 ? offset0 : 0.0;
+      for (int i = 0; i < 4; ++i) want += b[i] * paper[i][j];
+      lowest = std::min(lowest, want);
+      highest = std::max(highest, want);
+      worstQ = std::max(worstQ, std::abs(double(q[j]) - std::clamp(want, 0.0, 1.0)));
+    }
+    const glm::vec4 back = msmDequantize(q);
+    for (int j = 0; j < 4; ++j) {
+      worstRoundTrip = std::max(worstRoundTrip, double(std::abs(back[j] - centred[j])));
+    }
+  }
+  EXPECT_LT(worstQ, 2e-6);          // float arithmetic on the composed constants
+  EXPECT_LT(worstRoundTrip, 2e-5);  // float arithmetic through E and D
+  // Every depth's quantised moments lie in [0, 1]: the format holds them without clamping.
+  EXPECT_GT(lowest, -1e-7);
+  EXPECT_LT(highest, 1.0 + 1e-7);
+}
+
+// What the 64-bit image gives the lighting: each texel's moments quantised to 16 bits (rounded
+// to nearest), mixed as the blur and the bilinear tap mix them, decoded, then reconstructed with
+// the bias csm.glsl applies to them (kMsmQuantizedMinMomentBias), against 32-bit moments at the
+// same bias. Receivers on or in front of a depth read lit with both; away from the depths (at
+// least 0.02 of the depth range from each) the two agree within 0.07 for two depths in any
+// proportion; a receiver 0.02 behind one depth reads at most 0.02 lit. Nearer a depth the format's
+// rounding matters: 0.003 behind one depth, 32-bit moments read 0.06-0.22 lit and 64-bit ones
+// 0.04-0.41 (the figures shadows/docs/prefiltered.md gives; why 128 bits stay the default).
+TEST(Moments, QuantisedMsmReadsAsFloatMsmToTheFormatsRounding) {
+  ShadowSettings s = noBleedReduction();
+  s.msmMomentBias = kMsmQuantizedMinMomentBias;
+  auto stored = [&](float z) {
+    const glm::vec4 m = msmQuantize(depthMoments(PcfKernel::kMsm, z, s));
+    return glm::round(m * 65535.0f) / 65535.0f;
+  };
+  float worst = 0.0f;
+  std::string where;
+  for (float z1 : {0.05f, 0.3f, 0.5f, 0.71f, 0.95f}) {
+    for (float gap : {0.002f, 0.005f, 0.01f, 0.02f, 0.2f}) {
+      const float z2 = std::min(z1 + gap, 1.0f);
+      for (float f : {0.0f, 0.1f, 0.5f, 0.9f, 1.0f}) {
+        const glm::vec4 exact = mixture(PcfKernel::kMsm, {{z1, f}, {z2, 1.0f - f}}, s);
+        const glm::vec4 decoded = msmDequantize(f * stored(z1) + (1.0f - f) * stored(z2));
+        for (float r = z1 - 0.05f; r <= z2 + 0.05f; r += 0.0025f) {
+          if (std::min(std::abs(r - z1), std::abs(r - z2)) < 0.02f) continue;
+          const float a = momentLitFraction(PcfKernel::kMsm, exact, r, 0.0f, s);
+          const float b = momentLitFraction(PcfKernel::kMsm, decoded, r, 0.0f, s);
+          if (std::abs(a - b) > worst) {
+            worst = std::abs(a - b);
+            where = "z " + std::to_string(z1) + ".." + std::to_string(z2) + " f " +
+                    std::to_string(f) + " receiver " + std::to_string(r);
+          }
+        }
+      }
+    }
+    // One depth: a receiver on it or in front reads lit, one 0.02 behind nearly shadowed.
+    const glm::vec4 one = msmDequantize(stored(z1));
+    for (float ahead : {0.0f, 0.001f, 0.01f}) {
+      EXPECT_GT(momentLitFraction(PcfKernel::kMsm, one, z1 - ahead, 0.0f, s), 0.99f) << z1;
+    }
+    EXPECT_LT(momentLitFraction(PcfKernel::kMsm, one, z1 + 0.02f, 0.0f, s), 0.02f) << z1;
+    EXPECT_LT(momentLitFraction(PcfKernel::kMsm, one, z1 + 0.05f, 0.0f, s), 0.003f) << z1;
+  }
+  EXPECT_LE(worst, 0.07f) << where;
 }
 
 TEST(Moments, SettingsOutOfRangeAreRefusedByName) {

@@ -96,8 +96,9 @@ struct CsmUniforms {
   /// The moment sampler's largest anisotropy (UniformOptions::momentAnisotropy): 1 a trilinear
   /// sampler, whose mip csm.glsl picks from the footprint's geometric-mean axis.
   float momentAnisotropy = 1.0f;
-  /// Unused (0).
-  float biasReserved = 0.0f;
+  /// 1 when the moment image holds MSM's moments quantised to 64 bits (RGBA16_UNORM,
+  /// csm::msmQuantize; UniformOptions::msmQuantizedMoments): csm.glsl decodes what it reads.
+  std::uint32_t momentQuantized = 0;
   /// Soft shadows (PCSS): tan(light angular diameter / 2) (penumbra radius per metre between
   /// blocker and receiver), and the largest penumbra radius (m; maxPenumbraM / 2).
   float tanHalfLightAngle = 0.0f;
@@ -127,6 +128,11 @@ struct UniformOptions {
   /// trilinear sampler, which would take the mip of the long axis and blur the short one) the
   /// shader reads the mip of the footprint's geometric-mean axis. At least 1.
   float momentAnisotropy = 1.0f;
+  /// The msm filter's moment image is RGBA16_UNORM with csm::msmQuantize's quantisation (the
+  /// renderer's where RendererOptions::msmMomentBits = 64 and the device allow it): csm.glsl
+  /// decodes the moments it reads, and MSM's moment bias is at least
+  /// csm::kMsmQuantizedMinMomentBias. Ignored by the other filters.
+  bool msmQuantizedMoments = false;
 };
 
 /// The smallest depth difference (units of stored depth, [0, 1]) that the shadow test can trust

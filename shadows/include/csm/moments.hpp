@@ -12,6 +12,7 @@
 //    with a uniform distribution's moments by the moment bias, then
 //    the Hamburger reconstruction (Peters and Klein 2015): the three-point distribution with a
 //    point at the receiver that matches the moments bounds the occluded fraction from below.
+//    Stored as 32-bit floats, or in 64 bits quantised (msmQuantize).
 // Every lit fraction then goes through the light-bleeding reduction:
 // clamp((p - r) / (1 - r), 0, 1).
 #pragma once
@@ -86,15 +87,29 @@ namespace csm {
 /// at most CSM_MOMENT_MAX_BLUR_TEXELS. 0 when either is not positive.
 [[nodiscard]] float momentBlurRadiusTexels(double momentBlurM, double texelM) noexcept;
 
-/// Bytes a texel of the moment image takes for `kernel`: 8 for vsm where the device stores two
-/// 32-bit channels (`twoChannels`: csm::vk::DeviceInfo::storageImageExtendedFormatsEnabled and
-/// the format's support), else 16 (evsm and msm keep four moments); 0 for a percentage-closer
-/// kernel.
-[[nodiscard]] std::uint32_t momentTexelBytes(PcfKernel kernel, bool twoChannels) noexcept;
+/// MSM's 64-bit storage (RGBA16_UNORM): the centred moments (w, w^2, w^3, w^4) of depthMoments
+/// mapped by Peters and Klein's optimised quantisation (CSM_MSM_QUANTIZE_*) into [0, 1]^4,
+/// clamped as the format's store clamps. Affine, so filtering quantised moments and then
+/// decoding them (msmDequantize) gives the filtered moments, to the format's rounding.
+[[nodiscard]] glm::vec4 msmQuantize(const glm::vec4& centred) noexcept;
+
+/// The centred moments from quantised ones (the inverse of msmQuantize before the clamp).
+[[nodiscard]] glm::vec4 msmDequantize(const glm::vec4& quantized) noexcept;
+
+/// The smallest moment bias (ShadowSettings::msmMomentBias) csm.glsl applies to 64-bit MSM moments:
+/// the format's rounding (1/65535 per channel, up to about 1e-5 in the decoded moments) needs
+/// about twice the 32-bit default (Peters and Klein recommend 6e-5 with this quantisation).
+inline constexpr float kMsmQuantizedMinMomentBias = 6e-5f;
+
+/// Bytes a texel of the moment image takes for `kernel`, `compact` where the device stores the
+/// smaller formats (csm::vk::DeviceInfo::storageImageExtendedFormatsEnabled and the format's
+/// support; for msm also RendererOptions::msmMomentBits = 64): vsm 8 (RG32F, the same bits as
+/// RGBA32F's first two channels), msm 8 (RGBA16_UNORM, quantised: msmQuantize); otherwise 16
+/// (evsm always: four exponential moments need 32-bit floats). 0 for a percentage-closer kernel.
+[[nodiscard]] std::uint32_t momentTexelBytes(PcfKernel kernel, bool compact) noexcept;
 
 /// Device memory of the moment images for `settings` (0 when the kernel is not prefiltered):
-/// the mip-mapped moment array, momentTexelBytes(settings.kernel, twoChannels) a texel.
-[[nodiscard]] std::uint64_t momentImageBytes(const ShadowSettings& settings,
-                                             bool twoChannels) noexcept;
+/// the mip-mapped moment array, momentTexelBytes(settings.kernel, compact) a texel.
+[[nodiscard]] std::uint64_t momentImageBytes(const ShadowSettings& settings, bool compact) noexcept;
 
 }  // namespace csm

@@ -103,4 +103,23 @@
 #define CSM_TILE_GRID_SIDE 17
 #define CSM_TILE_WORDS 10
 
+// MSM's 64-bit moments (RGBA16_UNORM): Peters and Klein's optimised quantisation (2015, sec. 4.3),
+// q = E b(z) + e for b(z) = (z, z^2, z^3, z^4), composed here with z = (w + 1) / 2 so that it
+// takes the centred moments (w, w^2, w^3, w^4) csm_moments.comp computes: q = E' m + e'. q lies
+// in [0, 1] for every depth; the map is affine, so blurring, mip-mapping and bilinear filtering
+// the quantised moments and then decoding, m = D (q - e') (D the inverse of E'), gives the
+// filtered moments. Columns of E' and D (GLSL mat4 and glm::mat4 order), then e'. Derived in
+// double from the paper's matrix (test Moments.MsmQuantisationIsThePapersComposedWithTheCentring).
+#define CSM_MSM_QUANTIZE_MATRIX                                                           \
+  -0.789175476275, -0.914491099875, 0.941599084387, -3.28749916179e-09, -2.8910207496,    \
+      2.63455252372, 0.533803255875, 0.548499052625, 1.27119752847, 1.41327106497,        \
+      -0.494880329737, 3.43750006238e-09, 2.46064546334, -2.21030645356, -0.415896817144, \
+      -1.49830030103
+#define CSM_MSM_QUANTIZE_OFFSET 0.948353223264, 0.0745338949375, 0.328812315919, 0.949801248556
+#define CSM_MSM_DEQUANTIZE_MATRIX                                                         \
+  0.44554882918, -0.271225953896, 0.638622530664, -0.0992906281379, 0.154394572156,       \
+      0.249062626302, 0.485790130087, 0.0911770595247, 1.58539732731, 0.0145716805194,    \
+      1.00704854759, 0.00533441206965, 0.0638835109228, -0.816896291054, 0.0526264911991, \
+      -0.966473036659
+
 #endif

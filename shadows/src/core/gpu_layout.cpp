@@ -2,6 +2,7 @@
 #include "csm/gpu_layout.hpp"
 
 #include "csm/cache_plan.hpp"
+#include "csm/moments.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -36,7 +37,7 @@ static_assert(offsetof(CsmUniforms, wrappedLayers) == 112 * CSM_MAX_CASCADES + 6
 static_assert(offsetof(CsmUniforms, depthFloorTexels) == 112 * CSM_MAX_CASCADES + 64);
 static_assert(offsetof(CsmUniforms, depthFloorQuantum) == 112 * CSM_MAX_CASCADES + 68);
 static_assert(offsetof(CsmUniforms, momentAnisotropy) == 112 * CSM_MAX_CASCADES + 72);
-static_assert(offsetof(CsmUniforms, biasReserved) == 112 * CSM_MAX_CASCADES + 76);
+static_assert(offsetof(CsmUniforms, momentQuantized) == 112 * CSM_MAX_CASCADES + 76);
 static_assert(offsetof(CsmUniforms, tanHalfLightAngle) == 112 * CSM_MAX_CASCADES + 80);
 static_assert(offsetof(CsmUniforms, maxPenumbraRadiusM) == 112 * CSM_MAX_CASCADES + 84);
 static_assert(offsetof(CsmUniforms, fadeEndM) == 112 * CSM_MAX_CASCADES + 88);
@@ -156,8 +157,12 @@ CsmUniforms packUniforms(const CascadeFrame& frame, const ShadowSettings& settin
     u.fadeEndM = finiteOr0(frame.fadeEndM);
     u.invFadeLengthM = finiteOr0(1.0 / frame.fadeLengthM);
   }
-  u.moments = glm::vec4(settings.momentBleedReduction, settings.msmMomentBias,
-                        settings.evsmPositiveExponent, settings.evsmNegativeExponent);
+  const bool quantized = settings.kernel == PcfKernel::kMsm && options.msmQuantizedMoments;
+  u.momentQuantized = quantized ? 1u : 0u;
+  const float msmBias = quantized ? std::max(settings.msmMomentBias, kMsmQuantizedMinMomentBias)
+                                  : settings.msmMomentBias;
+  u.moments = glm::vec4(settings.momentBleedReduction, msmBias, settings.evsmPositiveExponent,
+                        settings.evsmNegativeExponent);
   return u;
 }
 

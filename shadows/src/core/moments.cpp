@@ -149,13 +149,25 @@ float momentBlurRadiusTexels(double momentBlurM, double texelM) noexcept {
   return static_cast<float>(std::min(r, double(CSM_MOMENT_MAX_BLUR_TEXELS)));
 }
 
-std::uint32_t momentTexelBytes(PcfKernel kernel, bool twoChannels) noexcept {
-  if (!isPrefiltered(kernel)) return 0;
-  return kernel == PcfKernel::kVsm && twoChannels ? 8u : 16u;
+glm::vec4 msmQuantize(const glm::vec4& centred) noexcept {
+  static const glm::mat4 e(CSM_MSM_QUANTIZE_MATRIX);
+  static const glm::vec4 offset(CSM_MSM_QUANTIZE_OFFSET);
+  return glm::clamp(e * centred + offset, 0.0f, 1.0f);
 }
 
-std::uint64_t momentImageBytes(const ShadowSettings& settings, bool twoChannels) noexcept {
-  const std::uint64_t texel = momentTexelBytes(settings.kernel, twoChannels);
+glm::vec4 msmDequantize(const glm::vec4& quantized) noexcept {
+  static const glm::mat4 d(CSM_MSM_DEQUANTIZE_MATRIX);
+  static const glm::vec4 offset(CSM_MSM_QUANTIZE_OFFSET);
+  return d * (quantized - offset);
+}
+
+std::uint32_t momentTexelBytes(PcfKernel kernel, bool compact) noexcept {
+  if (!isPrefiltered(kernel)) return 0;
+  return kernel != PcfKernel::kEvsm && compact ? 8u : 16u;
+}
+
+std::uint64_t momentImageBytes(const ShadowSettings& settings, bool compact) noexcept {
+  const std::uint64_t texel = momentTexelBytes(settings.kernel, compact);
   if (texel == 0 || settings.cascadeCount == 0) return 0;
   // The moments with their mips (the blur needs no image of its own: csm_moments.comp keeps a
   // workgroup's tile in shared memory).
