@@ -60,7 +60,8 @@ float storedDepth(vec2 centre, int c, out float far) {
   far = 1.0;
   if (gMomentKernel < 0) return textureLod(csmDepthMap, uvw, 0.0).r;
   far = 0.9999;  // the blur and the exponential's rounding leave the far plane just below 1
-  const float m = textureLod(csmMomentMap, uvw, 0.0).x;
+  const vec4 read = textureLod(csmMomentMap, uvw, 0.0);
+  const float m = (csmU.momentQuantized != 0u ? csmMsmDequantize(read) : read).x;
   if (gMomentKernel == CSM_KERNEL_VSM) return m;
   if (gMomentKernel == CSM_KERNEL_EVSM) {
     return 0.5 * (log(max(m, 1e-30)) / max(csmU.moments.z, 1e-3) + 1.0);

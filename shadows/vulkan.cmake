@@ -40,8 +40,18 @@ add_custom_command(OUTPUT ${_csm_moments_rg_hdr}
           ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
           ${CSM_SHARED_INCLUDE_DIR}/csm/gpu_shared.h
   COMMENT "glslang csm_moments.comp (RG32F)" VERBATIM)
+# And writing RGBA16_UNORM (msm's four moments quantised, RendererOptions::msmMomentBits = 64).
+set(_csm_moments_q16_hdr ${CSM_SHADER_OUT}/csm_shaders/csm_moments_q16.comp.spv.h)
+add_custom_command(OUTPUT ${_csm_moments_q16_hdr}
+  COMMAND ${GLSLANG_VALIDATOR} --quiet --target-env vulkan1.2 -DCSM_MOMENTS_Q16
+          -I${CSM_MODULE_SHADER_DIR} -I${CSM_SHARED_INCLUDE_DIR} --vn csm_moments_q16_comp_spv
+          -o ${_csm_moments_q16_hdr} ${CSM_MODULE_SHADER_DIR}/csm_moments.comp
+  DEPENDS ${CSM_MODULE_SHADER_DIR}/csm_moments.comp ${CSM_MODULE_SHADER_DIR}/csm.glsl
+          ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
+          ${CSM_SHARED_INCLUDE_DIR}/csm/gpu_shared.h
+  COMMENT "glslang csm_moments.comp (RGBA16, quantised)" VERBATIM)
 add_custom_target(csm_depth_range_shader
-  DEPENDS ${_csm_range_hdr} ${_csm_moments_hdr} ${_csm_moments_rg_hdr})
+  DEPENDS ${_csm_range_hdr} ${_csm_moments_hdr} ${_csm_moments_rg_hdr} ${_csm_moments_q16_hdr})
 
 add_library(csm_vulkan STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer.cpp

@@ -61,13 +61,23 @@ layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniform
   float depthFloorTexels;    // depth floor (texels of the receiver's cascade)
   float depthFloorQuantum;   // depth floor (units of stored depth: the format's quantum)
   float momentAnisotropy;    // the moment sampler's largest anisotropy (1: trilinear)
-  float biasReserved;        // unused
+  uint momentQuantized;      // 1: MSM's moments are stored quantised (csmMsmDequantize)
   float tanHalfLightAngle;   // PCSS: tan(light angular diameter / 2)
   float maxPenumbraRadiusM;  // PCSS: largest penumbra radius (m)
   float fadeEndM;            // the fade to lit ends here (view depth, m)
   float invFadeLengthM;      // 1 / the fade's length (m); 0: no fade
   vec4 moments;              // prefiltered: bleeding reduction, MSM bias, EVSM c+, EVSM c-
 } csmU;
+
+/// Mirror of csm::msmQuantize: MSM's centred moments into the 64-bit image's [0, 1]^4.
+vec4 csmMsmQuantize(vec4 centred) {
+  return clamp(mat4(CSM_MSM_QUANTIZE_MATRIX) * centred + vec4(CSM_MSM_QUANTIZE_OFFSET), 0.0, 1.0);
+}
+
+/// Mirror of csm::msmDequantize: the centred moments from filtered quantised ones.
+vec4 csmMsmDequantize(vec4 quantized) {
+  return mat4(CSM_MSM_DEQUANTIZE_MATRIX) * (quantized - vec4(CSM_MSM_QUANTIZE_OFFSET));
+}
 
 #ifndef CSM_UNIFORMS_ONLY
 
@@ -613,10 +623,13 @@ float csmMomentShadow(int i, vec3 posCr, vec3 normalWs, vec3 dPdx, vec3 dPdy) {
   const float edge = min(min(c.x, c.y), min(res - c.x, res - c.y));
   const float footprint = csmMomentReadFootprint(wanted, edge, c.z, slope);
   const float k = longAxis > footprint ? footprint / longAxis : 1.0;
-  const vec4 moments =
+  const vec4 read =
       footprint <= 1.0
           ? csmMomentBilinear(i, c.xy)
           : textureGrad(csmMomentMap, vec3(csmWrapUv(c.xy, i), float(i)), gx * k, gy * k);
+  // 64-bit MSM moments are stored quantised; the quantisation is affine, so the filtered
+  // quantised moments decode to the filtered moments.
+  const vec4 moments = csmU.momentQuantized != 0u ? csmMsmDequantize(read) : read;
   // The variance floor: a quarter texel of depth at 45 degrees (units of stored depth).
   const float texelDepth =
       0.5 * csmU.cascades[i].texelSizeM / max(csmU.cascades[i].depthRangeM, 1e-6);

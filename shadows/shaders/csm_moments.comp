@@ -23,10 +23,16 @@ layout(local_size_x = CSM_MOMENT_GROUP_X, local_size_y = CSM_MOMENT_GROUP_Y) in;
 layout(set = 0, binding = 1) uniform sampler2DArray depthMap;
 // The moment image's format: RGBA32F, or RG32F for vsm's two moments (compiled with
 // CSM_MOMENTS_RG; needs shaderStorageImageExtendedFormats). Loads of RG32F read (r, g, 0, 1) and
-// stores keep r, g: the same bits in those channels as the RGBA32F image's.
-#ifdef CSM_MOMENTS_RG
+// stores keep r, g: the same bits in those channels as the RGBA32F image's. Or RGBA16_UNORM for
+// msm's moments quantised (CSM_MOMENTS_Q16, the same feature): level 0 stores csmMsmQuantize of
+// the blurred moments (the blur in float, as for RGBA32F); the mips average the quantised values,
+// which is the quantisation of the average (the map is affine) up to the format's rounding.
+#if defined(CSM_MOMENTS_RG)
 layout(set = 0, binding = 2, rg32f) uniform readonly image2DArray mipSource;  // pass 2
 layout(set = 0, binding = 3, rg32f) uniform writeonly image2DArray momentsOut;
+#elif defined(CSM_MOMENTS_Q16)
+layout(set = 0, binding = 2, rgba16) uniform readonly image2DArray mipSource;  // pass 2
+layout(set = 0, binding = 3, rgba16) uniform writeonly image2DArray momentsOut;
 #else
 layout(set = 0, binding = 2, rgba32f) uniform readonly image2DArray mipSource;  // pass 2
 layout(set = 0, binding = 3, rgba32f) uniform writeonly image2DArray momentsOut;
@@ -54,6 +60,15 @@ vec4 momentsOf(float depth) {
   const float w = 2.0 * z - 1.0;
   const float w2 = w * w;
   return vec4(w, w2, w2 * w, w2 * w2);
+}
+
+/// Level 0's texel as the image holds it: the blurred moments, quantised for RGBA16_UNORM.
+vec4 stored(vec4 blurred) {
+#ifdef CSM_MOMENTS_Q16
+  return csmMsmQuantize(blurred);
+#else
+  return blurred;
+#endif
 }
 
 // Pass 0's workgroup tile (CSM_MOMENT_GROUP_X x kRows texels): the depths of its texels and of
@@ -105,7 +120,7 @@ void main() {
       if (any(greaterThanEqual(texel, pc.extent))) break;
       const ivec3 id = ivec3(pc.origin + texel, layer);
       const vec4 alongX = (w0 * momentsOf(texelFetch(depthMap, id, 0).r)) / w0;
-      imageStore(momentsOut, id, (w0 * alongX) / w0);
+      imageStore(momentsOut, id, stored((w0 * alongX) / w0));
     }
     return;
   }
@@ -161,6 +176,6 @@ void main() {
       const int b = boxY + k;
       sum += wk * (b < 0 || b >= res ? far : sRowBlur[(r + n + k) * CSM_MOMENT_GROUP_X + col]);
     }
-    imageStore(momentsOut, id, sum / weights);
+    imageStore(momentsOut, id, stored(sum / weights));
   }
 }

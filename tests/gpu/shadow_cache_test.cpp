@@ -1023,6 +1023,123 @@ TEST(VsmMoments, TwoChannelImageHoldsTheSameBitsAtHalfTheMemory) {
   EXPECT_EQ(engine::validationMessageCount(), 0u);
 }
 
+// MSM's moments at 64 bits (RendererOptions::msmMomentBits = 64; needs the same feature as vsm's
+// RG32F): RGBA16_UNORM holding Peters and Klein's quantisation (csm::msmQuantize) of the moments
+// the 128-bit image holds. Two cached views, 64 and 128 bits, fly frames of `walk` with moving
+// casters (partial resolves included). At level 0 of every layer each quantised channel is the
+// 128-bit image's moments quantised, to within one step of the format; each mip (the mean of the
+// four quantised texels below, rounded) to within a step more per level. Half the memory, the
+// uniform block tells csm.glsl to decode, the other filters ignore the option, and a value other
+// than 64 or 128 is refused naming the field.
+TEST(MsmMoments, SixtyFourBitImageHoldsTheQuantisedMomentsAtHalfTheMemory) {
+  CacheRig rig;
+  const csm::vk::DeviceInfo info = glue::shadowDeviceInfo(*rig.ctx_);
+  if (!info.storageImageExtendedFormatsEnabled) {
+    GTEST_SKIP() << "the device lacks shaderStorageImageExtendedFormats";
+  }
+  csm::vk::VertexLayout layout;
+  layout.stride = sizeof(engine::Vertex);
+  layout.positionOffset = offsetof(engine::Vertex, position);
+  csm::ShadowSettings settings;
+  settings.cascadeCount = kCascades;
+  settings.resolution = kResolution;
+  settings.shadowDistanceM = 120.0;
+  settings.kernel = csm::PcfKernel::kMsm;
+  csm::vk::RendererOptions options;
+  options.cache = true;
+  options.renderMode = csm::vk::RenderMode::kPerLayer;
+  std::array<std::unique_ptr<csm::vk::ShadowView>, 2> views;  // 64 bits, 128 bits
+  std::array<std::unique_ptr<engine::Buffer>, 2> readback;
+  for (int k = 0; k < 2; ++k) {
+    options.msmMomentBits = k == 0 ? 64 : 128;
+    csm::vk::Status s;
+    views[k] = csm::vk::ShadowView::create(info, layout, &s);
+    ASSERT_TRUE(views[k] != nullptr) << s.message();
+    ASSERT_TRUE(views[k]->setSettings(settings, options).ok());
+    const csm::AabbWs scene{{-200, -1, -200}, {200, 20, 200}};
+    ASSERT_TRUE(views[k]->setSceneBounds(&scene).ok());
+    readback[k] = std::make_unique<engine::Buffer>(
+        *rig.ctx_, views[k]->renderer().momentBytes(), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+        engine::MemoryUsage::Readback, "msm moment readback");
+  }
+  ASSERT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R16G16B16A16_UNORM);
+  ASSERT_EQ(views[1]->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
+  EXPECT_EQ(views[0]->renderer().momentBytes(), csm::momentImageBytes(settings, true));
+  EXPECT_EQ(2 * views[0]->renderer().momentBytes(), views[1]->renderer().momentBytes());
+  const std::uint32_t levels = views[0]->renderer().momentLevels();
+  const int frames = std::min(flightFrames(), 24);
+  std::uint64_t compared = 0;
+  std::vector<std::uint64_t> beyond(levels, 0);  // channels off by more than the level allows
+  std::vector<float> worstSteps(levels, 0.0f);
+  for (int f = 0; f < frames; ++f) {
+    rig.setDynamic(f);
+    for (auto& v : views) {
+      ASSERT_TRUE(v->setCasters(rig.meshDraws_, rig.instances_, rig.bounds_).ok());
+    }
+    rig.ctx_->submitAndWait([&](VkCommandBuffer cmd) {
+      for (int k = 0; k < 2; ++k) {
+        const csm::vk::Status s =
+            views[k]->record(cmd, pathCamera("walk", f), pathLight("walk", f));
+        ASSERT_TRUE(s.ok()) << s.message();
+        copyMoments(cmd, *views[k], k == 0 ? 8 : 16, *readback[k]);
+      }
+    });
+    if (HasFailure()) return;
+    EXPECT_EQ(views[0]->renderer().uniforms().momentQuantized, 1u);
+    EXPECT_EQ(views[1]->renderer().uniforms().momentQuantized, 0u);
+    EXPECT_EQ(views[0]->renderer().uniforms().moments.y, csm::kMsmQuantizedMinMomentBias);
+    const auto* q = static_cast<const std::uint16_t*>(readback[0]->mapped());
+    const auto* m = static_cast<const glm::vec4*>(readback[1]->mapped());
+    std::size_t at = 0;
+    for (std::uint32_t level = 0; level < levels; ++level) {
+      const std::size_t side = std::max(kResolution >> level, 1u);
+      const float allowed = 1.0f + float(level);  // steps of 1/65535
+      for (std::size_t t = 0; t < side * side * kCascades; ++t, ++at) {
+        const glm::vec4 want = csm::msmQuantize(m[at]) * 65535.0f;
+        for (int c = 0; c < 4; ++c) {
+          const float steps = std::abs(float(q[4 * at + std::size_t(c)]) - want[c]);
+          worstSteps[level] = std::max(worstSteps[level], steps);
+          beyond[level] += steps > allowed ? 1 : 0;
+          ++compared;
+        }
+      }
+    }
+  }
+  for (std::uint32_t level = 0; level < levels; ++level) {
+    std::printf("[msm 64-bit] level %u: worst %.3f steps of 1/65535\n", level,
+                double(worstSteps[level]));
+    EXPECT_EQ(beyond[level], 0u) << "level " << level << ": worst " << worstSteps[level];
+  }
+  std::printf("[msm 64-bit] %d frames, %llu channels compared\n", frames,
+              static_cast<unsigned long long>(compared));
+  EXPECT_GT(compared, 0u);
+  // evsm keeps four 32-bit exponentials and vsm its RG32F whatever msmMomentBits says.
+  options.msmMomentBits = 64;
+  settings.kernel = csm::PcfKernel::kEvsm;
+  ASSERT_TRUE(views[0]->setSettings(settings, options).ok());
+  EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
+  settings.kernel = csm::PcfKernel::kVsm;
+  ASSERT_TRUE(views[0]->setSettings(settings, options).ok());
+  EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R32G32_SFLOAT);
+  // msm again at 128 bits through the same view: the image is rebuilt.
+  settings.kernel = csm::PcfKernel::kMsm;
+  ASSERT_TRUE(views[0]->setSettings(settings, options).ok());
+  EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R16G16B16A16_UNORM);
+  options.msmMomentBits = 128;
+  ASSERT_TRUE(views[0]->setSettings(settings, options).ok());
+  EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
+  options.msmMomentBits = 96;
+  const csm::vk::Status refused = views[0]->setSettings(settings, options);
+  EXPECT_FALSE(refused.ok());
+  EXPECT_NE(refused.message().find("options.msmMomentBits = 96"), std::string::npos)
+      << refused.message();
+  EXPECT_NE(refused.message().find("64 or 128"), std::string::npos) << refused.message();
+  EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);  // unchanged
+  rig.ctx_->waitIdle();
+  views = {};
+  EXPECT_EQ(engine::validationMessageCount(), 0u);
+}
+
 INSTANTIATE_TEST_SUITE_P(Paths, CacheBudget, ::testing::Values("fast", "sun", "sun_dynamic"),
                          [](const auto& info) { return info.param; });
 

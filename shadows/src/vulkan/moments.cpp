@@ -17,6 +17,7 @@
 #include <string>
 
 #include <csm_shaders/csm_moments.comp.spv.h>
+#include <csm_shaders/csm_moments_q16.comp.spv.h>
 #include <csm_shaders/csm_moments_rg.comp.spv.h>
 
 #include "csm/cache_rects.hpp"
@@ -192,6 +193,10 @@ Status ShadowRenderer::Impl::createMomentResources() {
   Status ps = pipeline(csm_moments_comp_spv, &momentPipeline_, "csm moment resolve");
   if (ps.ok() && device_.storageImageExtendedFormatsEnabled) {
     ps = pipeline(csm_moments_rg_comp_spv, &momentPipelineRg_, "csm moment resolve (RG32F)");
+    if (ps.ok()) {
+      ps = pipeline(csm_moments_q16_comp_spv, &momentPipelineQ16_,
+                    "csm moment resolve (RGBA16, quantised)");
+    }
   }
   if (!ps.ok()) return ps;
   {
@@ -219,24 +224,40 @@ Status ShadowRenderer::Impl::createMomentResources() {
   return {};
 }
 
-// RG32F for vsm (two moments) where the host enabled shaderStorageImageExtendedFormats and the
-// device samples, filters and stores the format; else RGBA32F (buildMomentImages checks it).
-VkFormat ShadowRenderer::Impl::momentFormatFor(PcfKernel kernel) const {
-  if (kernel == PcfKernel::kVsm && momentPipelineRg_ != VK_NULL_HANDLE) {
+// Where the host enabled shaderStorageImageExtendedFormats and the device samples, filters and
+// stores the format: RG32F for vsm (two moments), RGBA16_UNORM for msm with msmMomentBits = 64
+// (quantised); else RGBA32F (buildMomentImages checks it).
+VkFormat ShadowRenderer::Impl::momentFormatFor(PcfKernel kernel,
+                                               std::uint32_t msmMomentBits) const {
+  auto supported = [&](VkFormat format) {
     VkFormatProperties fp{};
-    vkGetPhysicalDeviceFormatProperties(device_.physicalDevice, VK_FORMAT_R32G32_SFLOAT, &fp);
-    if ((fp.optimalTilingFeatures & kMomentFeatures) == kMomentFeatures) {
-      return VK_FORMAT_R32G32_SFLOAT;
-    }
+    vkGetPhysicalDeviceFormatProperties(device_.physicalDevice, format, &fp);
+    return (fp.optimalTilingFeatures & kMomentFeatures) == kMomentFeatures;
+  };
+  if (kernel == PcfKernel::kVsm && momentPipelineRg_ != VK_NULL_HANDLE &&
+      supported(VK_FORMAT_R32G32_SFLOAT)) {
+    return VK_FORMAT_R32G32_SFLOAT;
+  }
+  if (kernel == PcfKernel::kMsm && msmMomentBits == 64 && momentPipelineQ16_ != VK_NULL_HANDLE &&
+      supported(VK_FORMAT_R16G16B16A16_UNORM)) {
+    return VK_FORMAT_R16G16B16A16_UNORM;
   }
   return VK_FORMAT_R32G32B32A32_SFLOAT;
+}
+
+VkPipeline ShadowRenderer::Impl::momentPipelineFor(VkFormat format) const noexcept {
+  if (format == VK_FORMAT_R32G32_SFLOAT) return momentPipelineRg_;
+  if (format == VK_FORMAT_R16G16B16A16_UNORM) return momentPipelineQ16_;
+  return momentPipeline_;
 }
 
 void ShadowRenderer::Impl::destroyMomentResources() noexcept {
   VkDevice dev = device_.device;
   vkDestroyPipeline(dev, momentPipeline_, nullptr);
   vkDestroyPipeline(dev, momentPipelineRg_, nullptr);
+  vkDestroyPipeline(dev, momentPipelineQ16_, nullptr);
   momentPipelineRg_ = VK_NULL_HANDLE;
+  momentPipelineQ16_ = VK_NULL_HANDLE;
   vkDestroyPipelineLayout(dev, momentPipelineLayout_, nullptr);
   vkDestroyDescriptorSetLayout(dev, momentSetLayout_, nullptr);
   vkDestroySampler(dev, momentSampler_, nullptr);
@@ -260,9 +281,10 @@ void ShadowRenderer::Impl::destroyMomentImages(MomentImages& m) noexcept {
 // The moment image of `settings` (prefiltered kernels only) and the resolve's sets,
 // allocated from `pool` (the lighting set's, which lives with the images).
 Status ShadowRenderer::Impl::buildMomentImages(const ShadowSettings& settings,
-                                               VkDescriptorPool pool, MomentImages& out) {
+                                               std::uint32_t msmMomentBits, VkDescriptorPool pool,
+                                               MomentImages& out) {
   VkDevice dev = device_.device;
-  const VkFormat format = momentFormatFor(settings.kernel);
+  const VkFormat format = momentFormatFor(settings.kernel, msmMomentBits);
   VkFormatProperties fp{};
   vkGetPhysicalDeviceFormatProperties(device_.physicalDevice, format, &fp);
   if ((fp.optimalTilingFeatures & kMomentFeatures) != kMomentFeatures) {
@@ -469,9 +491,7 @@ void ShadowRenderer::Impl::recordMomentDispatches(VkCommandBuffer cmd, const Mom
   const std::int32_t res = static_cast<std::int32_t>(resolution_);
   const LayerRects all(1, {0, 0, res, res});
   // The mips (recordMomentMips) run on the same pipeline.
-  vkCmdBindPipeline(
-      cmd, VK_PIPELINE_BIND_POINT_COMPUTE,
-      moments_.format == VK_FORMAT_R32G32_SFLOAT ? momentPipelineRg_ : momentPipeline_);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentPipelineFor(moments_.format));
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, momentPipelineLayout_, 0, 1,
                           &moments_.set, 0, nullptr);
   MomentPush push;

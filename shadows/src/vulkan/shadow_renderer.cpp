@@ -600,7 +600,9 @@ VkFormat ShadowRenderer::momentFormat() const noexcept {
 }
 VkDeviceSize ShadowRenderer::momentBytes() const noexcept {
   if (impl_->moments_.image == VK_NULL_HANDLE) return 0;
-  return momentImageBytes(impl_->settings_, impl_->moments_.format == VK_FORMAT_R32G32_SFLOAT);
+  const VkFormat format = impl_->moments_.format;
+  return momentImageBytes(impl_->settings_,
+                          format != VK_FORMAT_UNDEFINED && format != VK_FORMAT_R32G32B32A32_SFLOAT);
 }
 VkDescriptorSetLayout ShadowRenderer::lightingSetLayout() const noexcept {
   return impl_->lightingSetLayout();

@@ -94,7 +94,7 @@ class ShadowRenderer::Impl {
   // update() builds what new settings need (build*: may fail, installs nothing), then installs
   // it all (install*: cannot fail, retires what it replaces). Objects travel in a Retired.
   struct Retired;
-  Status buildImage(const ShadowSettings& settings, VkFormat format, Retired& out,
+  Status buildImage(const ShadowSettings& settings, const RendererOptions& options, Retired& out,
                     VkDescriptorSet& lightingSet);
   void installImage(Retired& built, VkDescriptorSet lightingSet,
                     const ShadowSettings& settings) noexcept;
@@ -263,8 +263,8 @@ class ShadowRenderer::Impl {
   bool momentPartial_ = false;
   Status createMomentResources();
   void destroyMomentResources() noexcept;
-  Status buildMomentImages(const ShadowSettings& settings, VkDescriptorPool pool,
-                           MomentImages& out);
+  Status buildMomentImages(const ShadowSettings& settings, std::uint32_t msmMomentBits,
+                           VkDescriptorPool pool, MomentImages& out);
   void destroyMomentImages(MomentImages& m) noexcept;
   void writeMomentSet() const;
   void recordMomentClear(VkCommandBuffer cmd);
@@ -277,9 +277,11 @@ class ShadowRenderer::Impl {
   MomentImages moments_{};
   VkDescriptorSetLayout momentSetLayout_ = VK_NULL_HANDLE;
   VkPipelineLayout momentPipelineLayout_ = VK_NULL_HANDLE;
-  VkPipeline momentPipeline_ = VK_NULL_HANDLE;    // writes RGBA32F
-  VkPipeline momentPipelineRg_ = VK_NULL_HANDLE;  // writes RG32F (extended formats enabled)
-  [[nodiscard]] VkFormat momentFormatFor(PcfKernel kernel) const;
+  VkPipeline momentPipeline_ = VK_NULL_HANDLE;     // writes RGBA32F
+  VkPipeline momentPipelineRg_ = VK_NULL_HANDLE;   // writes RG32F (extended formats enabled)
+  VkPipeline momentPipelineQ16_ = VK_NULL_HANDLE;  // writes RGBA16_UNORM, msm quantised (same)
+  [[nodiscard]] VkFormat momentFormatFor(PcfKernel kernel, std::uint32_t msmMomentBits) const;
+  [[nodiscard]] VkPipeline momentPipelineFor(VkFormat format) const noexcept;
   VkSampler momentSampler_ = VK_NULL_HANDLE;
   VkSampler wrapMomentSampler_ = VK_NULL_HANDLE;
 

@@ -179,6 +179,7 @@ UniformOptions ShadowRenderer::Impl::uniformOptions() const noexcept {
   UniformOptions options;
   options.debugMode = debugMode_;
   options.depthBits = options_.depthFormat == VK_FORMAT_D16_UNORM ? 16u : 32u;
+  options.msmQuantizedMoments = moments_.format == VK_FORMAT_R16G16B16A16_UNORM;
   options.momentAnisotropy = device_.maxSamplerAnisotropy;
   return options;
 }

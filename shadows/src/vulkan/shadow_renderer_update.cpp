@@ -68,6 +68,11 @@ Status ShadowRenderer::Impl::resolveOptions(const ShadowSettings& settings,
                   fmt("settings.cascadeCount = %u is invalid: this device allows at most %u layers",
                       settings.cascadeCount, lim.maxImageArrayLayers));
   }
+  if (options.msmMomentBits != 64 && options.msmMomentBits != 128) {
+    return Status(
+        ErrorCode::kInvalidArgument,
+        fmt("options.msmMomentBits = %u is invalid: allowed 64 or 128", options.msmMomentBits));
+  }
   if (options.renderMode != RenderMode::kPerLayer && options.renderMode != RenderMode::kLayered &&
       options.renderMode != RenderMode::kAuto) {
     return Status(ErrorCode::kInvalidArgument,
@@ -149,13 +154,14 @@ Status ShadowRenderer::Impl::update(const ShadowSettings& settings,
   if (!s.ok()) return s;
   // Windowed addressing (stabilised, per-layer) samples through the REPEAT samplers.
   const bool wrap = windowedFor(settings, options, mode);
-  const bool newImage = image_ == VK_NULL_HANDLE || settings.resolution != resolution_ ||
-                        settings.cascadeCount != layerCount_ ||
-                        options.depthFormat != options_.depthFormat ||
-                        options.cache != options_.cache || wrap != wrapSampling_ ||
-                        // the moment image and the lighting set's binding follow the filter
-                        ((isPrefiltered(settings.kernel) || isPrefiltered(settings_.kernel)) &&
-                         settings.kernel != settings_.kernel);
+  const bool newImage =
+      image_ == VK_NULL_HANDLE || settings.resolution != resolution_ ||
+      settings.cascadeCount != layerCount_ || options.depthFormat != options_.depthFormat ||
+      options.cache != options_.cache || wrap != wrapSampling_ ||
+      // the moment image and the lighting set's binding follow the filter
+      ((isPrefiltered(settings.kernel) || isPrefiltered(settings_.kernel)) &&
+       settings.kernel != settings_.kernel) ||
+      (settings.kernel == PcfKernel::kMsm && options.msmMomentBits != options_.msmMomentBits);
   const bool newPipelines = !pipelinesBuilt_ || options.depthFormat != options_.depthFormat;
   const ThinPlan thin = planThinPipeline(settings.resolution, options);
 
@@ -179,7 +185,7 @@ Status ShadowRenderer::Impl::update(const ShadowSettings& settings,
   }
   if (s.ok() && newImage) {
     s = build(UpdateStep::kImage,
-              [&] { return buildImage(settings, options.depthFormat, image, lightingSet); });
+              [&] { return buildImage(settings, options, image, lightingSet); });
   }
   if (s.ok() && newImage && options.cache) {
     s = build(UpdateStep::kStaticImage, [&] {
@@ -342,8 +348,10 @@ Status ShadowRenderer::Impl::prepare(VkCommandBuffer cmd) {
   return {};
 }
 
-Status ShadowRenderer::Impl::buildImage(const ShadowSettings& settings, VkFormat format,
-                                        Retired& out, VkDescriptorSet& lightingSet) {
+Status ShadowRenderer::Impl::buildImage(const ShadowSettings& settings,
+                                        const RendererOptions& options, Retired& out,
+                                        VkDescriptorSet& lightingSet) {
+  const VkFormat format = options.depthFormat;
   VkDevice dev = device_.device;
   VkImage image = VK_NULL_HANDLE;
   VkDeviceMemory memory = VK_NULL_HANDLE;
@@ -426,7 +434,7 @@ Status ShadowRenderer::Impl::buildImage(const ShadowSettings& settings, VkFormat
     }
     setName(handleBits(set), VK_OBJECT_TYPE_DESCRIPTOR_SET, "csm lighting set");
     if (isPrefiltered(settings.kernel)) {
-      Status ms = buildMomentImages(settings, pool, out.moments);
+      Status ms = buildMomentImages(settings, options.msmMomentBits, pool, out.moments);
       if (!ms.ok()) {
         vkDestroyDescriptorPool(dev, pool, nullptr);
         return fail(ms);

@@ -90,9 +90,11 @@ struct DeviceInfo {
   std::uint32_t maxResolution = 0;
   /// VkPhysicalDeviceFeatures::shaderStorageImageExtendedFormats is enabled on the device. The
   /// vsm filter then keeps its two moments as R32G32_SFLOAT, 64 bits a texel, where the device
-  /// stores and linearly filters that format; otherwise (and for evsm and msm, which keep four)
-  /// as R32G32B32A32_SFLOAT, 128 bits (ShadowRenderer::momentFormat()). The shadows are the
-  /// same either way: the two channels hold the same bits.
+  /// stores and linearly filters that format; otherwise (and for evsm, which keeps four) as
+  /// R32G32B32A32_SFLOAT, 128 bits (ShadowRenderer::momentFormat()). The shadows are the same
+  /// either way: the two channels hold the same bits. msm keeps 128 bits unless
+  /// RendererOptions::msmMomentBits asks for 64 (quantised, R16G16B16A16_UNORM, which also needs
+  /// this feature).
   bool storageImageExtendedFormatsEnabled = false;
 };
 
@@ -203,6 +205,12 @@ struct RendererOptions {
   /// ShadowView only (the renderer ignores it): the receiver fit, see ReceiverFit. Off by default;
   /// on, the host calls ShadowView::recordReceiverDepth once a frame after drawing its depth.
   ReceiverFit receiverFit = ReceiverFit::kOff;
+  /// The msm filter's moment image: 128 (default) keeps the four moments as 32-bit floats
+  /// (RGBA32F); 64 quantises them to 16 bits (RGBA16_UNORM, Peters and Klein's optimised
+  /// quantisation, csm::msmQuantize) where DeviceInfo::storageImageExtendedFormatsEnabled and the
+  /// device allow it (else 128; momentFormat() says which), at half the memory. 64 bits leak more
+  /// light right behind an occluder (measured: shadows/docs/prefiltered.md). 64 or 128.
+  std::uint32_t msmMomentBits = 128;
 };
 
 /// A range of an index buffer drawn as one caster mesh.
@@ -525,8 +533,9 @@ class ShadowRenderer {
   [[nodiscard]] VkImage momentImage() const noexcept;
   [[nodiscard]] std::uint32_t momentLevels() const noexcept;
   /// The moment image's format: R32G32_SFLOAT for vsm where
-  /// DeviceInfo::storageImageExtendedFormatsEnabled allows it, else R32G32B32A32_SFLOAT;
-  /// VK_FORMAT_UNDEFINED with a percentage-closer kernel.
+  /// DeviceInfo::storageImageExtendedFormatsEnabled allows it, R16G16B16A16_UNORM (quantised) for
+  /// msm where RendererOptions::msmMomentBits = 64 and the same allow it, else
+  /// R32G32B32A32_SFLOAT; VK_FORMAT_UNDEFINED with a percentage-closer kernel.
   [[nodiscard]] VkFormat momentFormat() const noexcept;
   /// Device memory of the moment image with its mips (0 with a percentage-closer kernel):
   /// csm::momentImageBytes of the settings and momentFormat()'s texel size.
