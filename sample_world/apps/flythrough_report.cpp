@@ -136,6 +136,7 @@ json summaryJson(const std::vector<json>& framesJson, const world::AppSettings& 
   summary["shadow_cull_closed"] = settings.shadow.diagnostics.cullClosedCasters;
   summary["thin_widen_texels"] = settings.thinWidenTexels;
   summary["shadow_cache_bytes"] = lastStats.cacheBytes;
+  summary["moment_bytes"] = lastStats.momentBytes;
   summary["shadow_cache_budget_texels"] = settings.cacheBudgetTexels;
   summary["gpu_shadow_ms_median"] =
       median([](const json& f) { return f["gpu_ms"]["shadow"].get<double>(); });

@@ -235,6 +235,9 @@ const std::vector<Entry>& table() {
       number<float>("shadow.minCasterTexels", "texels in [0, 1e6]", 0, 1e6, false,
                     [](AppSettings& s) -> float& { return s.shadow.minCasterTexels; }),
       depthFormatEntry(),
+      number<std::uint32_t>("shadow.msmMomentBits", "64 or 128 (bits a texel of msm's moments)", 64,
+                            128, true,
+                            [](AppSettings& s) -> std::uint32_t& { return s.msmMomentBits; }),
       // The size ladder, the box fit and the stepped sun (issue 10).
       boolean("shadow.ladder",
               [](AppSettings& s) -> bool& { return s.shadow.diagnostics.sizeLadder; }),
@@ -462,6 +465,10 @@ std::optional<std::string> validateSettings(const AppSettings& s) {
     return "shadow.cacheBudgetTexels = " + std::to_string(s.cacheBudgetTexels) +
            " is invalid: allowed 0 (no cap) or at least shadow.resolution^2 = " +
            std::to_string(layer);
+  }
+  if (s.msmMomentBits != 64 && s.msmMomentBits != 128) {
+    return "shadow.msmMomentBits = " + std::to_string(s.msmMomentBits) +
+           " is invalid: allowed 64 or 128";
   }
   return std::nullopt;
 }

@@ -361,6 +361,7 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   // mode renders every frame in full instead of being refused.
   options.cache = settings.shadowCache && settings.shadow.diagnostics.stabilize;
   options.cacheBudgetTexels = settings.cacheBudgetTexels;
+  options.msmMomentBits = settings.msmMomentBits;
   options.thinCasterWidenTexels = settings.thinCasters ? settings.thinWidenTexels : 0.0f;
   if (settings.casterLods) {
     for (std::uint32_t c = 0; c < csm::kMaxCascades; ++c) {
@@ -631,6 +632,7 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
   stats.momentTexels = {};
   stats.lagFrames = {};
   stats.cacheBytes = shadow_->renderer().cacheBytes();
+  stats.momentBytes = shadow_->renderer().momentBytes();
   for (std::uint32_t c = 0; c < cascades.cascadeCount; ++c) {
     if (cascades.cascades[c].empty) continue;
     stats.momentTexels[c] = shadow_->renderer().cacheStats()[c].momentTexels;

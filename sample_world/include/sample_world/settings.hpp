@@ -108,6 +108,10 @@ struct AppSettings {
   double fovDeg = 60.0;
   double farM = 6000.0;
   WorldDesc world{};
+  /// Bits a texel of msm's moment image (csm::vk::RendererOptions::msmMomentBits): 128 (32-bit
+  /// floats, the default) or 64 (quantised to 16 bits, half the memory, where the device stores
+  /// RGBA16_UNORM).
+  std::uint32_t msmMomentBits = 128;
 
   AppSettings();
 };

@@ -65,6 +65,10 @@ struct FrameStats {
   std::uint32_t litInstances = 0;
   std::uint64_t litTriangles = 0;
   csm::CascadeFrame cascades{};
+  /// Device memory of the prefiltered filters' moment image with its mips (0 with a
+  /// percentage-closer kernel): 8 bytes a texel for vsm and 64-bit msm where the device stores
+  /// the compact formats, else 16.
+  std::uint64_t momentBytes = 0;
 };
 
 class WorldRenderer {
