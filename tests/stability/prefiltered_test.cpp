@@ -190,7 +190,8 @@ struct LeakScene {
 // Per filter: the render of one scene, measured against the point, sun-disk and coverage truths.
 std::map<csm::PcfKernel, FilterResult> measureFilters(
     csm_measure::Harness& harness, const LeakScene& sc, std::span<const csm::PcfKernel> filters,
-    SceneTruth& truths, std::map<csm::PcfKernel, engine::CpuImage>* images) {
+    SceneTruth& truths, std::map<csm::PcfKernel, engine::CpuImage>* images,
+    const csm::vk::RendererOptions& options = {}) {
   const csm::DirectionalLight light = testLight();
   const csm_measure::Scene scene = sc.build(light);
   harness.setScene(scene);
@@ -202,7 +203,7 @@ std::map<csm::PcfKernel, FilterResult> measureFilters(
     csm::ShadowSettings settings = testSettings(true);
     settings.shadowDistanceM = 40.0;
     settings.kernel = kernel;
-    const csm::vk::Status st = harness.configure(settings);
+    const csm::vk::Status st = harness.configure(settings, options);
     EXPECT_TRUE(st.ok()) << sc.key << " " << csm::kernelName(kernel) << ": " << st.message();
     if (!st.ok()) continue;
     csm::CascadeHistory history;
@@ -242,11 +243,13 @@ std::map<csm::PcfKernel, FilterResult> measureFilters(
       best = std::min(best, harness.timeFrame(camera, light, timedHistory, kView, kernel).litGpuMs);
     r.litMs = best;
     std::printf(
-        "%-7s %-8s %-7s misclassified %.5f  mean |s - v_soft| %.5f  leak %.5f of %llu umbra "
+        "%-7s %-8s%s %-7s misclassified %.5f  mean |s - v_soft| %.5f  leak %.5f of %llu umbra "
         "pixels  coverage: mean err %.5f  off %.5f  leak %.5f of %llu  lit %.2f ms\n",
-        sc.key, csm::kernelName(kernel), harness.implicitLod() ? "mip" : "level 0",
-        r.misclassification, r.meanAbsErr, r.leak, (unsigned long long)r.umbraPixels, r.coverageErr,
-        r.coverageOff, r.coverageLeak, (unsigned long long)r.coverageUmbra, r.litMs);
+        sc.key, csm::kernelName(kernel),
+        harness.renderer().momentFormat() == VK_FORMAT_R16G16B16A16_UNORM ? "64" : "",
+        harness.implicitLod() ? "mip" : "level 0", r.misclassification, r.meanAbsErr, r.leak,
+        (unsigned long long)r.umbraPixels, r.coverageErr, r.coverageOff, r.coverageLeak,
+        (unsigned long long)r.coverageUmbra, r.litMs);
     std::fflush(stdout);
     results[kernel] = r;
     if (images) (*images)[kernel] = std::move(image);
@@ -284,10 +287,22 @@ TEST(Prefiltered, EachFilterAgainstRayTracedTruthWithStackedOccluders) {
         measureFilters(*harness, sc, filters, truths, &images);
     const std::map<csm::PcfKernel, FilterResult> atMips =
         measureFilters(mips, sc, csm::kPrefilteredKernels, truths, &mipImages);
-    auto row = [&](csm::PcfKernel kernel, const FilterResult& r, const char* read) {
+    // msm once more with its moments quantised to 64 bits (RendererOptions::msmMomentBits).
+    csm::vk::RendererOptions quantized;
+    quantized.msmMomentBits = 64;
+    const csm::PcfKernel msmOnly[] = {csm::PcfKernel::kMsm};
+    std::map<csm::PcfKernel, engine::CpuImage> images64;
+    const std::map<csm::PcfKernel, FilterResult> msm64 =
+        measureFilters(*harness, sc, msmOnly, truths, &images64, quantized);
+    const bool has64 = harness->renderer().momentFormat() == VK_FORMAT_R16G16B16A16_UNORM;
+    const std::map<csm::PcfKernel, FilterResult> msm64AtMips =
+        measureFilters(mips, sc, msmOnly, truths, nullptr, quantized);
+    auto row = [&](csm::PcfKernel kernel, const FilterResult& r, const char* read,
+                   int momentBits = 128) {
       runs.push_back({{"scene", sc.key},
                       {"description", sc.description},
                       {"filter", csm::kernelName(kernel)},
+                      {"moment_bits", csm::isPrefiltered(kernel) ? momentBits : 0},
                       {"read", read},
                       {"misclassification", r.misclassification},
                       {"mean_abs_err", r.meanAbsErr},
@@ -302,6 +317,10 @@ TEST(Prefiltered, EachFilterAgainstRayTracedTruthWithStackedOccluders) {
     };
     for (const auto& [kernel, r] : results) row(kernel, r, "level 0");
     for (const auto& [kernel, r] : atMips) row(kernel, r, "mip");
+    if (has64) {
+      row(csm::PcfKernel::kMsm, msm64.at(csm::PcfKernel::kMsm), "level 0", 64);
+      row(csm::PcfKernel::kMsm, msm64AtMips.at(csm::PcfKernel::kMsm), "mip", 64);
+    }
     const std::string stem = artefactDir() + "/prefiltered_" +
                              (std::string(sc.key) == "stacked" ? "" : std::string(sc.key) + "_");
     for (const csm::PcfKernel kernel : {csm::PcfKernel::kTent3, csm::PcfKernel::kVsm,
@@ -309,6 +328,7 @@ TEST(Prefiltered, EachFilterAgainstRayTracedTruthWithStackedOccluders) {
       engine::writePng(stem + csm::kernelName(kernel) + ".png", images[kernel]);
     for (const csm::PcfKernel kernel : csm::kPrefilteredKernels)
       engine::writePng(stem + csm::kernelName(kernel) + "_mip.png", mipImages[kernel]);
+    if (has64) engine::writePng(stem + "msm64.png", images64[csm::PcfKernel::kMsm]);
 
     // Measured (lavapipe), per scene (stacked / canopy / bridge): tent 3x3 misclassifies
     // 0.252 / 0.224 / 0.283%, the prefiltered filters 0.252-0.269 / 0.207-0.214 / 0.283-0.303%.
@@ -350,6 +370,33 @@ TEST(Prefiltered, EachFilterAgainstRayTracedTruthWithStackedOccluders) {
           << sc.key << " " << name << ": bleeding";
     }
     EXPECT_GT(tent3.coverageUmbra, 2000u) << sc.key;
+    // msm at 64 bits: at level 0 held to the same bounds as the other filters; at the mip within
+    // a quarter (errors) and a half (leak) of msm at 128 bits. Measured (lavapipe), stacked /
+    // canopy / bridge, 64 against 128 bits: level 0 misclassifies 0.278 / 0.217 / 0.300% against
+    // 0.269 / 0.207 / 0.291%, leaks 1.19 / 3.36 / 0.65% against 1.11 / 3.13 / 0.57%; at the mip
+    // misclassifies 0.333 / 0.217 / 0.363% against 0.283 / 0.209 / 0.309%, leaks 1.91 / 4.53 /
+    // 1.21% against 1.47 / 4.20 / 0.91%, and under the bridge its coverage error is 1.53x tent
+    // 3x3's (128 bits: 1.33x; the filters' bound is 1.5x). The format's rounding widens the leak
+    // right behind an occluder (Moments.QuantisedMsmReadsAsFloatMsmToTheFormatsRounding): why
+    // 128 bits stay the default.
+    if (has64) {
+      const FilterResult& r = msm64.at(csm::PcfKernel::kMsm);
+      const FilterResult& full = results.at(csm::PcfKernel::kMsm);
+      EXPECT_EQ(r.nonFinite, 0u) << sc.key << " msm 64";
+      EXPECT_LE(r.misclassification, 1.15 * tent5.misclassification) << sc.key << " msm 64";
+      EXPECT_LE(r.meanAbsErr, tent5.meanAbsErr) << sc.key << " msm 64: sun-disk truth";
+      EXPECT_LE(r.leak, 1.1 * tent3.leak) << sc.key << " msm 64: bleeding";
+      const FilterResult& m = msm64AtMips.at(csm::PcfKernel::kMsm);
+      const FilterResult& fullMip = atMips.at(csm::PcfKernel::kMsm);
+      EXPECT_EQ(m.nonFinite, 0u) << sc.key << " msm 64 mip";
+      EXPECT_LE(m.misclassification, 1.25 * fullMip.misclassification) << sc.key << " msm 64";
+      EXPECT_LE(m.coverageErr, 1.25 * fullMip.coverageErr) << sc.key << " msm 64";
+      EXPECT_LE(m.coverageOff, 1.25 * fullMip.coverageOff) << sc.key << " msm 64";
+      EXPECT_LE(m.coverageLeak, 1.5 * fullMip.coverageLeak + 1e-3) << sc.key << " msm 64: bleeding";
+      // Not better than 32-bit moments: the quantisation only rounds.
+      EXPECT_GE(r.leak, full.leak) << sc.key;
+      EXPECT_GE(m.leak, fullMip.leak) << sc.key;
+    }
   }
   EXPECT_EQ(engine::validationMessageCount(), 0u);
   writeReport("prefiltered.json",
