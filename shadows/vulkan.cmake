@@ -20,38 +20,25 @@ add_custom_command(OUTPUT ${_csm_range_hdr}
   DEPENDS ${CSM_MODULE_SHADER_DIR}/csm_depth_range.comp
           ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
   COMMENT "glslang csm_depth_range.comp" VERBATIM)
-# The prefiltered filters' resolve (depth -> moments, separable blur), the same target env.
-set(_csm_moments_hdr ${CSM_SHADER_OUT}/csm_shaders/csm_moments.comp.spv.h)
-add_custom_command(OUTPUT ${_csm_moments_hdr}
-  COMMAND ${GLSLANG_VALIDATOR} --quiet --target-env vulkan1.2 -I${CSM_MODULE_SHADER_DIR}
-          -I${CSM_SHARED_INCLUDE_DIR} --vn csm_moments_comp_spv -o ${_csm_moments_hdr}
-          ${CSM_MODULE_SHADER_DIR}/csm_moments.comp
-  DEPENDS ${CSM_MODULE_SHADER_DIR}/csm_moments.comp ${CSM_MODULE_SHADER_DIR}/csm.glsl
-          ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
-          ${CSM_SHARED_INCLUDE_DIR}/csm/gpu_shared.h
-  COMMENT "glslang csm_moments.comp" VERBATIM)
-# The same resolve writing RG32F (vsm's two moments, where the device stores that format).
-set(_csm_moments_rg_hdr ${CSM_SHADER_OUT}/csm_shaders/csm_moments_rg.comp.spv.h)
-add_custom_command(OUTPUT ${_csm_moments_rg_hdr}
-  COMMAND ${GLSLANG_VALIDATOR} --quiet --target-env vulkan1.2 -DCSM_MOMENTS_RG
-          -I${CSM_MODULE_SHADER_DIR} -I${CSM_SHARED_INCLUDE_DIR} --vn csm_moments_rg_comp_spv
-          -o ${_csm_moments_rg_hdr} ${CSM_MODULE_SHADER_DIR}/csm_moments.comp
-  DEPENDS ${CSM_MODULE_SHADER_DIR}/csm_moments.comp ${CSM_MODULE_SHADER_DIR}/csm.glsl
-          ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
-          ${CSM_SHARED_INCLUDE_DIR}/csm/gpu_shared.h
-  COMMENT "glslang csm_moments.comp (RG32F)" VERBATIM)
-# And writing RGBA16_UNORM (msm's four moments quantised, RendererOptions::msmMomentBits = 64).
-set(_csm_moments_q16_hdr ${CSM_SHADER_OUT}/csm_shaders/csm_moments_q16.comp.spv.h)
-add_custom_command(OUTPUT ${_csm_moments_q16_hdr}
-  COMMAND ${GLSLANG_VALIDATOR} --quiet --target-env vulkan1.2 -DCSM_MOMENTS_Q16
-          -I${CSM_MODULE_SHADER_DIR} -I${CSM_SHARED_INCLUDE_DIR} --vn csm_moments_q16_comp_spv
-          -o ${_csm_moments_q16_hdr} ${CSM_MODULE_SHADER_DIR}/csm_moments.comp
-  DEPENDS ${CSM_MODULE_SHADER_DIR}/csm_moments.comp ${CSM_MODULE_SHADER_DIR}/csm.glsl
-          ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
-          ${CSM_SHARED_INCLUDE_DIR}/csm/gpu_shared.h
-  COMMENT "glslang csm_moments.comp (RGBA16, quantised)" VERBATIM)
-add_custom_target(csm_depth_range_shader
-  DEPENDS ${_csm_range_hdr} ${_csm_moments_hdr} ${_csm_moments_rg_hdr} ${_csm_moments_q16_hdr})
+# The prefiltered filters' resolve (depth -> moments, separable blur), the same target env, once
+# per moment format: RGBA32F; RG32F (vsm's two moments, where the device stores that format);
+# RGBA16_UNORM (msm's moments quantised, RendererOptions::msmMomentBits = 64).
+set(_csm_moments_hdrs)
+foreach(_variant IN ITEMS "moments;" "moments_rg;-DCSM_MOMENTS_RG" "moments_q16;-DCSM_MOMENTS_Q16")
+  list(GET _variant 0 _name)
+  list(GET _variant 1 _define)
+  set(_hdr ${CSM_SHADER_OUT}/csm_shaders/csm_${_name}.comp.spv.h)
+  add_custom_command(OUTPUT ${_hdr}
+    COMMAND ${GLSLANG_VALIDATOR} --quiet --target-env vulkan1.2 ${_define}
+            -I${CSM_MODULE_SHADER_DIR} -I${CSM_SHARED_INCLUDE_DIR} --vn csm_${_name}_comp_spv
+            -o ${_hdr} ${CSM_MODULE_SHADER_DIR}/csm_moments.comp
+    DEPENDS ${CSM_MODULE_SHADER_DIR}/csm_moments.comp ${CSM_MODULE_SHADER_DIR}/csm.glsl
+            ${CSM_SHARED_INCLUDE_DIR}/csm/shared_constants.h
+            ${CSM_SHARED_INCLUDE_DIR}/csm/gpu_shared.h
+    COMMENT "glslang csm_moments.comp (${_name})" VERBATIM)
+  list(APPEND _csm_moments_hdrs ${_hdr})
+endforeach()
+add_custom_target(csm_depth_range_shader DEPENDS ${_csm_range_hdr} ${_csm_moments_hdrs})
 
 add_library(csm_vulkan STATIC
   ${CMAKE_CURRENT_SOURCE_DIR}/src/vulkan/shadow_renderer.cpp

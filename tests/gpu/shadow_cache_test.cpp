@@ -932,6 +932,65 @@ void copyMoments(VkCommandBuffer cmd, const csm::vk::ShadowView& view, std::uint
                buffer.handle());
 }
 
+/// A cached view of the moment-format tests (kCascades layers of kResolution², 120 m, `kernel`,
+/// RendererOptions `options` over the cache in per-layer mode) and a buffer its moment image is
+/// read back into.
+struct MomentView {
+  std::unique_ptr<csm::vk::ShadowView> view;
+  std::unique_ptr<engine::Buffer> readback;
+};
+
+csm::ShadowSettings momentSettings(csm::PcfKernel kernel) {
+  csm::ShadowSettings settings;
+  settings.cascadeCount = kCascades;
+  settings.resolution = kResolution;
+  settings.shadowDistanceM = 120.0;
+  settings.kernel = kernel;
+  return settings;
+}
+
+csm::vk::RendererOptions momentOptions() {
+  csm::vk::RendererOptions options;
+  options.cache = true;
+  options.renderMode = csm::vk::RenderMode::kPerLayer;
+  return options;
+}
+
+void makeMomentView(CacheRig& rig, const csm::vk::DeviceInfo& info,
+                    const csm::ShadowSettings& settings, const csm::vk::RendererOptions& options,
+                    MomentView& out) {
+  csm::vk::VertexLayout layout;
+  layout.stride = sizeof(engine::Vertex);
+  layout.positionOffset = offsetof(engine::Vertex, position);
+  csm::vk::Status s;
+  out.view = csm::vk::ShadowView::create(info, layout, &s);
+  ASSERT_TRUE(out.view != nullptr) << s.message();
+  ASSERT_TRUE(out.view->setSettings(settings, options).ok());
+  const csm::AabbWs scene{{-200, -1, -200}, {200, 20, 200}};
+  ASSERT_TRUE(out.view->setSceneBounds(&scene).ok());
+  out.readback = std::make_unique<engine::Buffer>(*rig.ctx_, out.view->renderer().momentBytes(),
+                                                  VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                                  engine::MemoryUsage::Readback, "moment readback");
+}
+
+/// Frame `f` of `walk` with the rig's moving casters, recorded by every view, each moment image
+/// copied into its readback (`texelBytes[k]` a texel).
+void flyMomentFrame(CacheRig& rig, std::span<MomentView> views,
+                    std::span<const std::uint32_t> texelBytes, int f) {
+  rig.setDynamic(f);
+  for (MomentView& v : views) {
+    ASSERT_TRUE(v.view->setCasters(rig.meshDraws_, rig.instances_, rig.bounds_).ok());
+  }
+  rig.ctx_->submitAndWait([&](VkCommandBuffer cmd) {
+    for (std::size_t k = 0; k < views.size(); ++k) {
+      const csm::vk::Status s =
+          views[k].view->record(cmd, pathCamera("walk", f), pathLight("walk", f));
+      ASSERT_TRUE(s.ok()) << s.message();
+      copyMoments(cmd, *views[k].view, texelBytes[k], *views[k].readback);
+    }
+  });
+}
+
 // VSM keeps its two moments in an RG32F image where the host enabled
 // shaderStorageImageExtendedFormats (DeviceInfo::storageImageExtendedFormatsEnabled; the engine
 // does where the device has it). At every level of every layer, frame after frame of a cached
@@ -945,55 +1004,30 @@ TEST(VsmMoments, TwoChannelImageHoldsTheSameBitsAtHalfTheMemory) {
   if (!info.storageImageExtendedFormatsEnabled) {
     GTEST_SKIP() << "the device lacks shaderStorageImageExtendedFormats";
   }
-  csm::vk::VertexLayout layout;
-  layout.stride = sizeof(engine::Vertex);
-  layout.positionOffset = offsetof(engine::Vertex, position);
-  csm::ShadowSettings settings;
-  settings.cascadeCount = kCascades;
-  settings.resolution = kResolution;
-  settings.shadowDistanceM = 120.0;
-  settings.kernel = csm::PcfKernel::kVsm;
-  csm::vk::RendererOptions options;
-  options.cache = true;
-  options.renderMode = csm::vk::RenderMode::kPerLayer;
-  std::array<std::unique_ptr<csm::vk::ShadowView>, 2> views;  // two channels, four channels
-  std::array<std::unique_ptr<engine::Buffer>, 2> readback;
+  csm::ShadowSettings settings = momentSettings(csm::PcfKernel::kVsm);
+  const csm::vk::RendererOptions options = momentOptions();
+  std::array<MomentView, 2> views;  // two channels, four channels
   for (int k = 0; k < 2; ++k) {
     info.storageImageExtendedFormatsEnabled = k == 0;
-    csm::vk::Status s;
-    views[k] = csm::vk::ShadowView::create(info, layout, &s);
-    ASSERT_TRUE(views[k] != nullptr) << s.message();
-    ASSERT_TRUE(views[k]->setSettings(settings, options).ok());
-    const csm::AabbWs scene{{-200, -1, -200}, {200, 20, 200}};
-    ASSERT_TRUE(views[k]->setSceneBounds(&scene).ok());
-    readback[k] = std::make_unique<engine::Buffer>(
-        *rig.ctx_, views[k]->renderer().momentBytes(), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-        engine::MemoryUsage::Readback, "vsm moment readback");
+    makeMomentView(rig, info, settings, options, views[k]);
+    if (HasFatalFailure()) return;
   }
-  ASSERT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R32G32_SFLOAT);
-  ASSERT_EQ(views[1]->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
-  EXPECT_EQ(views[0]->renderer().momentBytes(), csm::momentImageBytes(settings, true));
-  EXPECT_EQ(views[1]->renderer().momentBytes(), csm::momentImageBytes(settings, false));
-  EXPECT_EQ(2 * views[0]->renderer().momentBytes(), views[1]->renderer().momentBytes());
+  const csm::vk::ShadowRenderer& twoR = views[0].view->renderer();
+  const csm::vk::ShadowRenderer& fourR = views[1].view->renderer();
+  ASSERT_EQ(twoR.momentFormat(), VK_FORMAT_R32G32_SFLOAT);
+  ASSERT_EQ(fourR.momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
+  EXPECT_EQ(twoR.momentBytes(), csm::momentImageBytes(settings, true));
+  EXPECT_EQ(fourR.momentBytes(), csm::momentImageBytes(settings, false));
+  EXPECT_EQ(2 * twoR.momentBytes(), fourR.momentBytes());
   const int frames = std::min(flightFrames(), 24);
   std::uint64_t compared = 0, differing = 0, nonZeroExtra = 0;
+  const std::uint32_t texelBytes[2] = {8, 16};
   for (int f = 0; f < frames; ++f) {
-    rig.setDynamic(f);
-    for (auto& v : views) {
-      ASSERT_TRUE(v->setCasters(rig.meshDraws_, rig.instances_, rig.bounds_).ok());
-    }
-    rig.ctx_->submitAndWait([&](VkCommandBuffer cmd) {
-      for (int k = 0; k < 2; ++k) {
-        const csm::vk::Status s =
-            views[k]->record(cmd, pathCamera("walk", f), pathLight("walk", f));
-        ASSERT_TRUE(s.ok()) << s.message();
-        copyMoments(cmd, *views[k], k == 0 ? 8 : 16, *readback[k]);
-      }
-    });
+    flyMomentFrame(rig, views, texelBytes, f);
     if (HasFailure()) return;
-    const auto* two = static_cast<const std::uint32_t*>(readback[0]->mapped());
-    const auto* four = static_cast<const std::uint32_t*>(readback[1]->mapped());
-    const std::size_t texels = views[0]->renderer().momentBytes() / 8;
+    const auto* two = static_cast<const std::uint32_t*>(views[0].readback->mapped());
+    const auto* four = static_cast<const std::uint32_t*>(views[1].readback->mapped());
+    const std::size_t texels = twoR.momentBytes() / 8;
     for (std::size_t t = 0; t < texels; ++t) {
       compared += 2;
       differing +=
@@ -1010,14 +1044,14 @@ TEST(VsmMoments, TwoChannelImageHoldsTheSameBitsAtHalfTheMemory) {
   // The other prefiltered filters keep four channels on the same device.
   for (csm::PcfKernel k : {csm::PcfKernel::kEvsm, csm::PcfKernel::kMsm}) {
     settings.kernel = k;
-    ASSERT_TRUE(views[0]->setSettings(settings, options).ok());
-    EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
-    EXPECT_EQ(views[0]->renderer().momentBytes(), csm::momentImageBytes(settings, false));
+    ASSERT_TRUE(views[0].view->setSettings(settings, options).ok());
+    EXPECT_EQ(views[0].view->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
+    EXPECT_EQ(views[0].view->renderer().momentBytes(), csm::momentImageBytes(settings, false));
   }
   settings.kernel = csm::PcfKernel::kTent3;
-  ASSERT_TRUE(views[0]->setSettings(settings, options).ok());
-  EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_UNDEFINED);
-  EXPECT_EQ(views[0]->renderer().momentBytes(), 0u);
+  ASSERT_TRUE(views[0].view->setSettings(settings, options).ok());
+  EXPECT_EQ(views[0].view->renderer().momentFormat(), VK_FORMAT_UNDEFINED);
+  EXPECT_EQ(views[0].view->renderer().momentBytes(), 0u);
   rig.ctx_->waitIdle();
   views = {};
   EXPECT_EQ(engine::validationMessageCount(), 0u);
@@ -1037,59 +1071,34 @@ TEST(MsmMoments, SixtyFourBitImageHoldsTheQuantisedMomentsAtHalfTheMemory) {
   if (!info.storageImageExtendedFormatsEnabled) {
     GTEST_SKIP() << "the device lacks shaderStorageImageExtendedFormats";
   }
-  csm::vk::VertexLayout layout;
-  layout.stride = sizeof(engine::Vertex);
-  layout.positionOffset = offsetof(engine::Vertex, position);
-  csm::ShadowSettings settings;
-  settings.cascadeCount = kCascades;
-  settings.resolution = kResolution;
-  settings.shadowDistanceM = 120.0;
-  settings.kernel = csm::PcfKernel::kMsm;
-  csm::vk::RendererOptions options;
-  options.cache = true;
-  options.renderMode = csm::vk::RenderMode::kPerLayer;
-  std::array<std::unique_ptr<csm::vk::ShadowView>, 2> views;  // 64 bits, 128 bits
-  std::array<std::unique_ptr<engine::Buffer>, 2> readback;
+  csm::ShadowSettings settings = momentSettings(csm::PcfKernel::kMsm);
+  csm::vk::RendererOptions options = momentOptions();
+  std::array<MomentView, 2> views;  // 64 bits, 128 bits
   for (int k = 0; k < 2; ++k) {
     options.msmMomentBits = k == 0 ? 64 : 128;
-    csm::vk::Status s;
-    views[k] = csm::vk::ShadowView::create(info, layout, &s);
-    ASSERT_TRUE(views[k] != nullptr) << s.message();
-    ASSERT_TRUE(views[k]->setSettings(settings, options).ok());
-    const csm::AabbWs scene{{-200, -1, -200}, {200, 20, 200}};
-    ASSERT_TRUE(views[k]->setSceneBounds(&scene).ok());
-    readback[k] = std::make_unique<engine::Buffer>(
-        *rig.ctx_, views[k]->renderer().momentBytes(), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-        engine::MemoryUsage::Readback, "msm moment readback");
+    makeMomentView(rig, info, settings, options, views[k]);
+    if (HasFatalFailure()) return;
   }
-  ASSERT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R16G16B16A16_UNORM);
-  ASSERT_EQ(views[1]->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
-  EXPECT_EQ(views[0]->renderer().momentBytes(), csm::momentImageBytes(settings, true));
-  EXPECT_EQ(2 * views[0]->renderer().momentBytes(), views[1]->renderer().momentBytes());
-  const std::uint32_t levels = views[0]->renderer().momentLevels();
+  const csm::vk::ShadowRenderer& r64 = views[0].view->renderer();
+  const csm::vk::ShadowRenderer& r128 = views[1].view->renderer();
+  ASSERT_EQ(r64.momentFormat(), VK_FORMAT_R16G16B16A16_UNORM);
+  ASSERT_EQ(r128.momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
+  EXPECT_EQ(r64.momentBytes(), csm::momentImageBytes(settings, true));
+  EXPECT_EQ(2 * r64.momentBytes(), r128.momentBytes());
+  const std::uint32_t levels = r64.momentLevels();
   const int frames = std::min(flightFrames(), 24);
   std::uint64_t compared = 0;
   std::vector<std::uint64_t> beyond(levels, 0);  // channels off by more than the level allows
   std::vector<float> worstSteps(levels, 0.0f);
+  const std::uint32_t texelBytes[2] = {8, 16};
   for (int f = 0; f < frames; ++f) {
-    rig.setDynamic(f);
-    for (auto& v : views) {
-      ASSERT_TRUE(v->setCasters(rig.meshDraws_, rig.instances_, rig.bounds_).ok());
-    }
-    rig.ctx_->submitAndWait([&](VkCommandBuffer cmd) {
-      for (int k = 0; k < 2; ++k) {
-        const csm::vk::Status s =
-            views[k]->record(cmd, pathCamera("walk", f), pathLight("walk", f));
-        ASSERT_TRUE(s.ok()) << s.message();
-        copyMoments(cmd, *views[k], k == 0 ? 8 : 16, *readback[k]);
-      }
-    });
+    flyMomentFrame(rig, views, texelBytes, f);
     if (HasFailure()) return;
-    EXPECT_EQ(views[0]->renderer().uniforms().momentQuantized, 1u);
-    EXPECT_EQ(views[1]->renderer().uniforms().momentQuantized, 0u);
-    EXPECT_EQ(views[0]->renderer().uniforms().moments.y, csm::kMsmQuantizedMinMomentBias);
-    const auto* q = static_cast<const std::uint16_t*>(readback[0]->mapped());
-    const auto* m = static_cast<const glm::vec4*>(readback[1]->mapped());
+    EXPECT_EQ(r64.uniforms().momentQuantized, 1u);
+    EXPECT_EQ(r128.uniforms().momentQuantized, 0u);
+    EXPECT_EQ(r64.uniforms().moments.y, csm::kMsmQuantizedMinMomentBias);
+    const auto* q = static_cast<const std::uint16_t*>(views[0].readback->mapped());
+    const auto* m = static_cast<const glm::vec4*>(views[1].readback->mapped());
     std::size_t at = 0;
     for (std::uint32_t level = 0; level < levels; ++level) {
       const std::size_t side = std::max(kResolution >> level, 1u);
@@ -1116,25 +1125,25 @@ TEST(MsmMoments, SixtyFourBitImageHoldsTheQuantisedMomentsAtHalfTheMemory) {
   // evsm keeps four 32-bit exponentials and vsm its RG32F whatever msmMomentBits says.
   options.msmMomentBits = 64;
   settings.kernel = csm::PcfKernel::kEvsm;
-  ASSERT_TRUE(views[0]->setSettings(settings, options).ok());
-  EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
+  ASSERT_TRUE(views[0].view->setSettings(settings, options).ok());
+  EXPECT_EQ(views[0].view->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
   settings.kernel = csm::PcfKernel::kVsm;
-  ASSERT_TRUE(views[0]->setSettings(settings, options).ok());
-  EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R32G32_SFLOAT);
+  ASSERT_TRUE(views[0].view->setSettings(settings, options).ok());
+  EXPECT_EQ(views[0].view->renderer().momentFormat(), VK_FORMAT_R32G32_SFLOAT);
   // msm again at 128 bits through the same view: the image is rebuilt.
   settings.kernel = csm::PcfKernel::kMsm;
-  ASSERT_TRUE(views[0]->setSettings(settings, options).ok());
-  EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R16G16B16A16_UNORM);
+  ASSERT_TRUE(views[0].view->setSettings(settings, options).ok());
+  EXPECT_EQ(views[0].view->renderer().momentFormat(), VK_FORMAT_R16G16B16A16_UNORM);
   options.msmMomentBits = 128;
-  ASSERT_TRUE(views[0]->setSettings(settings, options).ok());
-  EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
+  ASSERT_TRUE(views[0].view->setSettings(settings, options).ok());
+  EXPECT_EQ(views[0].view->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);
   options.msmMomentBits = 96;
-  const csm::vk::Status refused = views[0]->setSettings(settings, options);
+  const csm::vk::Status refused = views[0].view->setSettings(settings, options);
   EXPECT_FALSE(refused.ok());
   EXPECT_NE(refused.message().find("options.msmMomentBits = 96"), std::string::npos)
       << refused.message();
   EXPECT_NE(refused.message().find("64 or 128"), std::string::npos) << refused.message();
-  EXPECT_EQ(views[0]->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);  // unchanged
+  EXPECT_EQ(views[0].view->renderer().momentFormat(), VK_FORMAT_R32G32B32A32_SFLOAT);  // unchanged
   rig.ctx_->waitIdle();
   views = {};
   EXPECT_EQ(engine::validationMessageCount(), 0u);
