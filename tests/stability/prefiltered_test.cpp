@@ -1,7 +1,8 @@
 // The prefiltered filters (vsm, evsm, msm) against the ray-traced truth, beside the 3x3 and 5x5
 // tents: per filter the misclassification against the point truth (one shadow ray per pixel),
 // the mean |s - v_soft| against the sun-disk truth (256 rays), the leak (truly shadowed pixels,
-// v_soft = 0, that read more than 0.1 lit) and the lit pass's GPU time. Three scenes of stacked
+// v_soft = 0, that read more than 0.1 lit), the far-field flicker while walking (cascades 2 and
+// beyond) and the lit pass's GPU time. Three scenes of stacked
 // occluders, the bleeding case of variance methods (two occluders' depths mixed in one filter
 // footprint): a slab floating 3 m above a low box (beside a tall box), a canopy over a roof over
 // the ground, a bridge deck on two piers over a road. Writes prefiltered.json and
@@ -128,6 +129,9 @@ struct FilterResult {
   double coverageLeak = 0.0;
   uint64_t coveragePixels = 0;
   uint64_t coverageUmbra = 0;
+  // Far-field flicker while walking (walkCamera): cascades 2 and beyond, the stable pixel pairs
+  // of consecutive frames whose factor changes by more than 0.1 (csm_measure/flicker.hpp).
+  csm_measure::FlickerStats walk;
 };
 
 // Rendered pixels against their coverage truth (pixelCoverageTruth: per image pixel, row-major,
@@ -159,8 +163,9 @@ struct CoverageError {
 // The truths of one scene's view, traced once and shared by every filter and harness (every
 // filter covers the same pixels).
 struct SceneTruth {
-  std::vector<float> soft;      // sun-disk, per rendered pixel
-  std::vector<float> coverage;  // pixel coverage, per image pixel (row-major)
+  std::vector<float> soft;               // sun-disk, per rendered pixel
+  std::vector<float> coverage;           // pixel coverage, per image pixel (row-major)
+  std::vector<std::vector<float>> walk;  // the far pixels' coverage, per frame of the walk
 };
 
 // The pixels the sun-disk truth puts wholly in shadow (truth 0; -1 is not compared), and of
@@ -187,7 +192,22 @@ struct LeakScene {
   glm::dvec3 target;
 };
 
-// Per filter: the render of one scene, measured against the point, sun-disk and coverage truths.
+// The walk of the far-field flicker (the "while walking", as
+// FarFieldFlickerInTheSampleWorld walks the sample world): from the scene's eye toward its target
+// at 1.5 m/s, turning 20 degrees a second, at 60 frames a second; frame 0 is the scene's view.
+constexpr int kWalkFrames = 3;
+csm::Camera walkCamera(const LeakScene& sc, int f) {
+  const double t = f / 60.0;
+  const glm::dvec3 d = sc.target - sc.eye;
+  const glm::dvec3 eye = sc.eye + glm::normalize(glm::dvec3(d.x, 0.0, d.z)) * (1.5 * t);
+  const double a = glm::radians(20.0 * t);
+  const glm::dvec3 turned(d.x * std::cos(a) - d.z * std::sin(a), d.y,
+                          d.x * std::sin(a) + d.z * std::cos(a));
+  return viewCamera(eye, eye + turned);
+}
+
+// Per filter: the render of one scene, measured against the point, sun-disk and coverage truths,
+// and its far-field flicker while walking.
 std::map<csm::PcfKernel, FilterResult> measureFilters(
     csm_measure::Harness& harness, const LeakScene& sc, std::span<const csm::PcfKernel> filters,
     SceneTruth& truths, std::map<csm::PcfKernel, engine::CpuImage>* images,
@@ -237,6 +257,25 @@ std::map<csm::PcfKernel, FilterResult> measureFilters(
     r.coverageLeak = ce.leakRate();
     r.coveragePixels = ce.pixels;
     r.coverageUmbra = ce.umbra;
+    {
+      truths.walk.resize(kWalkFrames);
+      csm::CascadeHistory walkHistory;
+      std::vector<csm_measure::PixelSample> previous;
+      for (int f = 0; f < kWalkFrames; ++f) {
+        const csm::Camera at = walkCamera(sc, f);
+        const csm::CascadeFrame walkFrame = harness.computeFrame(at, light, walkHistory);
+        std::vector<csm_measure::PixelSample> now =
+            harness.renderAccuracy(at, walkFrame, kView, kernel, true, nullptr);
+        // The truth depends on the frame's receivers, not on the filter: traced once.
+        if (truths.walk[f].empty())
+          truths.walk[f] =
+              csm_measure::pixelCoverageTruth(tracer, at, kView, light, now, walkFrame);
+        if (f > 0)
+          csm_measure::accumulateFlicker(r.walk, kView, previous, truths.walk[f - 1], now,
+                                         truths.walk[f]);
+        previous = std::move(now);
+      }
+    }
     csm::CascadeHistory timedHistory;
     double best = 1e30;
     for (int k = 0; k < 3; ++k)
@@ -244,12 +283,14 @@ std::map<csm::PcfKernel, FilterResult> measureFilters(
     r.litMs = best;
     std::printf(
         "%-7s %-8s%s %-7s misclassified %.5f  mean |s - v_soft| %.5f  leak %.5f of %llu umbra "
-        "pixels  coverage: mean err %.5f  off %.5f  leak %.5f of %llu  lit %.2f ms\n",
+        "pixels  coverage: mean err %.5f  off %.5f  leak %.5f of %llu  far flicker %.5f of %llu  "
+        "lit %.2f ms\n",
         sc.key, csm::kernelName(kernel),
         harness.renderer().momentFormat() == VK_FORMAT_R16G16B16A16_UNORM ? "64" : "",
         harness.implicitLod() ? "mip" : "level 0", r.misclassification, r.meanAbsErr, r.leak,
         (unsigned long long)r.umbraPixels, r.coverageErr, r.coverageOff, r.coverageLeak,
-        (unsigned long long)r.coverageUmbra, r.litMs);
+        (unsigned long long)r.coverageUmbra, r.walk.rate(), (unsigned long long)r.walk.stablePairs,
+        r.litMs);
     std::fflush(stdout);
     results[kernel] = r;
     if (images) (*images)[kernel] = std::move(image);
@@ -313,6 +354,9 @@ TEST(Prefiltered, EachFilterAgainstRayTracedTruthWithStackedOccluders) {
                       {"coverage_leak", r.coverageLeak},
                       {"coverage_umbra_pixels", r.coverageUmbra},
                       {"coverage_pixels", r.coveragePixels},
+                      {"far_flicker", r.walk.rate()},
+                      {"far_flicker_pairs", r.walk.stablePairs},
+                      {"flicker_walk", r.walk.toJson()},
                       {"lit_ms", r.litMs}});
     };
     for (const auto& [kernel, r] : results) row(kernel, r, "level 0");
@@ -344,6 +388,9 @@ TEST(Prefiltered, EachFilterAgainstRayTracedTruthWithStackedOccluders) {
     for (const auto& [kernel, r] : results) {
       const char* name = csm::kernelName(kernel);
       EXPECT_EQ(r.nonFinite, 0u) << sc.key << " " << name;
+      // The walk compared enough far pixels for its flicker to mean something.
+      EXPECT_GT(r.walk.stablePairs, 20000u) << sc.key << " " << name;
+      EXPECT_EQ(r.walk.nonFinite, 0u) << sc.key << " " << name;
       EXPECT_GT(r.umbraPixels, 2000u)
           << sc.key << " " << name << ": the view must hold umbrae to count leaks in";
       if (!csm::isPrefiltered(kernel)) continue;
