@@ -30,35 +30,21 @@ namespace {
 constexpr std::uint32_t kResolution = 512;
 constexpr std::uint32_t kCascades = 3;
 
-/// Copies `regions` of `image` (in the renderer's sampled layout, last written by its pass or
-/// moment resolve) into `buffer`, then returns the image to that layout.
-void copyToBuffer(VkCommandBuffer cmd, VkImage image, const VkImageSubresourceRange& range,
+/// Copies `regions` of `image` (`aspect`; in the renderer's sampled layout, last written by its
+/// pass or moment resolve) into `buffer`, then returns the image to that layout.
+void copyToBuffer(VkCommandBuffer cmd, VkImage image, VkImageAspectFlags aspect,
                   std::span<const VkBufferImageCopy> regions, VkBuffer buffer) {
-  VkImageMemoryBarrier2 b{};
-  b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
-  b.srcStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
-  b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  b.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-  b.oldLayout = csm::vk::ShadowRenderer::sampledLayout();
-  b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  b.image = image;
-  b.subresourceRange = range;
-  VkDependencyInfo dep{};
-  dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-  dep.imageMemoryBarrierCount = 1;
-  dep.pImageMemoryBarriers = &b;
-  vkCmdPipelineBarrier2(cmd, &dep);
+  const VkImageLayout sampled = csm::vk::ShadowRenderer::sampledLayout();
+  engine::imageBarrier(
+      cmd, image, aspect,
+      VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,
+      VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_TRANSFER_READ_BIT, sampled,
+      VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
   vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer,
                          static_cast<std::uint32_t>(regions.size()), regions.data());
-  b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-  b.srcAccessMask = VK_ACCESS_2_NONE;
-  b.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-  b.dstAccessMask = VK_ACCESS_2_NONE;
-  b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-  b.newLayout = csm::vk::ShadowRenderer::sampledLayout();
-  vkCmdPipelineBarrier2(cmd, &dep);
+  engine::imageBarrier(cmd, image, aspect, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE,
+                       VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_NONE,
+                       VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, sampled);
 }
 
 /// One view and the buffer its layers are read back into.
@@ -220,8 +206,7 @@ class CacheRig {
         VkBufferImageCopy region{};
         region.imageSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 0, kCascades};
         region.imageExtent = {kResolution, kResolution, 1};
-        copyToBuffer(cmd, rig.view->renderer().image(),
-                     {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, kCascades}, {&region, 1},
+        copyToBuffer(cmd, rig.view->renderer().image(), VK_IMAGE_ASPECT_DEPTH_BIT, {&region, 1},
                      rig.readback->handle());
       }
     });
@@ -928,8 +913,7 @@ void copyMoments(VkCommandBuffer cmd, const csm::vk::ShadowView& view, std::uint
     regions.push_back(region);
     offset += VkDeviceSize(side) * side * texelBytes * kCascades;
   }
-  copyToBuffer(cmd, r.momentImage(), {VK_IMAGE_ASPECT_COLOR_BIT, 0, levels, 0, kCascades}, regions,
-               buffer.handle());
+  copyToBuffer(cmd, r.momentImage(), VK_IMAGE_ASPECT_COLOR_BIT, regions, buffer.handle());
 }
 
 /// A cached view of the moment-format tests (kCascades layers of kResolution², 120 m, `kernel`,

@@ -222,7 +222,7 @@ class WorldRig {
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 0, layers};
     region.imageExtent = {kResolution, kResolution, 1};
-    readImage(r.image(), {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, 0, layers}, {&region, 1}, *side.layers);
+    readImage(r.image(), VK_IMAGE_ASPECT_DEPTH_BIT, {&region, 1}, *side.layers);
   }
 
   /// Every level of every moment layer, level after level (momentBytes()).
@@ -242,39 +242,24 @@ class WorldRig {
       regions.push_back(region);
       offset += VkDeviceSize(side) * side * momentTexelBytes() * layers;
     }
-    readImage(r.momentImage(), {VK_IMAGE_ASPECT_COLOR_BIT, 0, levels, 0, layers}, regions,
-              *side.moments);
+    readImage(r.momentImage(), VK_IMAGE_ASPECT_COLOR_BIT, regions, *side.moments);
   }
 
-  /// Copies `regions` of an image in the sampled layout into `buffer`, and back to that layout.
-  void readImage(VkImage image, const VkImageSubresourceRange& range,
+  /// Copies `regions` of an image (`aspect`) in the sampled layout into `buffer`, and back to
+  /// that layout.
+  void readImage(VkImage image, VkImageAspectFlags aspect,
                  std::span<const VkBufferImageCopy> regions, engine::Buffer& buffer) {
     ctx_->submitAndWait([&](VkCommandBuffer cmd) {
-      VkImageMemoryBarrier2 b{};
-      b.sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2;
-      b.srcStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-      b.dstStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-      b.dstAccessMask = VK_ACCESS_2_TRANSFER_READ_BIT;
-      b.oldLayout = csm::vk::ShadowRenderer::sampledLayout();
-      b.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-      b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-      b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-      b.image = image;
-      b.subresourceRange = range;
-      VkDependencyInfo dep{};
-      dep.sType = VK_STRUCTURE_TYPE_DEPENDENCY_INFO;
-      dep.imageMemoryBarrierCount = 1;
-      dep.pImageMemoryBarriers = &b;
-      vkCmdPipelineBarrier2(cmd, &dep);
+      const VkImageLayout sampled = csm::vk::ShadowRenderer::sampledLayout();
+      engine::imageBarrier(cmd, image, aspect, VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT,
+                           VK_ACCESS_2_NONE, VK_PIPELINE_STAGE_2_COPY_BIT,
+                           VK_ACCESS_2_TRANSFER_READ_BIT, sampled,
+                           VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
       vkCmdCopyImageToBuffer(cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, buffer.handle(),
                              static_cast<std::uint32_t>(regions.size()), regions.data());
-      b.srcStageMask = VK_PIPELINE_STAGE_2_COPY_BIT;
-      b.srcAccessMask = VK_ACCESS_2_NONE;
-      b.dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
-      b.dstAccessMask = VK_ACCESS_2_NONE;
-      b.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-      b.newLayout = csm::vk::ShadowRenderer::sampledLayout();
-      vkCmdPipelineBarrier2(cmd, &dep);
+      engine::imageBarrier(cmd, image, aspect, VK_PIPELINE_STAGE_2_COPY_BIT, VK_ACCESS_2_NONE,
+                           VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT, VK_ACCESS_2_NONE,
+                           VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, sampled);
     });
   }
 
