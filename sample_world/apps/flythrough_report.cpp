@@ -56,6 +56,13 @@ json cascadesJson(const world::FrameStats& st) {
     // settings.tileMarks: tiles marked (of kTileGridSide^2) by the depth buffer of a few frames
     // ago, when that frame's marks are ready and had this cascade (absent otherwise).
     if (c < st.tilesMarkedFrom) arr.back()["tiles_marked"] = st.tilesMarked[c];
+    // settings.shadowTiles: whether the cascade drew only marked tiles, of how many tiles it
+    // drew something, and how many its layer holds (absent for a cascade drawn whole).
+    if ((st.tilesPartialMask >> c) & 1u) {
+      arr.back()["tiles_partial"] = true;
+      arr.back()["tiles_drawn"] = st.tilesDrawn[c];
+      arr.back()["tiles_held"] = st.tilesHeld[c];
+    }
   }
   return arr;
 }
@@ -132,6 +139,7 @@ json summaryJson(const std::vector<json>& framesJson, const world::AppSettings& 
   auto median = [&](auto get) { return quantile(get, 0.5); };
   auto p99 = [&](auto get) { return quantile(get, 0.99); };
   summary["shadow_cache"] = settings.shadowCache;
+  summary["shadow_tiles"] = settings.shadowTiles;
   summary["thin_casters"] = settings.thinCasters;
   summary["shadow_cull_closed"] = settings.shadow.diagnostics.cullClosedCasters;
   summary["thin_widen_texels"] = settings.thinWidenTexels;

@@ -250,6 +250,7 @@ const std::vector<Entry>& table() {
       boolean("shadow.receiverSplits", [](AppSettings& s) -> bool& { return s.receiverSplits; }),
       boolean("shadow.receiverBounds", [](AppSettings& s) -> bool& { return s.receiverBounds; }),
       boolean("shadow.tileMarks", [](AppSettings& s) -> bool& { return s.tileMarks; }),
+      boolean("shadow.tiles", [](AppSettings& s) -> bool& { return s.shadowTiles; }),
       choice(
           "shadow.receiverSplitScheme", "one of range, histogram", kReceiverSchemes,
           [](AppSettings& s) -> csm::ReceiverSplitScheme& { return s.shadow.receiverSplitScheme; }),
@@ -469,6 +470,12 @@ std::optional<std::string> validateSettings(const AppSettings& s) {
   if (s.msmMomentBits != 64 && s.msmMomentBits != 128) {
     return "shadow.msmMomentBits = " + std::to_string(s.msmMomentBits) +
            " is invalid: allowed 64 or 128";
+  }
+  if (s.shadowTiles && csm::isPrefiltered(s.shadow.kernel)) {
+    return std::string("shadow.tiles = true is invalid with shadow.kernel = ") +
+           csm::kernelName(s.shadow.kernel) +
+           ": allowed with the depth-comparison kernels (1tap, tent3x3, tent5x5, tent7x7, "
+           "poisson16, pcss)";
   }
   return std::nullopt;
 }

@@ -362,6 +362,7 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   options.cache = settings.shadowCache && settings.shadow.diagnostics.stabilize;
   options.cacheBudgetTexels = settings.cacheBudgetTexels;
   options.msmMomentBits = settings.msmMomentBits;
+  options.tiles = settings.shadowTiles && options.cache;
   options.thinCasterWidenTexels = settings.thinCasters ? settings.thinWidenTexels : 0.0f;
   if (settings.casterLods) {
     for (std::uint32_t c = 0; c < csm::kMaxCascades; ++c) {
@@ -376,11 +377,14 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   options.receiverFit = !settings.receiverSplits  ? csm::vk::ReceiverFit::kOff
                         : settings.receiverBounds ? csm::vk::ReceiverFit::kSplitsAndBoxes
                                                   : csm::vk::ReceiverFit::kSplits;
-  if (settings.tileMarks && !tileReducer_) {
+  if ((settings.tileMarks || settings.shadowTiles) && !tileReducer_) {
     csm::vk::Status made;
     tileReducer_ = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(*ctx_),
                                                       engine::kFramesInFlight, &made);
-    if (!tileReducer_) return "shadow.tileMarks: " + made.message();
+    if (!tileReducer_) {
+      return std::string(settings.shadowTiles ? "shadow.tiles: " : "shadow.tileMarks: ") +
+             made.message();
+    }
   }
   const csm::vk::Status s = shadow_->setSettings(effectiveShadow(settings), options);
   if (!s.ok()) return s.message();
@@ -571,7 +575,7 @@ void WorldRenderer::record(const engine::Frame& f, engine::GpuTimer& timer, bool
   if (overlay && (settings_.overlayThumbnails || settings_.overlayMap))
     recordOverlay(f, slot, timer);
   vkCmdEndRendering(cmd);
-  if (settings_.receiverSplits || settings_.tileMarks) recordDepthRange(f, timer, stats);
+  if (settings_.receiverSplits || marking()) recordDepthRange(f, timer, stats);
   stats.cpuRecordMs = msSince(t0);
 }
 
@@ -631,6 +635,9 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
   stats.texelsRendered = {};
   stats.momentTexels = {};
   stats.lagFrames = {};
+  stats.tilesPartialMask = 0;
+  stats.tilesDrawn = {};
+  stats.tilesHeld = {};
   stats.cacheBytes = shadow_->renderer().cacheBytes();
   stats.momentBytes = shadow_->renderer().momentBytes();
   for (std::uint32_t c = 0; c < cascades.cascadeCount; ++c) {
@@ -640,6 +647,9 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
       const csm::vk::CascadeCacheStats& cs = shadow_->renderer().cacheStats()[c];
       stats.texelsRendered[c] = cs.staticTexels;
       stats.lagFrames[c] = cs.lagFrames;
+      if (cs.partial) stats.tilesPartialMask |= 1u << c;
+      stats.tilesDrawn[c] = cs.tilesDrawn;
+      stats.tilesHeld[c] = cs.tilesHeld;
       stats.triangles[c] = cs.staticTriangles + cs.dynamicTriangles;
     } else {
       stats.texelsRendered[c] = std::uint64_t(cascades.resolution) * cascades.resolution;
@@ -653,11 +663,19 @@ void WorldRenderer::recordTileMarks(const engine::Frame& f, engine::GpuTimer& ti
   // the frame's fence), so its marks are those of the depth buffer kFramesInFlight frames ago.
   stats.tilesMarked = {};
   stats.tilesMarkedFrom = 0;
-  if (const auto previous = tileReducer_->read(f.slot); previous && previous->tiles.present()) {
+  const auto previous = tileReducer_->read(f.slot);
+  if (previous && previous->tiles.present()) {
     stats.tilesMarkedFrom = previous->tiles.cascadeCount;
     for (std::uint32_t c = 0; c < previous->tiles.cascadeCount; ++c) {
       stats.tilesMarked[c] = previous->tiles.markedCount(c);
     }
+  }
+  // Receiver-marked tiles: the next frame's shadow pass draws what these marks ask for (none
+  // after a cut, until the first depth buffer after it has been reduced).
+  if (shadow_->options().tiles) {
+    shadow_->setReceiverTiles(previous && previous->tiles.present()
+                                  ? std::optional<csm::ReceiverTileMarks>(previous->tiles)
+                                  : std::nullopt);
   }
   const glm::mat4& p = camera_.projection();
   csm::vk::DepthProjection dp{p[2][2], p[3][2], 1.0f};
@@ -692,7 +710,7 @@ void WorldRenderer::recordDepthRange(const engine::Frame& f, engine::GpuTimer& t
         {f.depthView, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, f.extent, camera_.projection()});
     if (!s.ok()) throw std::runtime_error("ShadowView::recordReceiverDepth: " + s.message());
   }
-  if (settings_.tileMarks && tileReducer_) recordTileMarks(f, timer, stats);
+  if (marking() && tileReducer_) recordTileMarks(f, timer, stats);
   // Back to the layout the render target expects at endFrame.
   engine::imageBarrier(
       cmd, f.depthImage, aspect, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,

@@ -67,6 +67,12 @@ layout(std140, set = CSM_SET, binding = CSM_BINDING_UNIFORMS) uniform CsmUniform
   float fadeEndM;            // the fade to lit ends here (view depth, m)
   float invFadeLengthM;      // 1 / the fade's length (m); 0: no fade
   vec4 moments;              // prefiltered: bleeding reduction, MSM bias, EVSM c+, EVSM c-
+  uint tilePartialMask;      // receiver-marked tiles: bit i, cascade i holds only tileBits' tiles
+  float tileInvTexels;       // 1 / a tile's side (texels)
+  uint tileReserved0;
+  uint tileReserved1;
+  vec4 tileGrid[CSM_MAX_CASCADES];       // grid offset (texels) x, y; filter reach (texels) z
+  uvec4 tileBits[CSM_MAX_CASCADES * 3];  // tiles held, bit y * CSM_TILE_GRID_SIDE + x
 } csmU;
 
 /// Mirror of csm::msmQuantize: MSM's centred moments into the 64-bit image's [0, 1]^4.
@@ -654,6 +660,59 @@ float csmSampleCascade(int i, vec3 posCr, vec3 normalWs, vec3 dPdx, vec3 dPdy) {
   return csmPcfTent(c.xy, scale, layer, c.z, slope);
 }
 
+/// Receiver-marked tiles (RendererOptions::tiles): whether cascade i's layer holds every texel
+/// of its box that its filter can read around the receiver at camera-relative `posCr` (every
+/// tile under the reach, clamped to the box, drawn; what lies outside the box reads lit as
+/// always). Always true for a cascade drawn whole.
+bool csmTilesHold(int i, vec3 posCr) {
+  if ((csmU.tilePartialMask & (1u << uint(i))) == 0u) return true;
+  const vec4 clip = csmU.cascades[i].viewProjCr * vec4(posCr, 1.0);
+  const vec2 t = (clip.xy * 0.5 + 0.5) * csmU.resolution;
+  const vec4 g = csmU.tileGrid[i];
+  const vec2 lastTexel = vec2(csmU.resolution - 1.0);
+  const vec2 a = clamp(t - g.z, vec2(0.0), lastTexel);
+  const vec2 b = clamp(t + g.z, vec2(0.0), lastTexel);
+  const ivec2 lo = ivec2(floor((a + g.xy) * csmU.tileInvTexels));
+  const ivec2 hi = ivec2(floor((b + g.xy) * csmU.tileInvTexels));
+  if (any(lessThan(lo, ivec2(0))) || any(greaterThan(hi, ivec2(CSM_TILE_GRID_SIDE - 1)))) {
+    return false;
+  }
+  for (int y = lo.y; y <= hi.y; ++y) {
+    for (int x = lo.x; x <= hi.x; ++x) {
+      const int b = y * CSM_TILE_GRID_SIDE + x;
+      const uint word = csmU.tileBits[i * 3 + b / 128][(b / 32) % 4];
+      if ((word & (1u << uint(b % 32))) == 0u) return false;
+    }
+  }
+  return true;
+}
+
+/// Whether cascade j's box holds the receiver with its filter's reach, and its depth window the
+/// receiver's depth (a cascade it falls back to).
+bool csmBoxHolds(int j, vec3 posCr) {
+  const vec4 clip = csmU.cascades[j].viewProjCr * vec4(posCr, 1.0);
+  const vec2 t = (clip.xy * 0.5 + 0.5) * csmU.resolution;
+  const float reach = csmU.tileGrid[j].z;
+  return all(greaterThanEqual(t, vec2(reach))) &&
+         all(lessThanEqual(t, vec2(csmU.resolution - reach))) && clip.z >= 0.0 && clip.z <= 1.0;
+}
+
+/// The cascade a receiver selected in cascade i is sampled in: i where its layer holds the
+/// receiver (always without receiver-marked tiles), else the next non-empty cascade that does
+/// (as virtual shadow maps fall back to coarser pages). The renderer keeps the last cascade
+/// whole and only lets a cascade be partial whose slice lies inside it, so the search ends there.
+int csmTileCascade(int i, vec3 posCr) {
+  if (csmU.tilePartialMask == 0u || csmTilesHold(i, posCr)) return i;
+  const int count = int(min(csmU.cascadeCount, uint(CSM_MAX_CASCADES)));
+  int last = i;
+  for (int j = i + 1; j < count; ++j) {
+    if ((csmU.nonEmptyMask & (1u << uint(j))) == 0u) continue;
+    last = j;
+    if (csmBoxHolds(j, posCr) && csmTilesHold(j, posCr)) return j;
+  }
+  return last;
+}
+
 /// The shadow factor of a receiver: 1 lit, 0 in shadow; outside every cascade 1; 0 where the
 /// normal faces away from the light (N.L <= 0), inside or outside the cascades.
 float csmShadow(vec3 posCr, vec3 normalWs) {
@@ -678,10 +737,13 @@ float csmShadow(vec3 posCr, vec3 normalWs) {
   if (!(dot(normalWs, -csmU.lightDirection.xyz) > 0.0)) return 0.0;
   const float fade = csmFade(viewDepth);
   if (fade >= 1.0) return 1.0;
-  float s = csmSampleCascade(sel.index, posCr, normalWs, dPdx, dPdy);
+  const int first = csmTileCascade(sel.index, posCr);
+  float s = csmSampleCascade(first, posCr, normalWs, dPdx, dPdy);
   if (csmBlend != 0 && sel.blendIndex >= 0 && sel.blendWeight > 0.0) {
-    s = mix(s, csmSampleCascade(sel.blendIndex, posCr, normalWs, dPdx, dPdy),
-            sel.blendWeight);
+    const int second = csmTileCascade(sel.blendIndex, posCr);
+    if (second != first) {
+      s = mix(s, csmSampleCascade(second, posCr, normalWs, dPdx, dPdy), sel.blendWeight);
+    }
   }
   return mix(s, 1.0, fade);
 }
@@ -706,6 +768,12 @@ vec3 csmDebugColor(vec3 posCr, vec3 normalWs, vec2 pixel, float shadow, vec3 sha
   if (mode == CSM_DEBUG_SHADOW) return vec3(shadow);
   const CsmSelection sel = csmSelectCascade(csmViewDepth(posCr));
   if (mode == CSM_DEBUG_CASCADE) return csmCascadeTint(sel.index);
+  if (mode == CSM_DEBUG_TILES) {
+    if (sel.index < 0) return vec3(0.0);
+    const bool own = csmTileCascade(sel.index, posCr) == sel.index &&
+                     (sel.blendIndex < 0 || csmTileCascade(sel.blendIndex, posCr) == sel.blendIndex);
+    return own ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
+  }
   if (mode == CSM_DEBUG_LIGHT_COORDS || mode == CSM_DEBUG_SAMPLED_DEPTH ||
       mode == CSM_DEBUG_DEPTH_DIFF) {
     if (sel.index < 0) return vec3(0.0);

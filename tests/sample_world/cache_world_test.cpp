@@ -67,9 +67,13 @@ class WorldRig {
  public:
   /// Side 0 cached, side 1 not (or both cached with `bothCached`); side k's moment sampler
   /// capped at `anisotropy[k]`.
+  /// With `fullSettings`, side 1 takes those settings instead (as they are); with
+  /// `thirdSettings`, a third side (2) flies along with those.
   WorldRig(const std::string& pathName, const world::AppSettings& settings,
-           std::array<std::optional<float>, 2> anisotropy = {}, bool bothCached = false)
-      : settings_(settings) {
+           std::array<std::optional<float>, 2> anisotropy = {}, bool bothCached = false,
+           const std::optional<world::AppSettings>& fullSettings = std::nullopt,
+           const std::optional<world::AppSettings>& thirdSettings = std::nullopt)
+      : settings_(settings), sides_(thirdSettings ? 3 : 2) {
     engine::resetValidationCounts();
     engine::ContextDesc desc;
     desc.appName = "csm cache world tests";
@@ -86,12 +90,15 @@ class WorldRig {
     target_ = std::make_unique<engine::HeadlessTarget>(
         *ctx_, engine::HeadlessDesc{{kWidth, kHeight}, VK_FORMAT_D32_SFLOAT});
     timer_ = std::make_unique<engine::GpuTimer>(*ctx_, 32);
-    for (int k = 0; k < 2; ++k) {
+    for (std::size_t k = 0; k < sides_.size(); ++k) {
       world::AppSettings s = settings;
       s.shadowCache = k == 0 || bothCached;
+      if (k == 1 && fullSettings) s = *fullSettings;
+      if (k == 2) s = *thirdSettings;
       Side& side = sides_[k];
       side.renderer = std::make_unique<world::WorldRenderer>(*ctx_, *world_, target_->colorFormat(),
-                                                             target_->depthFormat(), anisotropy[k]);
+                                                             target_->depthFormat(),
+                                                             k < 2 ? anisotropy[k] : std::nullopt);
       if (auto e = side.renderer->apply(s)) throw std::runtime_error(*e);
       const VkDeviceSize bytes =
           VkDeviceSize(kResolution) * kResolution * 4 * settings.shadow.cascadeCount;
@@ -138,6 +145,7 @@ class WorldRig {
     const std::optional<world::SunPose> sun = path_->sunAt(seconds);
     const bool cut =
         i > 0 && path_->shotAt(seconds) != path_->shotAt(seconds - world::kHeadlessFrameS);
+    lastCut_ = cut;
     const engine::Camera cam = world::poseCamera(
         path_->at(t, seconds), double(kWidth) / double(kHeight), 0.5, settings_.farM);
     for (Side& side : sides_) {
@@ -194,6 +202,42 @@ class WorldRig {
   }
 
   const engine::Context& context() const { return *ctx_; }
+
+  /// Whether the last frame() was a camera cut.
+  bool lastCut() const { return lastCut_; }
+
+  /// Texels of cascade c inside the tiles that side 0's layer holds (its cache plan: box, wrap
+  /// offset, held tiles) where the two renderers' layers differ bitwise; the first in `first`,
+  /// how many were compared in `compared`.
+  std::uint64_t heldTileDifferences(std::uint32_t c, const csm::CacheCascadePlan& p,
+                                    std::uint64_t& compared, std::string* first) {
+    const auto* a = static_cast<const std::uint32_t*>(sides_[0].layers->mapped());
+    const auto* b = static_cast<const std::uint32_t*>(sides_[1].layers->mapped());
+    const std::int64_t res = kResolution, tile = res / csm::kTilesPerSide;
+    const std::size_t layer = std::size_t(res) * std::size_t(res);
+    std::uint64_t n = 0;
+    for (std::int64_t ly = 0; ly < res; ++ly) {
+      // The world texel at layer texel (lx, ly): the box's first texel sits at the wrap offset.
+      const std::int64_t wy = p.box.y0 + csm::floorMod(ly - p.wrapY, res);
+      const std::int64_t ty = csm::floorDiv(wy, tile) - p.tiles.origin.y;
+      for (std::int64_t lx = 0; lx < res; ++lx) {
+        const std::int64_t wx = p.box.x0 + csm::floorMod(lx - p.wrapX, res);
+        if (!p.tiles.test(csm::floorDiv(wx, tile) - p.tiles.origin.x, ty)) continue;
+        ++compared;
+        const std::size_t t = c * layer + std::size_t(ly * res + lx);
+        if (a[t] == b[t]) continue;
+        if (n++ == 0 && first != nullptr) {
+          float x, y;
+          std::memcpy(&x, &a[t], 4);
+          std::memcpy(&y, &b[t], 4);
+          *first = "layer texel (" + std::to_string(lx) + ", " + std::to_string(ly) +
+                   "), world texel (" + std::to_string(wx) + ", " + std::to_string(wy) +
+                   "): tiled " + std::to_string(x) + ", full " + std::to_string(y);
+        }
+      }
+    }
+    return n;
+  }
 
   /// Texels of cascade c where the two renderers' layers differ (bitwise); the first in `first`.
   std::uint64_t layerDifferences(std::uint32_t c, std::string* first) {
@@ -269,7 +313,8 @@ class WorldRig {
   std::optional<world::FlightPath> path_;
   std::unique_ptr<engine::HeadlessTarget> target_;
   std::unique_ptr<engine::GpuTimer> timer_;
-  Side sides_[2];
+  std::vector<Side> sides_;
+  bool lastCut_ = false;
 };
 
 struct Flight {
@@ -408,6 +453,140 @@ INSTANTIATE_TEST_SUITE_P(Paths, CacheWorld,
                                            Flight{"fast", "pcss"}, Flight{"forest", "msm"},
                                            Flight{"fast", "evsm"}, Flight{"day", "vsm"},
                                            Flight{"cut", "msm"}),
+                         flightName);
+
+// Receiver-marked tiles (RendererOptions::tiles, the fly-through's shadow.tiles) as the
+// fly-through runs them: the sample world's renderer with its defaults and tiles on (side 0,
+// cached, the lighting in the tiles debug mode: green where a pixel was sampled in its own
+// cascades, red where it fell back) against a full render (side 1, no cache), in lockstep. Every
+// frame, in every partial cascade, every texel of every tile its layer holds is bit-identical to
+// the full render's; a cascade drawn whole is bit-identical everywhere. Pixels that fell back
+// are counted: after the start and after a cut, until the first marks arrive
+// (engine::kFramesInFlight + 1 frames) most do; on every other frame at most kMaxFallback of the
+// shaded pixels, and kMeanFallback over the flight (these flights cross a whole path in 48
+// frames: the marks, three frames old, trail a camera that moves tens of metres a frame).
+// Validation stays silent.
+constexpr double kMaxFallback = 0.10;
+constexpr double kMeanFallback = 0.01;
+
+/// Frames per tile flight: CSM_TILE_WORLD_FRAMES, else 48.
+int tileFlightFrames() {
+  const char* env = std::getenv("CSM_TILE_WORLD_FRAMES");
+  return env != nullptr ? std::max(2, std::atoi(env)) : 48;
+}
+
+class TileWorld : public ::testing::TestWithParam<Flight> {};
+
+TEST_P(TileWorld, HeldTilesBitIdenticalToFullRenderAndFallbacksBounded) {
+  const Flight& flight = GetParam();
+  // "shadow": both sides show the shadow factor, and a third side, the same as side 0 but in
+  // the tiles debug mode, says which pixels fell back (the same flight: the same marks, plans
+  // and fallbacks). Every pixel that did not fall back must have the full render's shadow
+  // factor, bit for bit (a shader that read a tile not drawn fails here).
+  const bool factor = flight.config == "shadow";
+  world::AppSettings tiled = flightSettings(factor ? "default" : flight.config);
+  tiled.shadowTiles = true;
+  tiled.debug = csm::DebugMode::kTileFallback;
+  world::AppSettings full = flightSettings(factor ? "default" : flight.config);
+  full.shadowCache = false;
+  std::optional<world::AppSettings> third;
+  if (factor) {
+    third = tiled;
+    tiled.debug = csm::DebugMode::kShadowFactor;
+    full.debug = csm::DebugMode::kShadowFactor;
+  }
+  WorldRig rig(flight.path, tiled, {}, false, full, third);
+  std::uint64_t factorCompared = 0;
+  const int frames = tileFlightFrames();
+  int sinceReset = 0;
+  std::uint64_t compared = 0, partialCascades = 0, wholeCascades = 0;
+  std::uint64_t tiledTexels = 0, fullTexels = 0, settlingFrames = 0, settledFrames = 0;
+  double maxFallback = 0.0, sumFallback = 0.0;
+  int worstFrame = -1;
+  for (int i = 0; i < frames; ++i) {
+    rig.frame(i, frames);
+    sinceReset = (i == 0 || rig.lastCut()) ? 0 : sinceReset + 1;
+    world::WorldRenderer& t = *rig.side(0).renderer;
+    ASSERT_TRUE(t.shadowView().options().tiles);
+    ASSERT_FALSE(rig.side(1).renderer->shadowView().options().cache);
+    const csm::CascadeFrame& ft = t.cascades();
+    const csm::CachePlan& plan = t.shadowRenderer().cachePlan();
+    for (std::uint32_t c = 0; c < ft.cascadeCount; ++c) {
+      if (ft.cascades[c].empty) continue;
+      const csm::CacheCascadePlan& p = plan.cascades[c];
+      tiledTexels += t.shadowRenderer().cacheStats()[c].staticTexels;
+      fullTexels += std::uint64_t(kResolution) * kResolution;
+      std::string first;
+      if (p.partial) {
+        ++partialCascades;
+        const std::uint64_t n = rig.heldTileDifferences(c, p, compared, &first);
+        ASSERT_EQ(n, 0u) << flight.path << "/" << flight.config << " frame " << i << " cascade "
+                         << c << ": " << n << " texels of held tiles differ, first " << first;
+      } else {
+        ++wholeCascades;
+        const std::uint64_t n = rig.layerDifferences(c, &first);
+        ASSERT_EQ(n, 0u) << flight.path << "/" << flight.config << " frame " << i << " cascade "
+                         << c << " (whole): " << n << " texels differ, first " << first;
+        compared += std::uint64_t(kResolution) * kResolution;
+      }
+    }
+    // Pixels in their own cascades (green) and fallen back (red).
+    std::uint64_t own = 0, fell = 0;
+    const std::vector<std::uint8_t>& img = rig.side(factor ? 2 : 0).image;
+    for (std::size_t k = 0; k + 3 < img.size(); k += 4) {
+      const bool red = img[k] > 200 && img[k + 1] < 50 && img[k + 2] < 50;
+      const bool green = img[k + 1] > 200 && img[k] < 50 && img[k + 2] < 50;
+      fell += red ? 1u : 0u;
+      own += green ? 1u : 0u;
+      if (!factor || !green) continue;
+      const std::vector<std::uint8_t>& a = rig.side(0).image;
+      const std::vector<std::uint8_t>& b = rig.side(1).image;
+      ++factorCompared;
+      ASSERT_TRUE(a[k] == b[k] && a[k + 1] == b[k + 1] && a[k + 2] == b[k + 2])
+          << flight.path << " frame " << i << " pixel " << (k / 4) % kWidth << ", "
+          << (k / 4) / kWidth << ": shadow factor " << int(a[k]) << " with tiles, " << int(b[k])
+          << " full, in its own cascade";
+    }
+    ASSERT_GT(own + fell, 0u) << "frame " << i << ": no shaded pixel";
+    const double fraction = double(fell) / double(own + fell);
+    if (sinceReset <= int(engine::kFramesInFlight)) {
+      ++settlingFrames;
+      continue;
+    }
+    ++settledFrames;
+    sumFallback += fraction;
+    if (fraction > maxFallback) {
+      maxFallback = fraction;
+      worstFrame = i;
+    }
+  }
+  EXPECT_GT(partialCascades, 0u) << "no cascade drew only marked tiles: the case tests nothing";
+  if (factor) {
+    EXPECT_GT(factorCompared, std::uint64_t(frames) * kWidth * kHeight / 4);
+  }
+  EXPECT_LT(tiledTexels, fullTexels);
+  EXPECT_LE(maxFallback, kMaxFallback) << "frame " << worstFrame;
+  EXPECT_LE(settledFrames ? sumFallback / double(settledFrames) : 0.0, kMeanFallback);
+  std::printf(
+      "[tile world] %s/%s: %d frames (%llu settling after the start or a cut), %llu partial and "
+      "%llu whole cascade-frames, %llu texels compared; fallen back: mean %.3f%%, worst %.3f%% "
+      "(frame %d); static texels drawn %.2f%% of a full render's\n",
+      flight.path.c_str(), flight.config.c_str(), frames,
+      static_cast<unsigned long long>(settlingFrames),
+      static_cast<unsigned long long>(partialCascades),
+      static_cast<unsigned long long>(wholeCascades), static_cast<unsigned long long>(compared),
+      settledFrames ? 100.0 * sumFallback / double(settledFrames) : 0.0, 100.0 * maxFallback,
+      worstFrame, fullTexels ? 100.0 * double(tiledTexels) / double(fullTexels) : 0.0);
+  EXPECT_EQ(engine::validationMessageCount(), 0u);
+}
+
+INSTANTIATE_TEST_SUITE_P(Paths, TileWorld,
+                         ::testing::Values(Flight{"forest", "default"}, Flight{"fast", "default"},
+                                           Flight{"rotate", "default"}, Flight{"zoom", "default"},
+                                           Flight{"far", "default"}, Flight{"cables", "default"},
+                                           Flight{"day", "default"}, Flight{"cut", "default"},
+                                           Flight{"fast", "pcss"}, Flight{"forest", "shadow"},
+                                           Flight{"day", "shadow"}),
                          flightName);
 
 // What csm_moments.comp writes, against the CPU from the depths it read: level 0 of every moment

@@ -20,7 +20,11 @@ TEST(BiasUniforms, BiasParamsIsAppendedAfterCountsAndSoftParamsCanFollow) {
   // The prefiltered filters' parameters follow the soft ones, one vec4.
   EXPECT_EQ(offsetof(csm::CsmUniforms, moments),
             offsetof(csm::CsmUniforms, tanHalfLightAngle) + 16);
-  EXPECT_EQ(sizeof(csm::CsmUniforms), offsetof(csm::CsmUniforms, moments) + 16);
+  // Then the receiver-marked tiles: a header vec4, a vec4 per cascade, three uvec4 per cascade.
+  EXPECT_EQ(offsetof(csm::CsmUniforms, tilePartialMask), offsetof(csm::CsmUniforms, moments) + 16);
+  EXPECT_EQ(offsetof(csm::CsmUniforms, tileGrid), offsetof(csm::CsmUniforms, tilePartialMask) + 16);
+  EXPECT_EQ(sizeof(csm::CsmUniforms),
+            offsetof(csm::CsmUniforms, tileGrid) + 16 * CSM_MAX_CASCADES * 4);
 }
 
 TEST(BiasUniforms, DepthQuantumIsOneD16StepAndSixteenD32UlpsAtDepthOne) {

@@ -61,7 +61,7 @@ TEST(Names, EveryDebugModeRoundTripsThroughItsName) {
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(r.error().message(),
             "debug = 'shadow factor' is invalid: allowed one of none, normal, shadow, "
-            "lightcoords, depth, depthdiff, cascade");
+            "lightcoords, depth, depthdiff, cascade, tiles");
   EXPECT_STREQ(csm::debugModeName(static_cast<csm::DebugMode>(99)), "unknown");
 }
 

@@ -112,6 +112,13 @@ struct AppSettings {
   /// floats, the default) or 64 (quantised to 16 bits, half the memory, where the device stores
   /// RGBA16_UNORM).
   std::uint32_t msmMomentBits = 128;
+  /// Receiver-marked tiles (csm::vk::RendererOptions::tiles), on top of the cache: the cascades
+  /// the last one can stand in for draw only the tiles the visible pixels of a few frames ago
+  /// sampled (the tileMarks reduction, which this turns on), and pixels whose tiles are not
+  /// drawn yet fall back to a coarser cascade. Needs a depth-comparison kernel; without the cache
+  /// (shadow.cache=false, or unstabilised) it does nothing. report.json gives "tiles_drawn" and
+  /// "tiles_held" per cascade. Off by default.
+  bool shadowTiles = false;
 
   AppSettings();
 };

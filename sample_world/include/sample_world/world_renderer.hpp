@@ -52,6 +52,12 @@ struct FrameStats {
   /// result was ready: the first frames, an empty view).
   std::array<std::uint32_t, csm::kMaxCascades> tilesMarked{};
   std::uint32_t tilesMarkedFrom = 0;
+  /// settings.shadowTiles (with the cache): bit c when cascade c drew only marked tiles this
+  /// frame, and per cascade the tiles it drew something in and the tiles its layer holds
+  /// (csm::vk::CascadeCacheStats).
+  std::uint32_t tilesPartialMask = 0;
+  std::array<std::uint32_t, csm::kMaxCascades> tilesDrawn{};
+  std::array<std::uint32_t, csm::kMaxCascades> tilesHeld{};
   /// Device memory of the static-depth cache (0 without it).
   std::uint64_t cacheBytes = 0;
   /// The LODs a cascade drew its caster clusters with: the finest and the coarsest, and how many
@@ -155,6 +161,10 @@ class WorldRenderer {
   void buildLitPipeline();
   void recordDepthRange(const engine::Frame& f, engine::GpuTimer& timer, FrameStats& stats);
   void recordTileMarks(const engine::Frame& f, engine::GpuTimer& timer, FrameStats& stats);
+  // The tile-marking reduction runs (measured, or driving the receiver-marked tiles).
+  [[nodiscard]] bool marking() const noexcept {
+    return settings_.tileMarks || settings_.shadowTiles;
+  }
   // record()'s passes: the shadow pass (with its statistics), then inside one rendering the lit
   // pass and the overlay.
   void recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& timer, FrameStats& stats);

@@ -14,6 +14,7 @@
 
 #include "csm/cache_rects.hpp"
 #include "csm/cascades.hpp"
+#include "csm/receiver_tiles.hpp"
 
 namespace csm {
 
@@ -67,6 +68,10 @@ struct CacheLayerState : CacheWindowPlacement {
   std::int64_t boxX = 0, boxY = 0;       // world texel of the box's first texel
   std::vector<AabbWs> pending;           // invalidated world boxes not yet re-rendered
   std::uint64_t wholeInvalidations = 0;  // times the whole layer was invalidated
+  /// Receiver-marked tiles (CacheTileInputs): the layer holds only the tiles set in `tiles`
+  /// (each whole, as far as it lies in the box); elsewhere it holds nothing usable.
+  bool partial = false;
+  TileMask tiles;
 };
 
 /// What a cascade's sampled layer shows: its last refresh (the window, slice and light basis
@@ -77,6 +82,9 @@ struct CacheShownState {
   CacheWindowPlacement window;  // anchor, texel, depth window
   Cascade cascade;
   glm::dmat3 basis{1.0};
+  /// Receiver-marked tiles: the layer shows only these tiles (CacheLayerState::tiles).
+  bool partial = false;
+  TileMask tiles;
 };
 
 /// The cache's state between frames, per cascade: the static layer and what the sampled layer
@@ -111,6 +119,28 @@ struct CacheCascadePlan {
   /// for (invalidations after planning: updateCacheStale).
   std::size_t pendingPlanned = 0;
   std::uint64_t wholeInvalidations = 0;
+  /// Receiver-marked tiles (planCacheFrame with CacheTileInputs). `partial`: the cascade draws
+  /// only what the marks ask for and its layer shows only `tiles` (after this frame's draw; for
+  /// a deferred cascade, what it shows); a pixel whose footprint is not in them falls back to a
+  /// coarser cascade (csm.glsl). `marked`: the marks carried onto the cascade's grid. Counts:
+  /// tiles marked, and tiles of which something is drawn this frame.
+  bool partial = false;
+  TileMask tiles;
+  TileMask marked;
+  std::uint32_t tilesMarked = 0;
+  std::uint32_t tilesDrawn = 0;
+};
+
+/// Receiver-marked tiles for planCacheFrame (RendererOptions::tiles): which tiles the visible
+/// pixels sample, and how far each cascade's filter reads.
+struct CacheTileInputs {
+  /// The latest marks (csm::ReceiverTileMarks from the host's depth buffer, a few frames old);
+  /// null or absent (cascadeCount 0): none yet (after a cut), so nothing more is drawn in the
+  /// partial cascades until marks arrive and their pixels fall back.
+  const ReceiverTileMarks* marks = nullptr;
+  /// Per cascade, how far (texels) its filter reads around a receiver
+  /// (csm::receiverSampleReachTexels for the frame's settings).
+  std::array<double, kMaxCascades> reachTexels{};
 };
 
 /// One frame's cache decisions for every cascade, from planCacheFrame().
@@ -134,8 +164,26 @@ struct CachePlan {
 /// `budgetTexels`, 0: all, and `exactCascades`); a refreshed cascade's shown state becomes this
 /// frame's, a deferred one's cascade becomes what it shows (its matrix formed for this frame's
 /// camera). A frame of another resolution, or none, is left as it is: the plan is then empty.
+///
+/// With `tiles` (receiver-marked tiles), the last active cascade is drawn whole and refreshed
+/// every frame (it is the fallback), and every other active cascade whose slice (its bounding
+/// sphere, widened by the last cascade's filter reach and two texels) lies inside the last
+/// cascade's box and depth window is partial (cacheTilePartial): it draws only the stale texels
+/// of marked tiles (the marks carried onto its grid, carryTileMarks, across a light step through
+/// its sphere's depth range) and every marked tile it does not hold yet; a stale texel in an
+/// unmarked tile makes that tile not held, until a mark asks for it. A cascade that stops being
+/// partial draws what it did not hold.
 CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t resolution,
-                         std::uint64_t budgetTexels, std::uint32_t exactCascades);
+                         std::uint64_t budgetTexels, std::uint32_t exactCascades,
+                         const CacheTileInputs* tiles = nullptr);
+
+/// Whether the box `outerBox` (world texels of `outerTexelM` metres in light basis `basis`) less
+/// `marginM` each side, and the absolute light-space depth window [zNearLs, zFarLs], hold the
+/// sphere of cascade `inner`: every receiver that cascade shades then lies in the box, so its
+/// pixels can fall back to it.
+[[nodiscard]] bool cacheBoxHoldsSphere(const TexelRect& outerBox, double outerTexelM,
+                                       const glm::dmat3& basis, double zNearLs, double zFarLs,
+                                       double marginM, const Cascade& inner) noexcept;
 
 /// Brings the stale rectangles of `plan`'s refreshed cascades up to date with what was
 /// invalidated after planning (invalidateCache between planCacheFrame and recording), so the

@@ -24,6 +24,7 @@ enum class DebugMode : std::uint32_t {
   kSampledDepth = CSM_DEBUG_SAMPLED_DEPTH,
   kDepthDifference = CSM_DEBUG_DEPTH_DIFF,
   kCascadeTint = CSM_DEBUG_CASCADE,
+  kTileFallback = CSM_DEBUG_TILES,
 };
 
 // PcfKernel (the filters of csm.glsl) is declared in csm/types.hpp, with ShadowSettings::kernel.
@@ -111,6 +112,22 @@ struct CsmUniforms {
   /// and negative exponents (ShadowSettings::momentBleedReduction, msmMomentBias,
   /// evsmPositiveExponent, evsmNegativeExponent).
   glm::vec4 moments{0.0f};
+  /// Receiver-marked tiles (RendererOptions::tiles; csm::CacheCascadePlan::partial): bit i set
+  /// when cascade i's layer holds only the tiles set in its tileBits; csm.glsl then samples it
+  /// only where every tile under the filter's reach is held, and else falls back to the next
+  /// cascade that holds the receiver (the last one always does). 0: every layer is whole.
+  std::uint32_t tilePartialMask = 0;
+  /// 1 / the side of a tile in texels (resolution / kTilesPerSide).
+  float tileInvTexels = 0.0f;
+  std::uint32_t tileReserved0 = 0;
+  std::uint32_t tileReserved1 = 0;
+  /// Per cascade: x, y the texels from the tile grid's first tile to the box's texel (0, 0)
+  /// (grid tile = floor((texel + x, y) / tile side)); z how far its filter reads (texels,
+  /// csm::receiverSampleReachTexels); w 0.
+  glm::vec4 tileGrid[CSM_MAX_CASCADES]{};
+  /// Per cascade three uvec4 (CSM_TILE_WORDS of the twelve words used): bit y * kTileGridSide + x
+  /// set when the layer holds grid tile (x, y).
+  glm::uvec4 tileBits[CSM_MAX_CASCADES * 3]{};
 };
 
 /// Per-frame choices that go into the block besides the cascades and the settings, for a host
@@ -157,6 +174,12 @@ struct CachePlan;
                                              const ShadowSettings& settings,
                                              const UniformOptions& options,
                                              const CachePlan& plan) noexcept;
+
+/// Fills the receiver-marked tile fields of a block packed from `plan` (packCachedUniforms does;
+/// the renderer again after invalidations since planning): for each partial cascade its grid
+/// offset and held tiles, and for every active one its filter's reach (`reachTexels`).
+void packTileUniforms(CsmUniforms& u, const CachePlan& plan,
+                      const std::array<double, kMaxCascades>& reachTexels) noexcept;
 
 /// One specialization constant of the lighting pipeline: its constant_id in csm.glsl
 /// (CSM_SPEC_*) and its value (a 32-bit int or bool, as the shader declares it).

@@ -15,7 +15,9 @@
 #define CSM_DEBUG_SAMPLED_DEPTH 4 // stored depth at the receiver's texel as grey
 #define CSM_DEBUG_DEPTH_DIFF 5   // red: receiver behind the stored depth (shadow), green: lit
 #define CSM_DEBUG_CASCADE 6      // flat tint of the selected cascade (CSM_TINT_i), black outside
-#define CSM_DEBUG_COUNT 7
+#define CSM_DEBUG_TILES 7        // receiver-marked tiles: green sampled in its own cascade(s), red
+                                 // fell back to a coarser one, black outside the cascades
+#define CSM_DEBUG_COUNT 8
 
 // Cascade tints of CSM_DEBUG_CASCADE, as "r, g, b" (write vec3(CSM_TINT_0) on either side).
 // Far apart in RGB so that a test can tell them apart after 8-bit quantisation.

@@ -6,9 +6,9 @@
 // "vsm", "evsm", "msm" (the README's names, without the space). parseKernel() also accepts "tent3",
 // "tent5" and "tent7", the fly-through's spelling before the names were unified, so that existing
 // configs and command lines still work. Debug modes: "none", "normal", "shadow", "lightcoords",
-// "depth", "depthdiff", "cascade". Shadow-map depth formats: "d32" (D32_SFLOAT), "d16" (D16_UNORM).
-// parseDepthFormat() also accepts "D32" and "D16", the CSV reports' spelling before the names were
-// unified. Presets: "low", "medium", "high", "ultra".
+// "depth", "depthdiff", "cascade", "tiles". Shadow-map depth formats: "d32" (D32_SFLOAT), "d16"
+// (D16_UNORM). parseDepthFormat() also accepts "D32" and "D16", the CSV reports' spelling before
+// the names were unified. Presets: "low", "medium", "high", "ultra".
 #pragma once
 
 #include <array>
@@ -42,7 +42,7 @@ inline constexpr std::array<PcfKernel, CSM_FILTER_COUNT> kAllFilters{
 inline constexpr std::array<DebugMode, CSM_DEBUG_COUNT> kAllDebugModes{
     DebugMode::kNone,        DebugMode::kNormal,       DebugMode::kShadowFactor,
     DebugMode::kLightCoords, DebugMode::kSampledDepth, DebugMode::kDepthDifference,
-    DebugMode::kCascadeTint};
+    DebugMode::kCascadeTint, DebugMode::kTileFallback};
 
 // kernelName(PcfKernel) (the one spelling of a kernel) is declared in gpu_layout.hpp.
 
@@ -59,7 +59,7 @@ inline constexpr std::array<DebugMode, CSM_DEBUG_COUNT> kAllDebugModes{
 /// The debug mode called `name` (debugModeName()), else a ValidationError naming `field`.
 [[nodiscard]] Result<DebugMode> parseDebugMode(std::string_view name,
                                                std::string_view field = "debugMode");
-/// "none, normal, shadow, lightcoords, depth, depthdiff, cascade".
+/// "none, normal, shadow, lightcoords, depth, depthdiff, cascade, tiles".
 [[nodiscard]] std::string debugModeNames();
 
 /// The shadow map's depth format (csm::vk::RendererOptions::depthFormat is its VkFormat:

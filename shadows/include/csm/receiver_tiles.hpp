@@ -4,6 +4,8 @@
 // CPU, in double, for tests and hosts with their own reduction.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <utility>
 
 #include "csm/cascades.hpp"
@@ -47,5 +49,44 @@ void markTileRect(ReceiverTileMarks& marks, std::uint32_t i, const glm::dvec2& m
 /// Returns the cascade it is shaded with, or -1 (no cascade holds the depth: it is lit).
 int markReceiverTiles(ReceiverTileMarks& marks, const glm::dvec3& posWs,
                       double viewDepthM) noexcept;
+
+/// One bit per tile of a cascade's tile grid (ReceiverTileMarks' layout: kTileGridSide^2 tiles
+/// of resolution / kTilesPerSide texels on the cascade's world-anchored texel grid, bit
+/// y * kTileGridSide + x for grid tile (x, y), whose world tile index is origin + (x, y)). The
+/// cached renderer keeps one per cascade with RendererOptions::tiles: the tiles its layer holds.
+struct TileMask {
+  glm::i64vec2 origin{0};
+  std::array<std::uint32_t, kTileWords> bits{};
+
+  [[nodiscard]] bool test(std::int64_t x, std::int64_t y) const noexcept {
+    if (x < 0 || y < 0 || x >= kTileGridSide || y >= kTileGridSide) return false;
+    const auto b = std::uint32_t(y * kTileGridSide + x);
+    return (bits[b / 32] >> (b % 32)) & 1u;
+  }
+  void set(std::int64_t x, std::int64_t y, bool on = true) noexcept {
+    if (x < 0 || y < 0 || x >= kTileGridSide || y >= kTileGridSide) return;
+    const auto b = std::uint32_t(y * kTileGridSide + x);
+    bits[b / 32] = on ? bits[b / 32] | (1u << (b % 32)) : bits[b / 32] & ~(1u << (b % 32));
+  }
+  /// Whether world tile (wx, wy) is in the grid and set.
+  [[nodiscard]] bool testWorld(std::int64_t wx, std::int64_t wy) const noexcept {
+    return test(wx - origin.x, wy - origin.y);
+  }
+  [[nodiscard]] std::uint32_t count() const noexcept;
+  friend bool operator==(const TileMask&, const TileMask&) = default;
+};
+
+/// The tiles of cascade `i` of `marks`, carried onto the grid of `mask.origin` (its bits are
+/// replaced): tiles of `tileTexels` texels of `texelM` metres on the light-space grid of basis
+/// `basis` (world -> light space: transpose(basis)). Where the marks were taken in the same
+/// basis, texel and tile size, the same world tiles. Else (a light step, another ladder rung) a
+/// marked tile stands for receivers anywhere in its column between light-space depths zNearLs and
+/// zFarLs of the marks' basis; every tile of the new grid that column's light-space x, y touch
+/// is marked (a conservative superset: a column tilted by the step's angle). With `shiftWs`
+/// (world metres) every marked column is moved by it first. No marks for a cascade the marks do
+/// not hold or left empty.
+void carryTileMarks(const ReceiverTileMarks& marks, std::uint32_t i, const glm::dmat3& basis,
+                    double texelM, std::int64_t tileTexels, double zNearLs, double zFarLs,
+                    TileMask& mask, const glm::dvec3& shiftWs = glm::dvec3(0.0)) noexcept;
 
 }  // namespace csm

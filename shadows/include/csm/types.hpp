@@ -346,6 +346,8 @@ struct ReceiverTileMarks {
   std::array<glm::i64vec2, kMaxCascades> gridOrigin{};
   /// Bit y * kTileGridSide + x of cascade i: grid tile (x, y) is marked.
   std::array<std::array<std::uint32_t, kTileWords>, kMaxCascades> bits{};
+  /// The camera's position when the marks were taken (the receivers a slice holds move with it).
+  glm::dvec3 cameraPositionWs{0.0};
 
   [[nodiscard]] bool present() const noexcept { return cascadeCount != 0; }
   [[nodiscard]] bool marked(std::uint32_t i, std::uint32_t x, std::uint32_t y) const noexcept {

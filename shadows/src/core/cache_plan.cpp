@@ -97,10 +97,156 @@ void planStale(CacheCascadePlan& p, const CacheLayerState& layer, const TexelRec
   p.wholeInvalidations = layer.wholeInvalidations;
 }
 
+// The tiles of a layer of `res` texels a side: resolution / kTilesPerSide texels.
+std::int64_t tileTexelsOf(std::int64_t res) {
+  return std::max<std::int64_t>(res / std::int64_t(kTilesPerSide), 1);
+}
+
+// The grid (origin only) of the tiles that box `box` touches.
+TileMask tileGridOf(const TexelRect& box, std::int64_t res) {
+  const std::int64_t t = tileTexelsOf(res);
+  TileMask m;
+  m.origin = glm::i64vec2(floorDiv(box.x0, t), floorDiv(box.y0, t));
+  return m;
+}
+
+// The world texels of grid tile (x, y) of `mask`, within `box`.
+TexelRect tileRect(const TileMask& mask, std::int64_t x, std::int64_t y, std::int64_t res,
+                   const TexelRect& box) {
+  const std::int64_t t = tileTexelsOf(res);
+  const std::int64_t wx = (mask.origin.x + x) * t, wy = (mask.origin.y + y) * t;
+  return TexelRect{wx, wy, wx + t, wy + t}.intersect(box);
+}
+
+// The tiles of box `box` that static layer `layer` holds before this frame's stale texels:
+// none without a valid layer; those it holds (as far as they lie in its box) when partial;
+// every tile of the box when complete. What the box has that the layer's box had not is among
+// the stale rectangles.
+TileMask heldTiles(const CacheLayerState& layer, const TexelRect& box, std::int64_t res) {
+  TileMask m = tileGridOf(box, res);
+  if (!layer.staticValid) return m;
+  for (std::int64_t y = 0; y < kTileGridSide; ++y) {
+    for (std::int64_t x = 0; x < kTileGridSide; ++x) {
+      if (tileRect(m, x, y, res, box).empty()) continue;
+      m.set(x, y, !layer.partial || layer.tiles.testWorld(m.origin.x + x, m.origin.y + y));
+    }
+  }
+  return m;
+}
+
+// Rectangles of one row (the same y0, y1) that touch, merged; then rectangles of one column
+// (the same x0, x1) that touch: fewer scissors and draws.
+void mergeRows(std::vector<TexelRect>& rects) {
+  std::sort(rects.begin(), rects.end(), [](const TexelRect& a, const TexelRect& b) {
+    if (a.y0 != b.y0) return a.y0 < b.y0;
+    if (a.y1 != b.y1) return a.y1 < b.y1;
+    return a.x0 < b.x0;
+  });
+  std::size_t n = 0;
+  for (const TexelRect& r : rects) {
+    if (n > 0 && rects[n - 1].y0 == r.y0 && rects[n - 1].y1 == r.y1 && rects[n - 1].x1 == r.x0) {
+      rects[n - 1].x1 = r.x1;
+    } else {
+      rects[n++] = r;
+    }
+  }
+  rects.resize(n);
+  std::sort(rects.begin(), rects.end(), [](const TexelRect& a, const TexelRect& b) {
+    if (a.x0 != b.x0) return a.x0 < b.x0;
+    if (a.x1 != b.x1) return a.x1 < b.x1;
+    return a.y0 < b.y0;
+  });
+  n = 0;
+  for (const TexelRect& r : rects) {
+    if (n > 0 && rects[n - 1].x0 == r.x0 && rects[n - 1].x1 == r.x1 && rects[n - 1].y1 == r.y0) {
+      rects[n - 1].y1 = r.y1;
+    } else {
+      rects[n++] = r;
+    }
+  }
+  rects.resize(n);
+}
+
+// A partial cascade's draw: of its stale rectangles (p.stale) only what lies in marked tiles,
+// and every marked tile the layer does not hold; a stale texel in an unmarked tile makes the
+// tile not held. p.tiles: what the layer holds after the draw.
+void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t res) {
+  const TileMask before = heldTiles(layer, p.box, res);
+  TileMask after = before;
+  std::vector<TexelRect> draw;
+  std::uint32_t drawn = 0;
+  for (std::int64_t y = 0; y < kTileGridSide; ++y) {
+    for (std::int64_t x = 0; x < kTileGridSide; ++x) {
+      const TexelRect rect = tileRect(before, x, y, res, p.box);
+      if (rect.empty()) {
+        after.set(x, y, false);
+        continue;
+      }
+      const std::size_t first = draw.size();
+      bool touched = false;
+      for (const TexelRect& r : p.stale) {
+        const TexelRect q = r.intersect(rect);
+        if (q.empty()) continue;
+        touched = true;
+        if (p.marked.test(x, y) && before.test(x, y)) draw.push_back(q);
+      }
+      if (p.marked.test(x, y)) {
+        if (!before.test(x, y)) draw.push_back(rect);
+        after.set(x, y, true);
+        if (draw.size() > first) ++drawn;
+      } else if (touched) {
+        after.set(x, y, false);
+      }
+    }
+  }
+  mergeRows(draw);
+  p.stale = std::move(draw);
+  p.full = false;
+  p.staleTexels = totalArea(p.stale);
+  p.tiles = after;
+  p.tilesMarked = p.marked.count();
+  p.tilesDrawn = drawn;
+}
+
+// A cascade that is complete again after being partial: its stale rectangles also cover the
+// tiles its layer did not hold.
+void completeTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t res) {
+  if (!layer.partial || !layer.staticValid || p.full) return;
+  const TileMask held = heldTiles(layer, p.box, res);
+  for (std::int64_t y = 0; y < kTileGridSide; ++y) {
+    for (std::int64_t x = 0; x < kTileGridSide; ++x) {
+      const TexelRect rect = tileRect(held, x, y, res, p.box);
+      if (!rect.empty() && !held.test(x, y)) addDisjoint(p.stale, rect);
+    }
+  }
+  p.staleTexels = totalArea(p.stale);
+}
+
+// The tiles of cascade i in `frame`, or its completion, after its stale rectangles are planned.
+void planCascadeTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t res) {
+  if (p.partial) {
+    planTiles(p, layer, res);
+  } else {
+    p.tiles = {};
+    completeTiles(p, layer, res);
+  }
+}
+
 }  // namespace
 
+bool cacheBoxHoldsSphere(const TexelRect& box, double texel, const glm::dmat3& basis,
+                         double zNearLs, double zFarLs, double marginM,
+                         const Cascade& inner) noexcept {
+  const glm::dvec3 s = glm::transpose(basis) * inner.sphereCenterWs;
+  const double r = inner.sphereRadiusM + marginM;
+  return s.x - r >= double(box.x0) * texel && s.x + r <= double(box.x1) * texel &&
+         s.y - r >= double(box.y0) * texel && s.y + r <= double(box.y1) * texel &&
+         s.z - inner.sphereRadiusM >= zNearLs && s.z + inner.sphereRadiusM <= zFarLs;
+}
+
 CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t resolution,
-                         std::uint64_t budgetTexels, std::uint32_t exactCascades) {
+                         std::uint64_t budgetTexels, std::uint32_t exactCascades,
+                         const CacheTileInputs* tiles) {
   CachePlan plan;
   if (frame.resolution != resolution || resolution == 0) return plan;
   const std::uint32_t count = std::min(frame.cascadeCount, kMaxCascades);
@@ -137,12 +283,51 @@ CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t r
     c.viewProjCr = cameraRelativeViewProj(basis, frame.cameraPositionWs, c);
     p.box = {boxX, boxY, boxX + res, boxY + res};
     planStale(p, layer, p.box, basisT, res);
+  }
+  // Receiver-marked tiles: the cascades the last one can stand in for draw only marked tiles.
+  std::int64_t last = -1;
+  for (std::uint32_t i = 0; i < count; ++i) {
+    if (plan.cascades[i].active) last = i;
+  }
+  for (std::uint32_t i = 0; i < count; ++i) {
+    CacheCascadePlan& p = plan.cascades[i];
+    if (!p.active) continue;
+    const Cascade& c = frame.cascades[i];
+    if (tiles != nullptr && std::int64_t(i) < last) {
+      const auto l = std::uint32_t(last);
+      const double texelL = frame.cascades[l].texelSizeLs.x;
+      const double margin = (tiles->reachTexels[l] + 2.0) * texelL;
+      p.partial = cacheBoxHoldsSphere(plan.cascades[l].box, texelL, basis, state.layers[l].zNear,
+                                      state.layers[l].zFar, margin, c);
+    }
+    if (p.partial) {
+      p.marked = tileGridOf(p.box, res);
+      if (tiles->marks != nullptr) {
+        // Across a light step a marked column's receivers lie in the cascade's sphere.
+        const double z = (glm::transpose(tiles->marks->lightBasisWs) * c.sphereCenterWs).z;
+        const double r = 1.25 * c.sphereRadiusM;
+        carryTileMarks(*tiles->marks, i, basis, c.texelSizeLs.x, tileTexelsOf(res), z - r, z + r,
+                       p.marked);
+        // The receivers a slice holds move with the camera: the marks also where the camera's
+        // move since they were taken carries them.
+        const glm::dvec3 moved = frame.cameraPositionWs - tiles->marks->cameraPositionWs;
+        if (moved != glm::dvec3(0.0)) {
+          TileMask ahead = p.marked;
+          carryTileMarks(*tiles->marks, i, basis, c.texelSizeLs.x, tileTexelsOf(res), z - r, z + r,
+                         ahead, moved);
+          for (std::uint32_t w = 0; w < kTileWords; ++w) p.marked.bits[w] |= ahead.bits[w];
+        }
+      }
+    }
+    planCascadeTiles(p, state.layers[i], res);
     const CacheShownState& sh = state.shown[i];
     candidates[i] = {true, sh.valid, sh.lagFrames, p.covered, p.staleTexels};
   }
-  // The budget: refreshed cascades show this frame; deferred ones what they showed.
+  // The budget: refreshed cascades show this frame; deferred ones what they showed. With tiles
+  // the last cascade, the fallback, is always refreshed.
   plan.refreshedMask =
       scheduleCacheRefresh(std::span(candidates.data(), count), budgetTexels, exactCascades);
+  if (tiles != nullptr && last >= 0) plan.refreshedMask |= 1u << std::uint32_t(last);
   for (std::uint32_t i = 0; i < count; ++i) {
     CacheCascadePlan& p = plan.cascades[i];
     if (!p.active) continue;
@@ -155,6 +340,8 @@ CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t r
       sh.window = state.layers[i];
       sh.cascade = c;
       sh.basis = basis;
+      sh.partial = p.partial;
+      sh.tiles = p.tiles;
     } else {
       ++sh.lagFrames;
       c = sh.cascade;
@@ -165,6 +352,9 @@ CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t r
       const std::int64_t bx = cacheBoxStart(shownLs.x, sh.window.texel, res);
       const std::int64_t by = cacheBoxStart(shownLs.y, sh.window.texel, res);
       p.box = {bx, by, bx + res, by + res};
+      p.partial = sh.partial;
+      p.tiles = sh.tiles;
+      p.tilesDrawn = 0;
     }
     p.lagFrames = sh.lagFrames;
     p.basis = sh.basis;
@@ -185,6 +375,7 @@ void updateCacheStale(CachePlan& plan, const CacheState& state) {
       continue;
     }
     planStale(p, layer, p.box, glm::transpose(p.basis), res);
+    planCascadeTiles(p, layer, res);
     p.newWindow = !layer.staticValid;
   }
 }
@@ -197,6 +388,10 @@ void markCacheRecorded(const CachePlan& plan, CacheState& state) {
     layer.staticValid = true;
     layer.boxX = p.box.x0;
     layer.boxY = p.box.y0;
+    layer.partial = p.partial;
+    layer.tiles = p.tiles;
+    state.shown[i].partial = p.partial;
+    state.shown[i].tiles = p.tiles;
     const std::size_t done = std::min(p.pendingPlanned, layer.pending.size());
     layer.pending.erase(layer.pending.begin(),
                         layer.pending.begin() + static_cast<std::ptrdiff_t>(done));

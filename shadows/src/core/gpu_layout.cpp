@@ -3,6 +3,7 @@
 
 #include "csm/cache_plan.hpp"
 #include "csm/moments.hpp"
+#include "csm/receiver_tiles.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -43,7 +44,13 @@ static_assert(offsetof(CsmUniforms, maxPenumbraRadiusM) == 112 * CSM_MAX_CASCADE
 static_assert(offsetof(CsmUniforms, fadeEndM) == 112 * CSM_MAX_CASCADES + 88);
 static_assert(offsetof(CsmUniforms, invFadeLengthM) == 112 * CSM_MAX_CASCADES + 92);
 static_assert(offsetof(CsmUniforms, moments) == 112 * CSM_MAX_CASCADES + 96);
-static_assert(sizeof(CsmUniforms) == 112 * CSM_MAX_CASCADES + 112);
+static_assert(offsetof(CsmUniforms, tilePartialMask) == 112 * CSM_MAX_CASCADES + 112);
+static_assert(offsetof(CsmUniforms, tileInvTexels) == 112 * CSM_MAX_CASCADES + 116);
+static_assert(offsetof(CsmUniforms, tileGrid) == 112 * CSM_MAX_CASCADES + 128);
+static_assert(offsetof(CsmUniforms, tileBits) ==
+              112 * CSM_MAX_CASCADES + 128 + 16 * CSM_MAX_CASCADES);
+static_assert(CSM_TILE_WORDS <= 12, "three uvec4 of tile bits per cascade");
+static_assert(sizeof(CsmUniforms) == 112 * CSM_MAX_CASCADES + 128 + 64 * CSM_MAX_CASCADES);
 static_assert(sizeof(CsmUniforms) <= 16384, "must fit the minimum maxUniformBufferRange");
 static_assert(sizeof(CsmUniforms) % 4 == 0, "vkCmdUpdateBuffer needs a multiple of 4 bytes");
 static_assert(CSM_MAX_CASCADES <= 32, "the non-empty mask is one 32-bit word");
@@ -180,7 +187,31 @@ CsmUniforms packCachedUniforms(const CascadeFrame& frame, const ShadowSettings& 
     }
     g.wrapOffset = glm::vec2(float(p.wrapX), float(p.wrapY));
   }
+  std::array<double, kMaxCascades> reach{};
+  for (std::uint32_t i = 0; i < count; ++i)
+    reach[i] = receiverSampleReachTexels(settings, frame, i);
+  packTileUniforms(u, plan, reach);
   return u;
+}
+
+void packTileUniforms(CsmUniforms& u, const CachePlan& plan,
+                      const std::array<double, kMaxCascades>& reachTexels) noexcept {
+  u.tilePartialMask = 0;
+  const std::int64_t tile = std::max<std::int64_t>(plan.resolution / kTilesPerSide, 1);
+  u.tileInvTexels = plan.resolution > 0 ? float(1.0 / double(tile)) : 0.0f;
+  for (std::uint32_t i = 0; i < kMaxCascades; ++i) {
+    u.tileGrid[i] = glm::vec4(0.0f);
+    for (std::uint32_t k = 0; k < 3; ++k) u.tileBits[i * 3 + k] = glm::uvec4(0u);
+    if (i >= plan.cascadeCount || !plan.cascades[i].active) continue;
+    const CacheCascadePlan& p = plan.cascades[i];
+    u.tileGrid[i].z = float(std::isfinite(reachTexels[i]) ? reachTexels[i] : 0.0);
+    if (!p.partial) continue;
+    u.tilePartialMask |= 1u << i;
+    u.tileGrid[i].x = float(p.box.x0 - p.tiles.origin.x * tile);
+    u.tileGrid[i].y = float(p.box.y0 - p.tiles.origin.y * tile);
+    for (std::uint32_t w = 0; w < kTileWords; ++w)
+      u.tileBits[i * 3 + w / 4][w % 4] = p.tiles.bits[w];
+  }
 }
 
 std::array<SpecConstant, kLightingSpecConstantCount> lightingSpecConstants(

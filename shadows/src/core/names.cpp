@@ -31,7 +31,7 @@ constexpr Named<DebugMode> kDebugModeNames[] = {
     {"none", DebugMode::kNone},           {"normal", DebugMode::kNormal},
     {"shadow", DebugMode::kShadowFactor}, {"lightcoords", DebugMode::kLightCoords},
     {"depth", DebugMode::kSampledDepth},  {"depthdiff", DebugMode::kDepthDifference},
-    {"cascade", DebugMode::kCascadeTint},
+    {"cascade", DebugMode::kCascadeTint}, {"tiles", DebugMode::kTileFallback},
 };
 
 constexpr Named<DepthFormat> kDepthFormatNames[] = {

@@ -47,6 +47,7 @@ ReceiverTileMarks emptyReceiverTileMarks(const ShadowSettings& settings,
   m.tileTexels = std::max(res / kTilesPerSide, 1u);
   m.splitsM = frame.splitsM;
   m.lightBasisWs = frame.lightBasisWs;
+  m.cameraPositionWs = frame.cameraPositionWs;
   const glm::dmat3 basisT = glm::transpose(frame.lightBasisWs);
   const double band = settings.blendBand;
   for (std::uint32_t i = 0; i < count; ++i) {
@@ -111,6 +112,63 @@ int markReceiverTiles(ReceiverTileMarks& m, const glm::dvec3& posWs, double view
   markTileRect(m, std::uint32_t(c), ls, ls);
   if (next >= 0) markTileRect(m, std::uint32_t(next), ls, ls);
   return c;
+}
+
+std::uint32_t TileMask::count() const noexcept {
+  std::uint32_t n = 0;
+  for (std::uint32_t w : bits) n += std::uint32_t(std::popcount(w));
+  return n;
+}
+
+void carryTileMarks(const ReceiverTileMarks& m, std::uint32_t i, const glm::dmat3& basis,
+                    double texelM, std::int64_t tileTexels, double zNearLs, double zFarLs,
+                    TileMask& mask, const glm::dvec3& shiftWs) noexcept {
+  mask.bits = {};
+  if (i >= m.cascadeCount || !(m.nonEmptyMask >> i & 1u) || m.tileTexels == 0 || tileTexels <= 0 ||
+      !(texelM > 0.0) || !(m.texelM[i] > 0.0)) {
+    return;
+  }
+  const glm::i64vec2 shift = m.gridOrigin[i] - mask.origin;
+  if (m.lightBasisWs == basis && m.texelM[i] == texelM &&
+      std::int64_t(m.tileTexels) == tileTexels && shiftWs == glm::dvec3(0.0)) {
+    // The same world tiles: only the grids' origins differ.
+    for (std::uint32_t y = 0; y < kTileGridSide; ++y) {
+      for (std::uint32_t x = 0; x < kTileGridSide; ++x) {
+        if (m.marked(i, x, y)) mask.set(shift.x + x, shift.y + y);
+      }
+    }
+    return;
+  }
+  // Each marked column's eight corners, from the marks' light space to this one's.
+  const glm::dmat3 toNew = glm::transpose(basis) * m.lightBasisWs;
+  const glm::dvec3 shiftLs = glm::transpose(m.lightBasisWs) * shiftWs;
+  const double oldTileM = m.texelM[i] * double(m.tileTexels);
+  const double newTileM = texelM * double(tileTexels);
+  const glm::dvec2 newOrigin = glm::dvec2(mask.origin) * newTileM;
+  const double side = double(kTileGridSide);
+  for (std::uint32_t y = 0; y < kTileGridSide; ++y) {
+    for (std::uint32_t x = 0; x < kTileGridSide; ++x) {
+      if (!m.marked(i, x, y)) continue;
+      const glm::dvec2 lo = glm::dvec2(m.gridOrigin[i] + glm::i64vec2(x, y)) * oldTileM;
+      glm::dvec2 mn(1e300), mx(-1e300);
+      for (int k = 0; k < 8; ++k) {
+        const glm::dvec3 p(lo.x + ((k & 1) ? oldTileM : 0.0), lo.y + ((k & 2) ? oldTileM : 0.0),
+                           (k & 4) ? zFarLs : zNearLs);
+        const glm::dvec3 q = toNew * (p + shiftLs);
+        mn = glm::min(mn, glm::dvec2(q));
+        mx = glm::max(mx, glm::dvec2(q));
+      }
+      const glm::dvec2 a = glm::floor((mn - newOrigin) / newTileM);
+      const glm::dvec2 b = glm::floor((mx - newOrigin) / newTileM);
+      if (!(b.x >= 0.0 && b.y >= 0.0 && a.x < side && a.y < side)) continue;
+      const auto x0 = std::int64_t(std::max(a.x, 0.0)), y0 = std::int64_t(std::max(a.y, 0.0));
+      const auto x1 = std::int64_t(std::min(b.x, side - 1.0));
+      const auto y1 = std::int64_t(std::min(b.y, side - 1.0));
+      for (std::int64_t ty = y0; ty <= y1; ++ty) {
+        for (std::int64_t tx = x0; tx <= x1; ++tx) mask.set(tx, ty);
+      }
+    }
+  }
 }
 
 }  // namespace csm

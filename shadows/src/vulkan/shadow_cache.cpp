@@ -27,6 +27,8 @@
 
 #include "csm/cache_rects.hpp"
 #include "csm/light_space.hpp"
+#include "csm/names.hpp"
+#include "csm/receiver_tiles.hpp"
 #include "csm/vulkan/shadow_renderer.hpp"
 #include "shadow_renderer_impl.hpp"
 #include "vk_util.hpp"
@@ -126,6 +128,18 @@ Status ShadowRenderer::Impl::checkCacheOptions(const ShadowSettings& settings,
                   fmt("options.cacheExactCascades = %u is invalid: allowed [1, %u]",
                       options.cacheExactCascades, kMaxCascades));
   }
+  if (options.tiles && !options.cache) {
+    return Status(ErrorCode::kInvalidArgument,
+                  "options.tiles = true is invalid without options.cache: receiver-marked tiles "
+                  "are drawn on top of the cache");
+  }
+  if (options.tiles && isPrefiltered(settings.kernel)) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("options.tiles = true is invalid with settings.kernel = %s: allowed with "
+                      "the depth-comparison kernels (1tap, tent3x3, tent5x5, tent7x7, poisson16, "
+                      "pcss); a prefiltered filter's mips and blur would read undrawn tiles",
+                      kernelName(settings.kernel)));
+  }
   return {};
 }
 
@@ -146,7 +160,18 @@ void ShadowRenderer::Impl::applyCacheWindows(CascadeFrame& frame) {
     return;
   }
   const std::uint64_t budget = options_.cache ? options_.cacheBudgetTexels : 0;
-  plan_ = planCacheFrame(frame, cache_, resolution_, budget, options_.cacheExactCascades);
+  tileReach_ = {};
+  if (!(options_.cache && options_.tiles)) {
+    plan_ = planCacheFrame(frame, cache_, resolution_, budget, options_.cacheExactCascades);
+    return;
+  }
+  CacheTileInputs tiles;
+  tiles.marks = tileMarks_ && tileMarks_->present() ? &*tileMarks_ : nullptr;
+  for (std::uint32_t i = 0; i < std::min(frame.cascadeCount, kMaxCascades); ++i) {
+    tileReach_[i] = receiverSampleReachTexels(settings_, frame, i);
+  }
+  tiles.reachTexels = tileReach_;
+  plan_ = planCacheFrame(frame, cache_, resolution_, budget, options_.cacheExactCascades, &tiles);
 }
 
 Status ShadowRenderer::Impl::invalidate(const AabbWs& boxWs) {
@@ -424,6 +449,9 @@ void ShadowRenderer::Impl::recordCachedBegin(VkCommandBuffer cmd, bool wasUndefi
     updateCacheStale(plan_, cache_);
   }
   staticInitialised_ = true;
+  // What the partial cascades hold after this frame's draw, invalidations since planning
+  // included (updateCacheStale), before the block is uploaded.
+  if (options_.tiles) packTileUniforms(uniforms_, plan_, tileReach_);
   recordPassStart(cmd, "csm shadow pass (cached)",
                   wasUndefined ? std::span<const VkImageMemoryBarrier2>(img, 2)
                                : std::span<const VkImageMemoryBarrier2>(img + 1, 1));
@@ -443,6 +471,10 @@ bool ShadowRenderer::Impl::recordCachedCascade(CachedPass& pass, std::uint32_t i
   st.deferred = !p.refreshed;
   st.lagFrames = p.lagFrames;
   st.wantedTexels = p.staleTexels;
+  st.partial = p.partial;
+  st.tilesMarked = p.tilesMarked;
+  st.tilesDrawn = p.refreshed ? p.tilesDrawn : 0;
+  st.tilesHeld = p.tiles.count();
   bool dynamicNow = false;
   pass.computeCasterRects(list, win.texel);
   for (std::uint32_t idx : list) dynamicNow = dynamicNow || pass.casters.instances[idx].dynamic;
@@ -744,6 +776,7 @@ Status ShadowRenderer::Impl::recordCachedPass(VkCommandBuffer cmd, const Cascade
 
   const bool wasUndefined = countRecord();
   CachedPass pass(*this, cmd, casters, resolution_);
+  if (options_.cache) updateCacheStale(plan_, cache_);  // boxes invalidated since the plan
   packCachedUniforms(frame, pass);
   cacheStats_ = {};
   pass.casterRects.resize(casters.instances.size());

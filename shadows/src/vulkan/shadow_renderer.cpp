@@ -580,6 +580,9 @@ Status ShadowRenderer::invalidate(const AabbWs& boxWs) {
 void ShadowRenderer::invalidateAll() noexcept {
   impl_->invalidateAll();
 }
+void ShadowRenderer::setReceiverTiles(std::optional<ReceiverTileMarks> marks) noexcept {
+  impl_->setReceiverTiles(std::move(marks));
+}
 const std::array<CascadeCacheStats, kMaxCascades>& ShadowRenderer::cacheStats() const noexcept {
   return impl_->cacheStats();
 }

@@ -54,6 +54,9 @@ class ShadowRenderer::Impl {
   void applyCacheWindows(CascadeFrame& frame);
   Status invalidate(const AabbWs& boxWs);
   void invalidateAll() noexcept;
+  void setReceiverTiles(std::optional<ReceiverTileMarks> marks) noexcept {
+    tileMarks_ = std::move(marks);
+  }
   [[nodiscard]] const std::array<CascadeCacheStats, kMaxCascades>& cacheStats() const noexcept {
     return cacheStats_;
   }
@@ -319,6 +322,10 @@ class ShadowRenderer::Impl {
   static Status checkCacheOptions(const ShadowSettings& settings, const RendererOptions& options);
   CacheState cache_{};
   CachePlan plan_{};
+  // RendererOptions::tiles: the host's latest marks (absent: none since the last cut) and each
+  // cascade's filter reach of the frame planned (texels).
+  std::optional<ReceiverTileMarks> tileMarks_;
+  std::array<double, kMaxCascades> tileReach_{};
   std::array<DynamicDrawn, kMaxCascades> dynamicDrawn_{};
   std::array<CascadeCacheStats, kMaxCascades> cacheStats_{};
   VkImage staticImage_ = VK_NULL_HANDLE;

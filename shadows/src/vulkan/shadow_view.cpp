@@ -476,6 +476,11 @@ void ShadowView::dropReceiverDepth() noexcept {
 void ShadowView::cameraCut() noexcept {
   state_->history_ = {};
   dropReceiverDepth();
+  setReceiverTiles(std::nullopt);
+}
+
+void ShadowView::setReceiverTiles(std::optional<ReceiverTileMarks> marks) noexcept {
+  if (state_->renderer_) state_->renderer_->setReceiverTiles(std::move(marks));
 }
 
 Status ShadowView::recordReceiverDepth(VkCommandBuffer cmd, const ReceiverDepthInput& depth) {

@@ -33,6 +33,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -211,6 +212,16 @@ struct RendererOptions {
   /// device allow it (else 128; momentFormat() says which), at half the memory. 64 bits leak more
   /// light right behind an occluder (measured: shadows/docs/prefiltered.md). 64 or 128.
   std::uint32_t msmMomentBits = 128;
+  /// Receiver-marked tiles, on top of the cache (needs `cache` and a depth-comparison kernel:
+  /// the PCF kernels or PCSS). Each frame the host passes the tiles its visible pixels sampled
+  /// a few frames earlier (ShadowRenderer::setReceiverTiles; ShadowView does it itself with
+  /// ReceiverFit or takes them from the host). The last cascade is drawn whole and refreshed
+  /// every frame; every other cascade whose slice lies inside it draws only the stale texels of
+  /// marked tiles, and csm.glsl samples it only where every tile under the filter's reach is
+  /// drawn, else falls back to the next cascade that holds the receiver (never to garbage, never
+  /// to lit). What is sampled is bit-identical to a full render wherever it is drawn. See
+  /// shadows/docs/receiver_tiles.md.
+  bool tiles = false;
 };
 
 /// A range of an index buffer drawn as one caster mesh.
@@ -348,6 +359,12 @@ struct CascadeCacheStats {
   /// by the blur and rounded out to 32-texel tiles (the whole layer on a new window); 0 where
   /// nothing changed.
   std::uint64_t momentTexels = 0;
+  /// RendererOptions::tiles: the cascade drew only marked tiles (partial), how many tiles the
+  /// marks asked for in it, of how many something was drawn, and how many its layer holds.
+  bool partial = false;
+  std::uint32_t tilesMarked = 0;
+  std::uint32_t tilesDrawn = 0;
+  std::uint32_t tilesHeld = 0;
 };
 
 /// What a draw callback gets for one cascade: the command buffer inside the cascade's render
@@ -521,6 +538,11 @@ class ShadowRenderer {
   Status invalidate(const AabbWs& boxWs);
   /// Marks every cascade stale (the next record re-renders all static texels).
   void invalidateAll() noexcept;
+  /// RendererOptions::tiles: the tiles the host's visible pixels sample (csm::ReceiverTileMarks,
+  /// from DepthRangeReducer with ReceiverBoundsInputs::tiles, typically a few frames old),
+  /// used by the frames computed after it until replaced. Absent (after a camera cut, or before
+  /// the first marks): the partial cascades draw nothing more and their pixels fall back.
+  void setReceiverTiles(std::optional<ReceiverTileMarks> marks) noexcept;
   /// What the last cached record did per cascade.
   [[nodiscard]] const std::array<CascadeCacheStats, kMaxCascades>& cacheStats() const noexcept;
   /// Device memory of the static-depth cache image (0 without the cache).

@@ -206,12 +206,15 @@ class ShadowView {
   Status invalidate(const AabbWs& boxWs);
   /// Re-renders every cascade's static depth at the next record.
   void invalidateAll() noexcept;
+  /// RendererOptions::tiles: the tiles the host's visible pixels sampled (ShadowRenderer::
+  /// setReceiverTiles), used from the next compute() on. cameraCut() drops them.
+  void setReceiverTiles(std::optional<ReceiverTileMarks> marks) noexcept;
 
   /// Forgets the history (so sizes need not shrink step by step).
   void resetHistory() noexcept;
   /// A camera cut (a teleport, a respawn, a switch of camera): forgets the history and every
   /// receiver range measured before it (the cascades cover the full range until the first depth
-  /// buffer after the cut has been reduced).
+  /// buffer after the cut has been reduced), and the receiver-marked tiles.
   void cameraCut() noexcept;
   /// Per-cascade hook of the pass (GPU timestamps, labels): see CascadeHook.
   void setCascadeHook(CascadeHook hook);

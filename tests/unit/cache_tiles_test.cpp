@@ -1,0 +1,392 @@
+// Receiver-marked tiles in the cache's plan (planCacheFrame with CacheTileInputs): the marks
+// carried onto a cascade's grid (the same world tiles; across a light step and a camera move, a
+// superset holding every receiver), which cascades may be partial (their slice inside the last
+// cascade's box, the fallback), what a partial cascade draws (only the stale texels of marked
+// tiles, and marked tiles it does not hold) and holds, the way back to whole, and the uniform
+// block's tile fields.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include <csm/cache_plan.hpp>
+#include <csm/cascades.hpp>
+#include <csm/gpu_layout.hpp>
+#include <csm/receiver_tiles.hpp>
+
+namespace {
+
+struct View {
+  csm::Camera camera;
+  csm::DirectionalLight light{glm::dvec3(0.3, -0.8, 0.52)};
+};
+
+View viewAt(const glm::dvec3& at, double fovDeg = 60.0) {
+  View v;
+  v.camera.positionWs = at;
+  v.camera.orientationWs = glm::angleAxis(glm::radians(-12.0), glm::dvec3(1, 0, 0));
+  v.camera.fovYRad = glm::radians(fovDeg);
+  v.camera.nearM = 0.5;
+  v.camera.farM = 2000.0;
+  return v;
+}
+
+csm::ShadowSettings tileSettings() {
+  csm::ShadowSettings s;
+  s.resolution = 1024;
+  s.cascadeCount = 4;
+  s.shadowDistanceM = 300.0;
+  return s;
+}
+
+csm::CascadeFrame frameOf(const csm::ShadowSettings& s, const View& v) {
+  auto f = csm::computeCascades(s, v.camera, v.light);
+  EXPECT_TRUE(f.ok());
+  return f.value();
+}
+
+/// Receivers on the ground plane y = 0 that the camera sees (within its frustum and the shadow
+/// distance), on a grid of `stepM`.
+std::vector<glm::dvec3> groundReceivers(const View& v, double farM, double stepM) {
+  std::vector<glm::dvec3> out;
+  const glm::dvec3 fwd = v.camera.forwardWs();
+  const glm::dvec3 right = v.camera.rightWs();
+  const glm::dvec3 up = v.camera.upWs();
+  const double tanY = std::tan(0.5 * v.camera.fovYRad);
+  const double tanX = tanY * v.camera.aspect;
+  const glm::dvec3 c = v.camera.positionWs;
+  for (double x = c.x - farM; x <= c.x + farM; x += stepM) {
+    for (double z = c.z - farM; z <= c.z + farM; z += stepM) {
+      const glm::dvec3 p(x, 0.0, z);
+      const glm::dvec3 d = p - c;
+      const double depth = glm::dot(d, fwd);
+      if (depth < v.camera.nearM || depth > farM) continue;
+      if (std::abs(glm::dot(d, right)) > depth * tanX || std::abs(glm::dot(d, up)) > depth * tanY) {
+        continue;
+      }
+      out.push_back(p);
+    }
+  }
+  return out;
+}
+
+/// The marks those receivers make in `frame`.
+csm::ReceiverTileMarks marksOf(const csm::ShadowSettings& s, const csm::CascadeFrame& frame,
+                               const View& v, const std::vector<glm::dvec3>& receivers) {
+  csm::ReceiverTileMarks m = csm::emptyReceiverTileMarks(s, frame);
+  for (const glm::dvec3& p : receivers) {
+    csm::markReceiverTiles(m, p, glm::dot(p - v.camera.positionWs, v.camera.forwardWs()));
+  }
+  return m;
+}
+
+/// The world tile (tiles of `tile` texels of `texel` metres) of light-space x, y of `p`.
+glm::i64vec2 worldTile(const glm::dvec3& p, const glm::dmat3& basis, double texel,
+                       std::int64_t tile) {
+  const glm::dvec3 q = glm::transpose(basis) * p;
+  return {csm::floorDiv(std::int64_t(std::floor(q.x / texel)), tile),
+          csm::floorDiv(std::int64_t(std::floor(q.y / texel)), tile)};
+}
+
+csm::CacheTileInputs tileInputs(const csm::ShadowSettings& s, const csm::CascadeFrame& f,
+                                const csm::ReceiverTileMarks* marks) {
+  csm::CacheTileInputs in;
+  in.marks = marks;
+  for (std::uint32_t i = 0; i < f.cascadeCount; ++i) {
+    in.reachTexels[i] = csm::receiverSampleReachTexels(s, f, i);
+  }
+  return in;
+}
+
+std::uint64_t areaIn(const std::vector<csm::TexelRect>& rects, const csm::TexelRect& r) {
+  std::uint64_t a = 0;
+  for (const csm::TexelRect& q : rects) a += q.intersect(r).area();
+  return a;
+}
+
+TEST(CacheTiles, CarriedMarksAreTheSameWorldTilesInTheSameBasis) {
+  const csm::ShadowSettings s = tileSettings();
+  for (const glm::dvec3 at : {glm::dvec3(3.0, 2.0, 7.0), glm::dvec3(-1e7, 2.0, 1e7)}) {
+    const View v = viewAt(at);
+    const csm::CascadeFrame f = frameOf(s, v);
+    const csm::ReceiverTileMarks m = marksOf(s, f, v, groundReceivers(v, 300.0, 2.0));
+    for (std::uint32_t i = 0; i < f.cascadeCount; ++i) {
+      ASSERT_GT(m.markedCount(i), 0u) << i;
+      csm::TileMask mask;
+      mask.origin = m.gridOrigin[i] + glm::i64vec2(3, -2);
+      csm::carryTileMarks(m, i, f.lightBasisWs, m.texelM[i], m.tileTexels, 0.0, 0.0, mask);
+      std::uint32_t inGrid = 0;
+      for (std::int64_t y = 0; y < csm::kTileGridSide; ++y) {
+        for (std::int64_t x = 0; x < csm::kTileGridSide; ++x) {
+          const bool marked = m.marked(std::uint32_t(i), std::uint32_t(x), std::uint32_t(y));
+          const glm::i64vec2 w = m.gridOrigin[i] + glm::i64vec2(x, y);
+          EXPECT_EQ(mask.testWorld(w.x, w.y),
+                    marked && w.x >= mask.origin.x && w.y <= mask.origin.y + 16)
+              << "cascade " << i << " tile " << x << ", " << y;
+          inGrid += marked && mask.testWorld(w.x, w.y) ? 1u : 0u;
+        }
+      }
+      EXPECT_EQ(mask.count(), inGrid);
+    }
+  }
+}
+
+TEST(CacheTiles, CarriedMarksHoldEveryReceiverAcrossALightStepAndACameraMove) {
+  const csm::ShadowSettings s = tileSettings();
+  const View before = viewAt(glm::dvec3(10.0, 2.0, -40.0));
+  const csm::CascadeFrame f0 = frameOf(s, before);
+  const std::vector<glm::dvec3> receivers = groundReceivers(before, 300.0, 1.5);
+  const csm::ReceiverTileMarks m = marksOf(s, f0, before, receivers);
+  // Three frames later: the sun stepped by 0.6 degrees, the camera moved 4 m.
+  View after = before;
+  after.camera.positionWs += glm::dvec3(2.5, 0.0, -3.1);
+  after.light.directionWs =
+      glm::angleAxis(glm::radians(0.6), glm::dvec3(0, 1, 0)) * before.light.directionWs;
+  const csm::CascadeFrame f1 = frameOf(s, after);
+  ASSERT_NE(f1.lightBasisWs, f0.lightBasisWs);
+  const glm::dvec3 moved = after.camera.positionWs - before.camera.positionWs;
+  const std::int64_t tile = s.resolution / csm::kTilesPerSide;
+  std::uint32_t checked = 0;
+  for (std::uint32_t i = 0; i < f1.cascadeCount; ++i) {
+    const csm::Cascade& c = f1.cascades[i];
+    const double texel = c.texelSizeLs.x;
+    const glm::dvec3 centerLs = glm::transpose(f1.lightBasisWs) * c.boxCenterWs;
+    csm::TileMask still, ahead;
+    still.origin = {csm::floorDiv(csm::cacheBoxStart(centerLs.x, texel, s.resolution), tile),
+                    csm::floorDiv(csm::cacheBoxStart(centerLs.y, texel, s.resolution), tile)};
+    ahead.origin = still.origin;
+    const double z = (glm::transpose(m.lightBasisWs) * c.sphereCenterWs).z;
+    const double r = 1.25 * c.sphereRadiusM;
+    csm::carryTileMarks(m, i, f1.lightBasisWs, texel, tile, z - r, z + r, still);
+    csm::carryTileMarks(m, i, f1.lightBasisWs, texel, tile, z - r, z + r, ahead, moved);
+    // Every receiver the marks hold in cascade i (shaded there before) is in the carried tiles
+    // where it lies now, and moved by the camera's move in the moved ones.
+    for (const glm::dvec3& p : receivers) {
+      const double depth = glm::dot(p - before.camera.positionWs, before.camera.forwardWs());
+      const auto [a, b] = csm::shadingCascades(m, depth);
+      if (a != int(i) && b != int(i)) continue;
+      for (const auto& [q, mask] : {std::pair{p, &still}, std::pair{p + moved, &ahead}}) {
+        const glm::i64vec2 w = worldTile(q, f1.lightBasisWs, texel, tile);
+        const glm::i64vec2 g = w - mask->origin;
+        if (g.x < 0 || g.y < 0 || g.x >= csm::kTileGridSide || g.y >= csm::kTileGridSide) {
+          continue;  // outside this frame's grid: nothing to draw there
+        }
+        ++checked;
+        EXPECT_TRUE(mask->test(g.x, g.y)) << "cascade " << i << " receiver " << q.x << ", " << q.z;
+      }
+    }
+  }
+  EXPECT_GT(checked, 1000u);
+}
+
+TEST(CacheTiles, PartialCascadesDrawOnlyMarkedTilesAndTheLastIsWhole) {
+  const csm::ShadowSettings s = tileSettings();
+  const std::int64_t res = s.resolution, tile = res / csm::kTilesPerSide;
+  View v = viewAt(glm::dvec3(0.0, 2.0, 0.0));
+  csm::CacheState state;
+  // Frame 1, no marks yet: the partial cascades draw nothing, the last one everything.
+  csm::CascadeFrame f = frameOf(s, v);
+  csm::CacheTileInputs in = tileInputs(s, f, nullptr);
+  csm::CachePlan p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+  const std::uint32_t last = f.cascadeCount - 1;
+  ASSERT_TRUE(p.cascades[0].partial) << "a 60 degree view: cascade 0's slice lies in the last box";
+  for (std::uint32_t i = 0; i < f.cascadeCount; ++i) {
+    const csm::CacheCascadePlan& c = p.cascades[i];
+    const double margin = (in.reachTexels[last] + 2.0) * f.cascades[last].texelSizeLs.x;
+    EXPECT_EQ(c.partial, i < last && csm::cacheBoxHoldsSphere(
+                                         p.cascades[last].box, f.cascades[last].texelSizeLs.x,
+                                         f.lightBasisWs, state.layers[last].zNear,
+                                         state.layers[last].zFar, margin, f.cascades[i]))
+        << i;
+    if (c.partial) {
+      EXPECT_TRUE(c.stale.empty()) << i;
+      EXPECT_EQ(c.tiles.count(), 0u) << i;
+    } else {
+      EXPECT_TRUE(c.full) << i;
+    }
+  }
+  EXPECT_TRUE(p.refreshedMask >> last & 1u);
+  csm::markCacheRecorded(p, state);
+
+  // Frame 2, the same view with its marks: each partial cascade draws exactly its marked tiles
+  // (within its box) and holds them.
+  const csm::ReceiverTileMarks marks = marksOf(s, f, v, groundReceivers(v, 300.0, 1.0));
+  f = frameOf(s, v);
+  in = tileInputs(s, f, &marks);
+  p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+  for (std::uint32_t i = 0; i < last; ++i) {
+    const csm::CacheCascadePlan& c = p.cascades[i];
+    if (!c.partial) continue;
+    std::uint64_t markedArea = 0;
+    for (std::int64_t y = 0; y < csm::kTileGridSide; ++y) {
+      for (std::int64_t x = 0; x < csm::kTileGridSide; ++x) {
+        const glm::i64vec2 w = c.tiles.origin + glm::i64vec2(x, y);
+        const csm::TexelRect r =
+            csm::TexelRect{w.x * tile, w.y * tile, (w.x + 1) * tile, (w.y + 1) * tile}.intersect(
+                c.box);
+        const bool marked = !r.empty() && c.marked.test(x, y);
+        EXPECT_EQ(c.tiles.test(x, y), marked) << i << ": " << x << ", " << y;
+        EXPECT_EQ(areaIn(c.stale, r), marked ? r.area() : 0u) << i << ": " << x << ", " << y;
+        markedArea += marked ? r.area() : 0u;
+      }
+    }
+    EXPECT_GT(markedArea, 0u) << i;
+    EXPECT_EQ(c.staleTexels, markedArea) << i;
+    EXPECT_EQ(c.tilesMarked, c.marked.count());
+  }
+  csm::markCacheRecorded(p, state);
+
+  // Frame 3: the camera moves a few texels of cascade 0 sideways, a static caster changes on
+  // the left, and only the receivers on the right are marked now. A partial cascade draws the
+  // stale texels (newly exposed, invalidated) only where they lie in marked tiles and the marked
+  // tiles it did not hold; a held tile with stale texels that is not marked is no longer held;
+  // the others stay held without being drawn.
+  std::vector<glm::dvec3> right;
+  for (const glm::dvec3& q : groundReceivers(v, 300.0, 1.0)) {
+    if (glm::dot(q - v.camera.positionWs, v.camera.rightWs()) > 0.0) right.push_back(q);
+  }
+  const glm::dvec3 leftAt =
+      v.camera.positionWs + 12.0 * v.camera.forwardWs() - 6.0 * v.camera.rightWs();
+  const csm::AabbWs changed{glm::dvec3(leftAt.x - 2.0, -1.0, leftAt.z - 2.0),
+                            glm::dvec3(leftAt.x + 2.0, 3.0, leftAt.z + 2.0)};
+  csm::invalidateCache(state, changed);
+  v.camera.positionWs += v.camera.rightWs() * (7.5 * f.cascades[0].texelSizeLs.x);
+  f = frameOf(s, v);
+  const csm::ReceiverTileMarks rightMarks = marksOf(s, f, v, right);
+  const csm::CacheState held = state;
+  in = tileInputs(s, f, &rightMarks);
+  p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+  std::uint32_t lost = 0, kept = 0;
+  for (std::uint32_t i = 0; i < last; ++i) {
+    const csm::CacheCascadePlan& c = p.cascades[i];
+    if (!c.partial || c.newWindow) continue;
+    const csm::CacheLayerState& layer = held.layers[i];
+    // What the layer's box did not hold (newly exposed) and what lies under the changed box.
+    const csm::TexelRect old{layer.boxX, layer.boxY, layer.boxX + res, layer.boxY + res};
+    const csm::TexelRect inv =
+        csm::boxTexels(changed, glm::transpose(f.lightBasisWs), f.cascades[i].texelSizeLs.x);
+    for (std::int64_t y = 0; y < csm::kTileGridSide; ++y) {
+      for (std::int64_t x = 0; x < csm::kTileGridSide; ++x) {
+        const glm::i64vec2 w = c.tiles.origin + glm::i64vec2(x, y);
+        const csm::TexelRect r =
+            csm::TexelRect{w.x * tile, w.y * tile, (w.x + 1) * tile, (w.y + 1) * tile}.intersect(
+                c.box);
+        if (r.empty()) continue;
+        std::uint64_t stale = 0;
+        for (std::int64_t ty = r.y0; ty < r.y1; ++ty) {
+          for (std::int64_t tx = r.x0; tx < r.x1; ++tx) {
+            const bool inOld = tx >= old.x0 && tx < old.x1 && ty >= old.y0 && ty < old.y1;
+            const bool inInv = tx >= inv.x0 && tx < inv.x1 && ty >= inv.y0 && ty < inv.y1;
+            stale += !inOld || inInv ? 1u : 0u;
+          }
+        }
+        const bool wasHeld = layer.tiles.testWorld(w.x, w.y);
+        const bool marked = c.marked.test(x, y);
+        if (marked && wasHeld) {
+          EXPECT_EQ(areaIn(c.stale, r), stale) << i << ": " << x << ", " << y;
+        } else if (marked) {
+          EXPECT_EQ(areaIn(c.stale, r), r.area()) << i << ": " << x << ", " << y;
+        } else {
+          EXPECT_EQ(areaIn(c.stale, r), 0u) << i << ": " << x << ", " << y;
+        }
+        EXPECT_EQ(c.tiles.test(x, y), marked || (wasHeld && stale == 0))
+            << i << ": " << x << ", " << y;
+        lost += !marked && wasHeld && stale != 0 ? 1u : 0u;
+        kept += wasHeld && !marked && c.tiles.test(x, y) ? 1u : 0u;
+      }
+    }
+  }
+  EXPECT_GT(kept, 0u) << "held tiles no longer marked stay held while nothing in them is stale";
+  EXPECT_GT(lost, 0u) << "the changed box lies in held tiles no receiver marks now";
+  csm::markCacheRecorded(p, state);
+
+  // Tiles off, the same view: every cascade is whole again and draws exactly the tiles (within
+  // its box) its layer did not hold.
+  f = frameOf(s, v);
+  const csm::CacheState partial = state;
+  p = csm::planCacheFrame(f, state, s.resolution, 0, 1, nullptr);
+  std::uint32_t completed = 0;
+  for (std::uint32_t i = 0; i < last; ++i) {
+    const csm::CacheCascadePlan& c = p.cascades[i];
+    EXPECT_FALSE(c.partial);
+    const csm::CacheLayerState& layer = partial.layers[i];
+    if (!layer.partial || c.newWindow) continue;
+    ++completed;
+    std::uint64_t notHeld = 0;
+    for (std::int64_t y = 0; y < csm::kTileGridSide; ++y) {
+      for (std::int64_t x = 0; x < csm::kTileGridSide; ++x) {
+        const glm::i64vec2 w = layer.tiles.origin + glm::i64vec2(x, y);
+        const csm::TexelRect r =
+            csm::TexelRect{w.x * tile, w.y * tile, (w.x + 1) * tile, (w.y + 1) * tile}.intersect(
+                c.box);
+        if (!layer.tiles.test(x, y)) notHeld += r.area();
+      }
+    }
+    EXPECT_GT(notHeld, 0u) << i;
+    EXPECT_EQ(c.staleTexels, notHeld) << i;
+  }
+  EXPECT_GT(completed, 0u);
+  csm::markCacheRecorded(p, state);
+  for (std::uint32_t i = 0; i < f.cascadeCount; ++i) EXPECT_FALSE(state.layers[i].partial);
+}
+
+TEST(CacheTiles, ANarrowViewKeepsTheCascadesTheLastBoxDoesNotHoldWhole) {
+  const csm::ShadowSettings s = tileSettings();
+  const View v = viewAt(glm::dvec3(0.0, 25.0, 0.0), 8.0);
+  csm::CacheState state;
+  csm::CascadeFrame f = frameOf(s, v);
+  const csm::CacheTileInputs in = tileInputs(s, f, nullptr);
+  const csm::CachePlan p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+  const std::uint32_t last = f.cascadeCount - 1;
+  std::uint32_t whole = 0;
+  for (std::uint32_t i = 0; i < last; ++i) {
+    const double margin = (in.reachTexels[last] + 2.0) * f.cascades[last].texelSizeLs.x;
+    const bool inside = csm::cacheBoxHoldsSphere(
+        p.cascades[last].box, f.cascades[last].texelSizeLs.x, f.lightBasisWs,
+        state.layers[last].zNear, state.layers[last].zFar, margin, f.cascades[i]);
+    EXPECT_EQ(p.cascades[i].partial, inside) << i;
+    whole += inside ? 0u : 1u;
+    if (!inside) {
+      EXPECT_TRUE(p.cascades[i].full) << i;
+    }
+  }
+  EXPECT_GT(whole, 0u) << "at 8 degrees cascade 0 lies outside the last cascade's box";
+}
+
+TEST(CacheTiles, TheUniformBlockHoldsEachPartialCascadesTiles) {
+  const csm::ShadowSettings s = tileSettings();
+  const View v = viewAt(glm::dvec3(-1e7, 2.0, 1e7));
+  csm::CacheState state;
+  csm::CascadeFrame f = frameOf(s, v);
+  csm::CacheTileInputs in = tileInputs(s, f, nullptr);
+  csm::CachePlan p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+  csm::markCacheRecorded(p, state);
+  const csm::ReceiverTileMarks marks = marksOf(s, f, v, groundReceivers(v, 300.0, 2.0));
+  f = frameOf(s, v);
+  in = tileInputs(s, f, &marks);
+  p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+  const csm::CsmUniforms u = csm::packCachedUniforms(f, s, {}, p);
+  const std::int64_t tile = s.resolution / csm::kTilesPerSide;
+  EXPECT_FLOAT_EQ(u.tileInvTexels, 1.0f / float(tile));
+  std::uint32_t partial = 0;
+  for (std::uint32_t i = 0; i < f.cascadeCount; ++i) {
+    const csm::CacheCascadePlan& c = p.cascades[i];
+    EXPECT_FLOAT_EQ(u.tileGrid[i].z, float(in.reachTexels[i])) << i;
+    EXPECT_EQ((u.tilePartialMask >> i) & 1u, c.partial ? 1u : 0u) << i;
+    if (!c.partial) continue;
+    ++partial;
+    // The grid's first tile lies at most a tile before the box's first texel.
+    EXPECT_EQ(double(u.tileGrid[i].x), double(c.box.x0 - c.tiles.origin.x * tile));
+    EXPECT_GE(u.tileGrid[i].x, 0.0f);
+    EXPECT_LT(u.tileGrid[i].x, float(tile));
+    EXPECT_GE(u.tileGrid[i].y, 0.0f);
+    EXPECT_LT(u.tileGrid[i].y, float(tile));
+    for (std::uint32_t w = 0; w < csm::kTileWords; ++w) {
+      EXPECT_EQ(u.tileBits[i * 3 + w / 4][int(w % 4)], c.tiles.bits[w]) << i << " word " << w;
+    }
+  }
+  EXPECT_GT(partial, 0u);
+}
+
+}  // namespace
