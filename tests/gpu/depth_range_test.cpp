@@ -762,4 +762,105 @@ TEST_F(DepthRangeTest, ViewReceiverFitIsOneSwitchAndMatchesTheReducerByHand) {
   reducer.reset();
 }
 
+// The receiver-marked tiles through the view (RendererOptions::tiles with the cache, the fit
+// off): recordReceiverDepth marks the tiles each frame, and the frames after a result draw what
+// it marked: each partial cascade's marks in the cache plan are the same tiles a reducer by hand
+// marks from the same depth buffer, frame and settings. The fit stays off: the splits cover the
+// full range and no receiver range is kept.
+TEST_F(DepthRangeTest, ViewTilesAreOneSwitchAndTakeTheReducersMarks) {
+  constexpr std::uint32_t kW = 333, kH = 187;
+  // A 60 degree view (the cascades before the last lie in its box: they can be partial).
+  GroundView g;
+  const double fovDeg = 60.0, pitchDeg = -8.0, heightM = 20.0, nearM = 0.5, farM = 1500.0;
+  g.scene = groundPlane(kW, kH, heightM, pitchDeg, fovDeg, nearM, farM);
+  g.tanY = std::tan(glm::radians(fovDeg) * 0.5);
+  g.aspect = double(kW) / kH;
+  g.proj = g.scene.projection;
+  g.proj.p00 = float(1.0 / (g.tanY * g.aspect));
+  g.proj.p11 = float(-1.0 / g.tanY);
+  g.cam = yawedCamera(heightM, pitchDeg, fovDeg, g.aspect, nearM, farM);
+  glm::mat4 projection(glm::perspectiveRH_ZO(glm::radians(fovDeg), g.aspect, nearM, farM));
+  projection[1][1] = -projection[1][1];
+  ASSERT_EQ(g.proj.p22, projection[2][2]);
+  ASSERT_EQ(g.proj.p32, projection[3][2]);
+  const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
+  csm::ShadowSettings s;
+  s.shadowDistanceM = 300.0;
+  s.resolution = 1024;
+  const engine::Image depth = uploadDepth(g.scene, kW, kH);
+  const csm::vk::ReceiverDepthInput input{
+      depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, projection};
+
+  std::unique_ptr<csm::vk::ShadowView> view = glue::createShadowView(ctx());
+  const std::uint32_t slots = glue::shadowDeviceInfo(ctx()).framesInFlight;
+  csm::vk::Status status;
+  auto reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), slots, &status);
+  ASSERT_TRUE(reducer) << status.message();
+  csm::vk::RendererOptions options;
+  options.cache = true;
+  options.tiles = true;
+  ASSERT_TRUE(view->setSettings(s, options).ok());
+  // Tiles with a prefiltered filter, or without the cache: refused by name.
+  {
+    csm::ShadowSettings msm = s;
+    msm.kernel = csm::PcfKernel::kMsm;
+    const csm::vk::Status bad = view->setSettings(msm, options);
+    EXPECT_EQ(bad.code(), csm::vk::ErrorCode::kInvalidArgument);
+    EXPECT_NE(bad.message().find("options.tiles"), std::string::npos) << bad.message();
+    csm::vk::RendererOptions noCache = options;
+    noCache.cache = false;
+    const csm::vk::Status bad2 = view->setSettings(s, noCache);
+    EXPECT_NE(bad2.message().find("options.cache"), std::string::npos) << bad2.message();
+    EXPECT_TRUE(view->options().tiles);  // refused: nothing changed
+  }
+  auto full = csm::computeCascades(s, g.cam, light);
+  ASSERT_TRUE(full.ok());
+  std::optional<csm::ReceiverDepthRange> hand;  // read by hand the frame before
+  std::uint32_t comparedCascades = 0, markedTiles = 0;
+  for (std::uint32_t k = 0; k < 3 * slots; ++k) {
+    SCOPED_TRACE("frame " + std::to_string(k));
+    ctx().submitAndWait([&](VkCommandBuffer cmd) {
+      ASSERT_TRUE(view->record(cmd, g.cam, light).ok());
+      ASSERT_TRUE(view->recordReceiverDepth(cmd, input).ok());
+      const csm::CachePlan& plan = view->renderer().cachePlan();
+      for (std::uint32_t i = 0; i < plan.cascadeCount; ++i) {
+        const csm::CacheCascadePlan& p = plan.cascades[i];
+        if (!p.partial) continue;
+        if (!hand || !hand->tiles.present()) {
+          EXPECT_EQ(p.marked.count(), 0u) << "cascade " << i << ": marks before any result";
+          continue;
+        }
+        // The same frame every time: the same grid, the same tiles.
+        ASSERT_EQ(p.marked.origin, hand->tiles.gridOrigin[i]) << "cascade " << i;
+        for (std::uint32_t w = 0; w < csm::kTileWords; ++w) {
+          EXPECT_EQ(p.marked.bits[w], hand->tiles.bits[i][w]) << "cascade " << i << " word " << w;
+        }
+        markedTiles += p.marked.count();
+        ++comparedCascades;
+      }
+      const std::uint32_t slot = k % slots;
+      hand = reducer->read(slot);
+      ASSERT_TRUE(reducer
+                      ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                               {kW, kH}, g.proj, slot, {&view->frame(), &g.cam, &s})
+                      .ok());
+    });
+    EXPECT_EQ(view->frame().splitsM, full.value().splitsM) << "the fit is off";
+    EXPECT_FALSE(view->receiverDepthRange().has_value());
+  }
+  EXPECT_GT(comparedCascades, 0u);
+  EXPECT_GT(markedTiles, 0u);
+  // What the partial cascades hold: the tiles marked (drawn), nothing else.
+  std::uint32_t held = 0;
+  for (const csm::CacheCascadePlan& p : view->renderer().cachePlan().cascades) {
+    if (p.active && p.partial) {
+      EXPECT_EQ(p.tiles.count(), p.marked.count());
+      held += p.tiles.count();
+    }
+  }
+  EXPECT_GT(held, 0u);
+  view.reset();
+  reducer.reset();
+}
+
 }  // namespace

@@ -147,9 +147,10 @@ Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOpt
                   "options.receiverFit = " + std::to_string(int(options.receiverFit)) +
                       " is invalid: allowed kOff, kSplits or kSplitsAndBoxes");
   }
-  // The receiver fit's reduction, made before anything changes (a failure leaves the view whole).
+  // The reduction of the receiver fit and of the tile marks, made before anything changes (a
+  // failure leaves the view whole).
   std::unique_ptr<DepthRangeReducer> reducer;
-  if (options.receiverFit != ReceiverFit::kOff && !state_->reducer_) {
+  if ((options.receiverFit != ReceiverFit::kOff || options.tiles) && !state_->reducer_) {
     Status made;
     reducer = DepthRangeReducer::create(state_->device_, state_->device_.framesInFlight, &made);
     if (!reducer) return made;
@@ -161,7 +162,10 @@ Status ShadowView::setSettings(const ShadowSettings& settings, const RendererOpt
     state_->history_ = {};
     dropReceiverDepth();
   }
-  if (options.receiverFit != state_->options_.receiverFit) dropReceiverDepth();
+  if (options.receiverFit != state_->options_.receiverFit ||
+      options.tiles != state_->options_.tiles) {
+    dropReceiverDepth();
+  }
   state_->settings_ = settings;
   state_->options_ = options;
   state_->hasSettings_ = true;
@@ -484,19 +488,23 @@ void ShadowView::setReceiverTiles(std::optional<ReceiverTileMarks> marks) noexce
 }
 
 Status ShadowView::recordReceiverDepth(VkCommandBuffer cmd, const ReceiverDepthInput& depth) {
-  if (state_->options_.receiverFit == ReceiverFit::kOff || !state_->reducer_) {
+  const bool fit = state_->options_.receiverFit != ReceiverFit::kOff;
+  const bool tiles = state_->options_.tiles;
+  if ((!fit && !tiles) || !state_->reducer_) {
     return Status(ErrorCode::kWrongOrder,
-                  "ShadowView::recordReceiverDepth with options.receiverFit = kOff: turn the "
-                  "receiver fit on (setSettings) first");
+                  "ShadowView::recordReceiverDepth with options.receiverFit = kOff and "
+                  "options.tiles = false: turn the receiver fit or the tiles on (setSettings) "
+                  "first");
   }
   const bool boxes = state_->options_.receiverFit == ReceiverFit::kSplitsAndBoxes;
-  if (!state_->lastCamera_ || (boxes && !state_->frameCamera_)) {
+  const bool rays = boxes || tiles;  // per-pixel positions: the boxes' bounds, the tile marks
+  if (!state_->lastCamera_ || (rays && !state_->frameCamera_)) {
     return Status(ErrorCode::kWrongOrder,
-                  boxes ? "ShadowView::recordReceiverDepth with options.receiverFit = "
-                          "kSplitsAndBoxes needs the frame's camera: record(cmd, camera, light) "
-                          "or compute() before it"
-                        : "ShadowView::recordReceiverDepth before any record(cmd, camera, light) "
-                          "or compute()");
+                  rays ? "ShadowView::recordReceiverDepth with options.receiverFit = "
+                         "kSplitsAndBoxes or options.tiles needs the frame's camera: "
+                         "record(cmd, camera, light) or compute() before it"
+                       : "ShadowView::recordReceiverDepth before any record(cmd, camera, light) "
+                         "or compute()");
   }
   const glm::mat4& p = depth.projection;
   // The view depth of a depth value (DepthProjection), the histogram over the shadows' depth
@@ -505,12 +513,12 @@ Status ShadowView::recordReceiverDepth(VkCommandBuffer cmd, const ReceiverDepthI
       p[2][2], p[3][2], depth.clearDepth, float(state_->lastCamera_->nearM),
       float(std::max(state_->settings_.shadowDistanceM, 2.0 * state_->lastCamera_->nearM))};
   ReceiverBoundsInputs bounds;
-  if (boxes) {
+  if (rays) {
     dp.p00 = p[0][0];
     dp.p11 = p[1][1];
     dp.p20 = p[2][0];
     dp.p21 = p[2][1];
-    bounds = {&state_->frame_, &*state_->frameCamera_};
+    bounds = {&state_->frame_, &*state_->frameCamera_, tiles ? &state_->settings_ : nullptr};
   }
   // The slot this frame fills was last filled framesInFlight frames ago; the host has waited for
   // that frame before recording this one, so its result is complete: the next compute() uses it.
@@ -519,7 +527,19 @@ Status ShadowView::recordReceiverDepth(VkCommandBuffer cmd, const ReceiverDepthI
   Status s =
       state_->reducer_->record(cmd, depth.depthView, depth.layout, depth.extent, dp, slot, bounds);
   if (!s.ok()) return s;
-  state_->receiverRange_ = previous;
+  // The tiles its pixels sampled go to the renderer (none yet: nothing more is drawn in the
+  // partial cascades); the range to the fit, without the bounds where only the tiles asked for
+  // them.
+  if (tiles) {
+    state_->renderer_->setReceiverTiles(previous && previous->tiles.present()
+                                            ? std::optional<ReceiverTileMarks>(previous->tiles)
+                                            : std::nullopt);
+  }
+  if (previous) {
+    previous->tiles = {};
+    if (!boxes) previous->lightBounds = {};
+  }
+  if (fit) state_->receiverRange_ = previous;  // else a range the host set stays
   state_->reducerSlot_ = (slot + 1) % state_->reducer_->slotCount();
   return {};
 }

@@ -179,16 +179,18 @@ class ShadowView {
   /// Records the pending clear of a new image (hosts without DeviceInfo::queue; see
   /// ShadowRenderer::prepare).
   Status prepare(VkCommandBuffer cmd);
-  /// The receiver fit (RendererOptions::receiverFit on): records the reduction of this frame's
-  /// depth buffer, drawn with the camera of this frame's record() or compute(), after it (in
-  /// the same or a later command buffer, before the frame is submitted). The cascades of frame
-  /// N + DeviceInfo::framesInFlight + 1 fit the receivers frame N shows (the reduction's result
-  /// is read by the recordReceiverDepth of frame N + framesInFlight, whose recording means the
-  /// host has waited for frame N's fence);
+  /// The receiver fit (RendererOptions::receiverFit on) and the receiver-marked tiles
+  /// (RendererOptions::tiles): records the reduction of this frame's depth buffer, drawn with
+  /// the camera of this frame's record() or compute(), after it (in the same or a later command
+  /// buffer, before the frame is submitted). The cascades of frame
+  /// N + DeviceInfo::framesInFlight + 1 fit the receivers frame N shows, and draw the tiles its
+  /// pixels sample (the reduction's result is read by the recordReceiverDepth of frame
+  /// N + framesInFlight, whose recording means the host has waited for frame N's fence);
   /// before a first result, after cameraCut() and while only sky is seen they cover the full
-  /// range. Refused, naming the field, when the fit is off, before the frame's compute() (or
-  /// after a record(cmd, frame) whose camera the view does not know, with kSplitsAndBoxes), or
-  /// for an unusable layout, extent or projection; nothing is recorded then.
+  /// range (and the partial cascades' pixels fall back). Refused, naming the field, when the fit
+  /// and the tiles are off, before the frame's compute() (or after a record(cmd, frame) whose
+  /// camera the view does not know, with kSplitsAndBoxes or tiles), or for an unusable layout,
+  /// extent or projection; nothing is recorded then.
   Status recordReceiverDepth(VkCommandBuffer cmd, const ReceiverDepthInput& depth);
   /// The view-depth range of the receivers, for a host with its own reduction (as
   /// DepthRangeReducer reports it, a frame or two late); nothing (the default, and what a host
@@ -206,8 +208,9 @@ class ShadowView {
   Status invalidate(const AabbWs& boxWs);
   /// Re-renders every cascade's static depth at the next record.
   void invalidateAll() noexcept;
-  /// RendererOptions::tiles: the tiles the host's visible pixels sampled (ShadowRenderer::
-  /// setReceiverTiles), used from the next compute() on. cameraCut() drops them.
+  /// RendererOptions::tiles, for a host with its own reduction: the tiles its visible pixels
+  /// sampled (ShadowRenderer::setReceiverTiles), used from the next compute() on (with tiles on,
+  /// recordReceiverDepth() does this itself). cameraCut() drops them.
   void setReceiverTiles(std::optional<ReceiverTileMarks> marks) noexcept;
 
   /// Forgets the history (so sizes need not shrink step by step).
