@@ -131,6 +131,15 @@ struct CacheCascadePlan {
   std::uint32_t tilesDrawn = 0;
 };
 
+/// Receiver-marked tiles: a partial cascade also draws whole the gaps of up to this many tiles
+/// between two tiles of a row it draws whole (marked, not held), and holds them: one scissor,
+/// and one draw per caster, instead of several (a CPU rasteriser pays per draw).
+inline constexpr std::int64_t kTileGapFill = 2;
+/// Receiver-marked tiles: a partial cascade whose draw has more pieces than this draws instead
+/// the rectangle around them where that is at most twice their area (and holds every tile
+/// inside it).
+inline constexpr std::size_t kTilePiecesBeforeBounds = 8;
+
 /// Receiver-marked tiles for planCacheFrame (RendererOptions::tiles): which tiles the visible
 /// pixels sample, and how far each cascade's filter reads.
 struct CacheTileInputs {
@@ -170,9 +179,10 @@ struct CachePlan {
 /// sphere, widened by the last cascade's filter reach and two texels) lies inside the last
 /// cascade's box and depth window is partial (cacheTilePartial): it draws only the stale texels
 /// of marked tiles (the marks carried onto its grid, carryTileMarks, across a light step through
-/// its sphere's depth range) and every marked tile it does not hold yet; a stale texel in an
-/// unmarked tile makes that tile not held, until a mark asks for it. A cascade that stops being
-/// partial draws what it did not hold.
+/// its sphere's depth range) and every marked tile it does not hold yet, whole (with gaps of up
+/// to kTileGapFill tiles between two such in a row); a stale texel in a tile it does not draw
+/// makes that tile not held, until a mark asks for it. A cascade that stops being partial draws
+/// what it did not hold.
 CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t resolution,
                          std::uint64_t budgetTexels, std::uint32_t exactCascades,
                          const CacheTileInputs* tiles = nullptr);

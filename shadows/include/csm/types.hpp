@@ -101,7 +101,9 @@ enum class CacheRestore : std::uint8_t {
   kCopyRects,
   /// Clear the changed rectangles and draw the static casters over them again, scissored,
   /// in the dynamic casters' pass: no copy. Bit-identical (a texel is always rasterised with the
-  /// same vertices, viewport and tile). The default: measured fastest.
+  /// same vertices, viewport and tile). The default: measured fastest. Rectangles adding up to an
+  /// eighth of the layer or more (receiver-marked tiles after a new window or a cut) are copied
+  /// instead: redrawing them would cost as much as drawing them.
   kRedraw,
 };
 

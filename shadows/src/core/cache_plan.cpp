@@ -168,18 +168,38 @@ void mergeRows(std::vector<TexelRect>& rects) {
 }
 
 // A partial cascade's draw: of its stale rectangles (p.stale) only what lies in marked tiles,
-// and every marked tile the layer does not hold; a stale texel in an unmarked tile makes the
-// tile not held. p.tiles: what the layer holds after the draw.
+// and every marked tile the layer does not hold, whole (with the gaps of at most kTileGapFill
+// tiles between two such in a row); a stale texel in a tile not drawn makes the tile not held.
+// p.tiles: what the layer holds after the draw.
 void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t res) {
   const TileMask before = heldTiles(layer, p.box, res);
   TileMask after = before;
   std::vector<TexelRect> draw;
   std::uint32_t drawn = 0;
-  for (std::int64_t y = 0; y < kTileGridSide; ++y) {
-    for (std::int64_t x = 0; x < kTileGridSide; ++x) {
+  constexpr std::int64_t side = kTileGridSide;
+  for (std::int64_t y = 0; y < side; ++y) {
+    // The tiles of this row drawn whole: marked and not held, and the short gaps between them.
+    std::array<bool, kTileGridSide> whole{};
+    std::int64_t last = -1;
+    for (std::int64_t x = 0; x < side; ++x) {
+      if (tileRect(before, x, y, res, p.box).empty()) continue;
+      if (!p.marked.test(x, y) || before.test(x, y)) continue;
+      if (last >= 0 && x - last - 1 <= kTileGapFill) {
+        for (std::int64_t g = last + 1; g < x; ++g) whole[std::size_t(g)] = true;
+      }
+      whole[std::size_t(x)] = true;
+      last = x;
+    }
+    for (std::int64_t x = 0; x < side; ++x) {
       const TexelRect rect = tileRect(before, x, y, res, p.box);
       if (rect.empty()) {
         after.set(x, y, false);
+        continue;
+      }
+      if (whole[std::size_t(x)]) {
+        draw.push_back(rect);
+        after.set(x, y, true);
+        ++drawn;
         continue;
       }
       const std::size_t first = draw.size();
@@ -188,10 +208,9 @@ void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t r
         const TexelRect q = r.intersect(rect);
         if (q.empty()) continue;
         touched = true;
-        if (p.marked.test(x, y) && before.test(x, y)) draw.push_back(q);
+        if (p.marked.test(x, y)) draw.push_back(q);  // held (else drawn whole above)
       }
       if (p.marked.test(x, y)) {
-        if (!before.test(x, y)) draw.push_back(rect);
         after.set(x, y, true);
         if (draw.size() > first) ++drawn;
       } else if (touched) {
@@ -200,6 +219,27 @@ void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t r
     }
   }
   mergeRows(draw);
+  // Many pieces (a new window, marks after a cut): one rectangle around them where it is at
+  // most twice their area. Each caster is then drawn once, not once per piece, and every tile
+  // inside it is drawn whole and held.
+  if (draw.size() > kTilePiecesBeforeBounds) {
+    TexelRect b = draw.front();
+    for (const TexelRect& r : draw) {
+      b = {std::min(b.x0, r.x0), std::min(b.y0, r.y0), std::max(b.x1, r.x1), std::max(b.y1, r.y1)};
+    }
+    if (b.area() <= 2 * totalArea(draw)) {
+      draw.assign(1, b);
+      drawn = 0;
+      for (std::int64_t y = 0; y < side; ++y) {
+        for (std::int64_t x = 0; x < side; ++x) {
+          const TexelRect rect = tileRect(before, x, y, res, p.box);
+          if (rect.empty()) continue;
+          if (rect.intersect(b) == rect) after.set(x, y, true);
+          drawn += rect.intersect(b).empty() ? 0u : 1u;
+        }
+      }
+    }
+  }
   p.stale = std::move(draw);
   p.full = false;
   p.staleTexels = totalArea(p.stale);

@@ -558,7 +558,11 @@ bool ShadowRenderer::Impl::planRestore(CachedPass& pass, std::uint32_t i, bool f
             totalArea(pass.copyParts) * 4 >= 3 * std::uint64_t(res * res);
   }
   if (whole) pass.copyParts.assign(1, TexelRect{0, 0, res, res});
-  if (!whole && settings_.diagnostics.cacheRestore == CacheRestore::kRedraw) {
+  // Redrawing the static casters costs as much as drawing them: where the rectangles are an
+  // eighth of the layer or more (receiver-marked tiles after a new window or a cut) they are
+  // copied instead.
+  const bool large = totalArea(pass.copyParts) * 8 >= std::uint64_t(res * res);
+  if (!whole && !large && settings_.diagnostics.cacheRestore == CacheRestore::kRedraw) {
     // The restored rectangles, with the block each lies in (as the box's own split).
     split(win, res, pass.boxes[i], pass.layerRects);
     for (const TexelRect& p : pass.copyParts) {
