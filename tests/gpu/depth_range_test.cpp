@@ -114,6 +114,22 @@ GroundView groundView(std::uint32_t w, std::uint32_t h) {
 
 class DepthRangeTest : public engine_test::GpuTest {
  protected:
+  // A view, and a reducer of as many slots to drive by hand beside it.
+  struct ViewAndReducer {
+    std::unique_ptr<csm::vk::ShadowView> view;
+    std::unique_ptr<csm::vk::DepthRangeReducer> reducer;
+    std::uint32_t slots = 0;
+  };
+  ViewAndReducer makeViewAndReducer() {
+    ViewAndReducer r;
+    r.view = glue::createShadowView(ctx());
+    r.slots = glue::shadowDeviceInfo(ctx()).framesInFlight;
+    csm::vk::Status status;
+    r.reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), r.slots, &status);
+    EXPECT_TRUE(r.reducer) << status.message();
+    return r;
+  }
+
   // The analytic depth buffer as a sampled D32 image, in SHADER_READ_ONLY_OPTIMAL.
   engine::Image uploadDepth(const AnalyticDepth& scene, std::uint32_t w, std::uint32_t h) {
     engine::ImageDesc desc;
@@ -624,11 +640,8 @@ TEST_F(DepthRangeTest, ViewReceiverFitIsOneSwitchAndMatchesTheReducerByHand) {
   const csm::vk::ReceiverDepthInput input{
       depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, projection};
 
-  std::unique_ptr<csm::vk::ShadowView> view = glue::createShadowView(ctx());
-  const std::uint32_t slots = glue::shadowDeviceInfo(ctx()).framesInFlight;
-  csm::vk::Status status;
-  auto reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), slots, &status);
-  ASSERT_TRUE(reducer) << status.message();
+  auto [view, reducer, slots] = makeViewAndReducer();
+  ASSERT_TRUE(view && reducer);
 
   // Off (the default): refused by name, nothing recorded.
   ASSERT_TRUE(view->setSettings(s).ok());
@@ -791,11 +804,8 @@ TEST_F(DepthRangeTest, ViewTilesAreOneSwitchAndTakeTheReducersMarks) {
   const csm::vk::ReceiverDepthInput input{
       depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, projection};
 
-  std::unique_ptr<csm::vk::ShadowView> view = glue::createShadowView(ctx());
-  const std::uint32_t slots = glue::shadowDeviceInfo(ctx()).framesInFlight;
-  csm::vk::Status status;
-  auto reducer = csm::vk::DepthRangeReducer::create(glue::shadowDeviceInfo(ctx()), slots, &status);
-  ASSERT_TRUE(reducer) << status.message();
+  auto [view, reducer, slots] = makeViewAndReducer();
+  ASSERT_TRUE(view && reducer);
   csm::vk::RendererOptions options;
   options.cache = true;
   options.tiles = true;

@@ -134,37 +134,34 @@ TileMask heldTiles(const CacheLayerState& layer, const TexelRect& box, std::int6
   return m;
 }
 
-// Rectangles of one row (the same y0, y1) that touch, merged; then rectangles of one column
-// (the same x0, x1) that touch: fewer scissors and draws.
-void mergeRows(std::vector<TexelRect>& rects) {
-  std::sort(rects.begin(), rects.end(), [](const TexelRect& a, const TexelRect& b) {
-    if (a.y0 != b.y0) return a.y0 < b.y0;
-    if (a.y1 != b.y1) return a.y1 < b.y1;
-    return a.x0 < b.x0;
-  });
+// Rectangles that span the same rows and touch along x, merged; then (xy = false) those that
+// span the same columns and touch along y.
+void mergeAlong(std::vector<TexelRect>& rects, bool xy) {
+  // Along x: (y0, y1) the span, (x0, x1) the extent; along y the other way round.
+  auto key = [xy](const TexelRect& r) {
+    return xy ? std::array{r.y0, r.y1, r.x0, r.x1} : std::array{r.x0, r.x1, r.y0, r.y1};
+  };
+  std::sort(rects.begin(), rects.end(),
+            [&](const TexelRect& a, const TexelRect& b) { return key(a) < key(b); });
   std::size_t n = 0;
   for (const TexelRect& r : rects) {
-    if (n > 0 && rects[n - 1].y0 == r.y0 && rects[n - 1].y1 == r.y1 && rects[n - 1].x1 == r.x0) {
-      rects[n - 1].x1 = r.x1;
-    } else {
-      rects[n++] = r;
+    const auto k = key(r);
+    if (n > 0) {
+      const auto prev = key(rects[n - 1]);
+      if (prev[0] == k[0] && prev[1] == k[1] && prev[3] == k[2]) {
+        (xy ? rects[n - 1].x1 : rects[n - 1].y1) = k[3];
+        continue;
+      }
     }
+    rects[n++] = r;
   }
   rects.resize(n);
-  std::sort(rects.begin(), rects.end(), [](const TexelRect& a, const TexelRect& b) {
-    if (a.x0 != b.x0) return a.x0 < b.x0;
-    if (a.x1 != b.x1) return a.x1 < b.x1;
-    return a.y0 < b.y0;
-  });
-  n = 0;
-  for (const TexelRect& r : rects) {
-    if (n > 0 && rects[n - 1].x0 == r.x0 && rects[n - 1].x1 == r.x1 && rects[n - 1].y1 == r.y0) {
-      rects[n - 1].y1 = r.y1;
-    } else {
-      rects[n++] = r;
-    }
-  }
-  rects.resize(n);
+}
+
+// Rectangles of one row that touch, merged, then those of one column: fewer scissors and draws.
+void mergeRows(std::vector<TexelRect>& rects) {
+  mergeAlong(rects, true);
+  mergeAlong(rects, false);
 }
 
 // A partial cascade's draw: of its stale rectangles (p.stale) only what lies in marked tiles,
