@@ -99,8 +99,8 @@ struct GroundView {
   double aspect = 0.0;
 };
 
-GroundView groundView(std::uint32_t w, std::uint32_t h) {
-  const double fovDeg = 30.0, pitchDeg = -8.0, heightM = 20.0, nearM = 0.5, farM = 1500.0;
+GroundView groundView(std::uint32_t w, std::uint32_t h, double fovDeg = 30.0) {
+  const double pitchDeg = -8.0, heightM = 20.0, nearM = 0.5, farM = 1500.0;
   GroundView v;
   v.scene = groundPlane(w, h, heightM, pitchDeg, fovDeg, nearM, farM);
   v.tanY = std::tan(glm::radians(fovDeg) * 0.5);
@@ -783,15 +783,8 @@ TEST_F(DepthRangeTest, ViewReceiverFitIsOneSwitchAndMatchesTheReducerByHand) {
 TEST_F(DepthRangeTest, ViewTilesAreOneSwitchAndTakeTheReducersMarks) {
   constexpr std::uint32_t kW = 333, kH = 187;
   // A 60 degree view (the cascades before the last lie in its box: they can be partial).
-  GroundView g;
-  const double fovDeg = 60.0, pitchDeg = -8.0, heightM = 20.0, nearM = 0.5, farM = 1500.0;
-  g.scene = groundPlane(kW, kH, heightM, pitchDeg, fovDeg, nearM, farM);
-  g.tanY = std::tan(glm::radians(fovDeg) * 0.5);
-  g.aspect = double(kW) / kH;
-  g.proj = g.scene.projection;
-  g.proj.p00 = float(1.0 / (g.tanY * g.aspect));
-  g.proj.p11 = float(-1.0 / g.tanY);
-  g.cam = yawedCamera(heightM, pitchDeg, fovDeg, g.aspect, nearM, farM);
+  const double fovDeg = 60.0, nearM = 0.5, farM = 1500.0;
+  const GroundView g = groundView(kW, kH, fovDeg);
   glm::mat4 projection(glm::perspectiveRH_ZO(glm::radians(fovDeg), g.aspect, nearM, farM));
   projection[1][1] = -projection[1][1];
   ASSERT_EQ(g.proj.p22, projection[2][2]);

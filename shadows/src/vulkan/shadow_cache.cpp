@@ -780,7 +780,9 @@ Status ShadowRenderer::Impl::recordCachedPass(VkCommandBuffer cmd, const Cascade
 
   const bool wasUndefined = countRecord();
   CachedPass pass(*this, cmd, casters, resolution_);
-  if (options_.cache) updateCacheStale(plan_, cache_);  // boxes invalidated since the plan
+  // Boxes invalidated since the plan was made join this frame's stale rectangles (before the
+  // uniform block, which carries the tiles the partial cascades hold after this frame).
+  if (options_.cache) updateCacheStale(plan_, cache_);
   packCachedUniforms(frame, pass);
   cacheStats_ = {};
   pass.casterRects.resize(casters.instances.size());
@@ -803,7 +805,6 @@ Status ShadowRenderer::Impl::recordCachedPass(VkCommandBuffer cmd, const Cascade
   for (LayerRects& r : momentRects_) r.clear();
   bool any = false;
   std::uint32_t copiedMask = 0;
-  updateCacheStale(plan_, cache_);  // boxes invalidated since the plan was made
   for (std::uint32_t i = 0; i < frame.cascadeCount; ++i) {
     if (frame.cascades[i].empty) continue;
     if (!recordCachedCascade(pass, i, listOf(i))) continue;
