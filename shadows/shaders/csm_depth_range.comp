@@ -1,9 +1,11 @@
 #version 460
 // The view-depth range of the visible receivers in a host's depth buffer, and optionally their
 // histogram over log-spaced view-depth bins, for receiver-driven splits
-// (csm::vk::DepthRangeReducer). Each workgroup reduces 16x16 pixels in shared memory and folds
-// its min/max into the result slot with one atomic each, and each non-empty bin of its tile's
-// histogram with one atomic add. Positive floats compare like their bit patterns as unsigned
+// (csm::vk::DepthRangeReducer). Each workgroup reduces 16x16 pixels, each of its 8x8 invocations
+// 2x2 of them in registers first (a run of pixels in one cascade or bin is folded once: a fourth
+// of the shared-memory atomics, which a CPU rasteriser pays lane by lane), then in shared memory,
+// and folds its min/max into the result slot with one atomic each, and each non-empty bin of its
+// tile's histogram with one atomic add. Positive floats compare like their bit patterns as unsigned
 // integers, so the min/max atomics work on floatBitsToUint.
 // Pixels at the clear depth (sky) and non-finite or non-positive depths are skipped.
 // Optionally (boundsCount > 0) the receivers' light-space x, y bounds per cascade: each pixel's
@@ -20,7 +22,7 @@
 #extension GL_GOOGLE_include_directive : require
 #include "csm/shared_constants.h"
 
-layout(local_size_x = 16, local_size_y = 16) in;
+layout(local_size_x = 8, local_size_y = 8) in;
 
 layout(set = 0, binding = 0) uniform sampler2D depthTex;
 // Per slot: range.x = min depth bits, y = max depth bits, z = pixels counted, w = unused;
@@ -105,76 +107,123 @@ void markTiles(uint c, uint minX, uint minY, uint notMaxX, uint notMaxY) {
   }
 }
 
+// A light-space rectangle being folded in registers: the run's cascade (-1: none) and its
+// bounds (min x, min y, max x, max y).
+struct Run {
+  int c;
+  vec4 r;
+};
+
+// Folds a run's rectangle into the shared bounds of its cascade.
+void flushBounds(Run run, bool band) {
+  if (run.c < 0) return;
+  const uint o = uint(run.c) * 4u;
+  if (band) {
+    atomicMin(sBandBounds[o + 0u], orderedBits(run.r.x));
+    atomicMin(sBandBounds[o + 1u], orderedBits(run.r.y));
+    atomicMin(sBandBounds[o + 2u], ~orderedBits(run.r.z));
+    atomicMin(sBandBounds[o + 3u], ~orderedBits(run.r.w));
+  } else {
+    atomicMin(sBounds[o + 0u], orderedBits(run.r.x));
+    atomicMin(sBounds[o + 1u], orderedBits(run.r.y));
+    atomicMin(sBounds[o + 2u], ~orderedBits(run.r.z));
+    atomicMin(sBounds[o + 3u], ~orderedBits(run.r.w));
+  }
+}
+
+// Adds light-space point ls of cascade c to a run, folding the run first when c differs.
+void addToRun(inout Run run, int c, vec2 ls, bool band) {
+  if (run.c != c) {
+    flushBounds(run, band);
+    run.c = c;
+    run.r = vec4(ls, ls);
+    return;
+  }
+  run.r = vec4(min(run.r.xy, ls), max(run.r.zw, ls));
+}
+
 void main() {
   const uint local = gl_LocalInvocationIndex;
+  const uint size = gl_WorkGroupSize.x * gl_WorkGroupSize.y;
   if (local == 0u) {
     sMin = 0x7f7fffffu;  // FLT_MAX
     sMax = 0u;
     sCount = 0u;
   }
-  for (uint b = local; b < CSM_DEPTH_HISTOGRAM_BINS; b += 256u) sBins[b] = 0u;
-  if (local < CSM_MAX_CASCADES * 4) sBounds[local] = 0xffffffffu;
-  if (local < CSM_MAX_CASCADES * 4) sBandBounds[local] = 0xffffffffu;
+  for (uint b = local; b < CSM_DEPTH_HISTOGRAM_BINS; b += size) sBins[b] = 0u;
+  for (uint b = local; b < CSM_MAX_CASCADES * 4; b += size) {
+    sBounds[b] = 0xffffffffu;
+    sBandBounds[b] = 0xffffffffu;
+  }
   if (pc.tileMarks != 0u && local < CSM_MAX_CASCADES) {
     sGrid[local] = result.slots[pc.slot].grid[local];
     sBand[local] = result.slots[pc.slot].band[local];
   }
   barrier();
-  const uvec2 p = gl_GlobalInvocationID.xy;
-  if (p.x < pc.extent.x && p.y < pc.extent.y) {
+  // This invocation's 2x2 pixels of the workgroup's 16x16, reduced in registers.
+  uint minBits = 0x7f7fffffu, maxBits = 0u, count = 0u;
+  int bin = -1;
+  uint binCount = 0u;
+  Run own = Run(-1, vec4(0.0));
+  Run banded = Run(-1, vec4(0.0));
+  const uvec2 base = gl_WorkGroupID.xy * 16u + gl_LocalInvocationID.xy * 2u;
+  for (uint k = 0u; k < 4u; ++k) {
+    const uvec2 p = base + uvec2(k & 1u, k >> 1u);
+    if (p.x >= pc.extent.x || p.y >= pc.extent.y) continue;
     const float z = texelFetch(depthTex, ivec2(p), 0).r;
-    if (z != pc.clearDepth) {
-      const float d = pc.p32 / (z + pc.p22);
-      if (d > 0.0 && !isinf(d) && !isnan(d)) {
-        const uint bits = floatBitsToUint(d);
-        atomicMin(sMin, bits);
-        atomicMax(sMax, bits);
-        atomicAdd(sCount, 1u);
-        if (pc.histNear > 0.0) {
-          const float u = log(d / pc.histNear) * pc.binsPerLog;
-          const uint bin = uint(clamp(u, 0.0, float(CSM_DEPTH_HISTOGRAM_BINS - 1)));
-          atomicAdd(sBins[bin], 1u);
-        }
-        if (pc.boundsCount > 0u) {
-          const vec2 ndc = (vec2(p) + 0.5) / vec2(pc.extent) * 2.0 - 1.0;
-          const vec3 v = vec3((ndc.x + pc.pOff.x) * pc.lsX.w, (ndc.y + pc.pOff.y) * pc.lsY.w,
-                              -1.0) * d;
-          const vec2 ls = vec2(dot(pc.lsX.xyz, v), dot(pc.lsY.xyz, v));
-          int c = -1;
-          for (uint i = 0u; i < pc.boundsCount; ++i) {
-            if (d >= pc.splits[i] && d < pc.splits[i + 1u]) c = int(i);
-          }
-          if (c >= 0) {
-            const uint o = uint(c) * 4u;
-            atomicMin(sBounds[o + 0u], orderedBits(ls.x));
-            atomicMin(sBounds[o + 1u], orderedBits(ls.y));
-            atomicMin(sBounds[o + 2u], ~orderedBits(ls.x));
-            atomicMin(sBounds[o + 3u], ~orderedBits(ls.y));
-          }
-          // The blend band: the next cascade (when it is not empty) shades it too.
-          if (pc.tileMarks != 0u && c >= 0 && uint(c) + 1u < pc.boundsCount) {
-            const uint n = uint(c) + 1u;
-            const float bandStart = sBand[c].x;
-            if (sBand[c].y != 0.0 && sBand[n].y != 0.0 && bandStart < pc.splits[n] &&
-                d >= bandStart) {
-              const uint o = n * 4u;
-              atomicMin(sBandBounds[o + 0u], orderedBits(ls.x));
-              atomicMin(sBandBounds[o + 1u], orderedBits(ls.y));
-              atomicMin(sBandBounds[o + 2u], ~orderedBits(ls.x));
-              atomicMin(sBandBounds[o + 3u], ~orderedBits(ls.y));
-            }
-          }
-        }
+    if (z == pc.clearDepth) continue;
+    const float d = pc.p32 / (z + pc.p22);
+    if (!(d > 0.0) || isinf(d) || isnan(d)) continue;
+    const uint bits = floatBitsToUint(d);
+    minBits = min(minBits, bits);
+    maxBits = max(maxBits, bits);
+    ++count;
+    if (pc.histNear > 0.0) {
+      const float u = log(d / pc.histNear) * pc.binsPerLog;
+      const int b = int(clamp(u, 0.0, float(CSM_DEPTH_HISTOGRAM_BINS - 1)));
+      if (b != bin) {
+        if (binCount > 0u) atomicAdd(sBins[bin], binCount);
+        bin = b;
+        binCount = 0u;
+      }
+      ++binCount;
+    }
+    if (pc.boundsCount == 0u) continue;
+    const vec2 ndc = (vec2(p) + 0.5) / vec2(pc.extent) * 2.0 - 1.0;
+    const vec3 v =
+        vec3((ndc.x + pc.pOff.x) * pc.lsX.w, (ndc.y + pc.pOff.y) * pc.lsY.w, -1.0) * d;
+    const vec2 ls = vec2(dot(pc.lsX.xyz, v), dot(pc.lsY.xyz, v));
+    int c = -1;
+    for (uint i = 0u; i < pc.boundsCount; ++i) {
+      if (d >= pc.splits[i] && d < pc.splits[i + 1u]) c = int(i);
+    }
+    if (c < 0) continue;
+    addToRun(own, c, ls, false);
+    // The blend band: the next cascade (when it is not empty) shades it too.
+    if (pc.tileMarks != 0u && uint(c) + 1u < pc.boundsCount) {
+      const uint n = uint(c) + 1u;
+      const float bandStart = sBand[c].x;
+      if (sBand[c].y != 0.0 && sBand[n].y != 0.0 && bandStart < pc.splits[n] &&
+          d >= bandStart) {
+        addToRun(banded, int(n), ls, true);
       }
     }
   }
+  if (count > 0u) {
+    atomicMin(sMin, minBits);
+    atomicMax(sMax, maxBits);
+    atomicAdd(sCount, count);
+  }
+  if (binCount > 0u) atomicAdd(sBins[bin], binCount);
+  flushBounds(own, false);
+  flushBounds(banded, true);
   barrier();
   if (local == 0u && sCount > 0u) {
     atomicMin(result.slots[pc.slot].range.x, sMin);
     atomicMax(result.slots[pc.slot].range.y, sMax);
     atomicAdd(result.slots[pc.slot].range.z, sCount);
   }
-  for (uint b = local; b < CSM_DEPTH_HISTOGRAM_BINS; b += 256u) {
+  for (uint b = local; b < CSM_DEPTH_HISTOGRAM_BINS; b += size) {
     if (sBins[b] > 0u) atomicAdd(result.slots[pc.slot].bins[b], sBins[b]);
   }
   if (local < pc.boundsCount * 4u && sBounds[local] != 0xffffffffu) {

@@ -17,7 +17,8 @@
 namespace csm::vk {
 namespace {
 
-constexpr std::uint32_t kGroup = 16;  // local size of csm_depth_range.comp
+// Pixels a side per workgroup of csm_depth_range.comp (8x8 invocations of 2x2 pixels).
+constexpr std::uint32_t kGroup = 16;
 constexpr std::uint32_t kFltMaxBits = 0x7f7fffffu;
 // One result slot: uvec4 (min bits, max bits, count, unused), the histogram's bins, then per
 // cascade (min x, min y, ~max x, ~max y) as order-preserving uints, then per cascade the tile
