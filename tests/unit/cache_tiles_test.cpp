@@ -198,12 +198,184 @@ TEST(CacheTiles, CarriedMarksHoldEveryReceiverAcrossALightStepAndACameraMove) {
   EXPECT_GT(checked, 1000u);
 }
 
-TEST(CacheTiles, PartialCascadesDrawOnlyMarkedTilesAndTheLastIsWhole) {
+/// The view depth where the lighting starts reading cascade i of `f` (the blend band of the one
+/// before it).
+double sampledNearM(const csm::CascadeFrame& f, std::uint32_t i) {
+  if (i == 0) return f.splitsM[0];
+  return f.splitsM[i] - f.blendBand * (f.splitsM[i] - f.splitsM[i - 1]);
+}
+
+/// The tiles of cascade i (on the grid of box `box`) that the view of `f` can sample at view
+/// depths [nearM, splitsM[i + 1]].
+csm::TileMask frustumTiles(const csm::ShadowSettings& s, const csm::CascadeFrame& f,
+                           const csm::TexelRect& box, std::uint32_t i, double nearM) {
+  const std::int64_t tile = s.resolution / csm::kTilesPerSide;
+  csm::TileMask m;
+  m.origin = {csm::floorDiv(box.x0, tile), csm::floorDiv(box.y0, tile)};
+  const double texel = f.cascades[i].texelSizeLs.x;
+  EXPECT_TRUE(csm::markFrustumTiles(f, nearM, f.splitsM[i + 1], f.lightBasisWs, texel, tile,
+                                    csm::receiverSampleReachTexels(s, f, i) * texel, m));
+  return m;
+}
+
+/// Tiles of a grid on `box` that hold some of it.
+std::uint32_t tilesInBox(const csm::TexelRect& box, std::int64_t res) {
+  const std::int64_t tile = res / csm::kTilesPerSide;
+  const std::int64_t x0 = csm::floorDiv(box.x0, tile), y0 = csm::floorDiv(box.y0, tile);
+  const std::int64_t x1 = csm::floorDiv(box.x1 - 1, tile), y1 = csm::floorDiv(box.y1 - 1, tile);
+  return std::uint32_t((x1 - x0 + 1) * (y1 - y0 + 1));
+}
+
+TEST(CacheTiles, FrustumTilesHoldEveryReceiverTheViewCanSee) {
+  // Receivers anywhere in the view's frustum (not only on the ground), marked as the GPU marks
+  // them: each lies in the frustum tiles of the cascades it is shaded with, for views near the
+  // origin and 10^7 m from it, wide and narrow, looking level, down and straight down, under a
+  // sun at 45 degrees, overhead, grazing and along the view.
+  csm::ShadowSettings s = tileSettings();
+  const std::int64_t tile = s.resolution / csm::kTilesPerSide;
+  std::uint64_t checked = 0;
+  std::uint32_t narrower = 0;
+  std::uint32_t seed = 12345;
+  auto uniform = [&seed](double a, double b) {
+    seed = seed * 1664525u + 1013904223u;
+    return a + (b - a) * double(seed >> 8) / double(1u << 24);
+  };
+  for (const glm::dvec3 at : {glm::dvec3(3.0, 2.0, 7.0), glm::dvec3(1e7, 40.0, -1e7)}) {
+    for (const double pitchDeg : {-12.0, -60.0, -90.0}) {
+      for (const double fovDeg : {60.0, 8.0}) {
+        View v = viewAt(at, fovDeg);
+        v.camera.orientationWs = glm::angleAxis(glm::radians(35.0), glm::dvec3(0, 1, 0)) *
+                                 glm::angleAxis(glm::radians(pitchDeg), glm::dvec3(1, 0, 0));
+        const glm::dvec3 fwd = v.camera.forwardWs();
+        for (const glm::dvec3 sun : {glm::dvec3(0.5, -0.707, 0.5), glm::dvec3(0.0, -1.0, 0.0),
+                                     glm::dvec3(0.7, -0.035, -0.7), fwd}) {
+          v.light.directionWs = sun;
+          const csm::CascadeFrame f = frameOf(s, v);
+          const csm::ReceiverTileMarks empty = csm::emptyReceiverTileMarks(s, f);
+          std::array<csm::TileMask, csm::kMaxCascades> own{}, all{};
+          for (std::uint32_t i = 0; i < f.cascadeCount; ++i) {
+            if (f.cascades[i].empty) continue;
+            for (auto [mask, nearM] :
+                 {std::pair{&own[i], sampledNearM(f, i)}, std::pair{&all[i], f.splitsM[0]}}) {
+              mask->origin = empty.gridOrigin[i];
+              ASSERT_TRUE(csm::markFrustumTiles(f, nearM, f.splitsM[i + 1], f.lightBasisWs,
+                                                empty.texelM[i], tile, empty.reachM[i], *mask));
+            }
+            EXPECT_LE(own[i].count(), all[i].count());
+            narrower += own[i].count() < all[i].count() ? 1u : 0u;
+          }
+          const glm::dvec3 right = v.camera.rightWs(), up = v.camera.upWs();
+          const double tanY = std::tan(0.5 * v.camera.fovYRad);
+          const double tanX = tanY * v.camera.aspect;
+          for (int k = 0; k < 400; ++k) {
+            // Half of them on the frustum's edges, where only the reach's widening holds them.
+            const double d = uniform(f.splitsM[0], f.splitsM[f.cascadeCount]);
+            const bool edge = k % 2 == 0;
+            const double sx = edge ? (uniform(0.0, 1.0) < 0.5 ? -1.0 : 1.0) : uniform(-1.0, 1.0);
+            const double sy = edge ? (uniform(0.0, 1.0) < 0.5 ? -1.0 : 1.0) : uniform(-1.0, 1.0);
+            const glm::dvec3 q = fwd * d + right * (sx * tanX * d) + up * (sy * tanY * d);
+            csm::ReceiverTileMarks m = empty;
+            csm::markReceiverTiles(m, at + q, glm::dot(q, fwd));
+            for (std::uint32_t i = 0; i < f.cascadeCount; ++i) {
+              for (std::uint32_t y = 0; y < csm::kTileGridSide; ++y) {
+                for (std::uint32_t x = 0; x < csm::kTileGridSide; ++x) {
+                  if (!m.marked(i, x, y)) continue;
+                  ++checked;
+                  ASSERT_TRUE(own[i].test(x, y) && all[i].test(x, y))
+                      << "cascade " << i << " tile " << x << ", " << y << " at depth " << d
+                      << ", pitch " << pitchDeg << ", fov " << fovDeg << ", sun " << sun.x << ", "
+                      << sun.y << ", " << sun.z;
+                }
+              }
+            }
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(checked, 10000u);
+  EXPECT_GT(narrower, 0u) << "a cascade's own depths sample less of it than every depth";
+  // A frame without its camera's frustum (built by hand) marks nothing.
+  csm::CascadeFrame f = frameOf(s, viewAt(glm::dvec3(0.0)));
+  f.cameraTanHalfFovY = 0.0;
+  csm::TileMask m;
+  m.bits.fill(~0u);
+  EXPECT_FALSE(csm::markFrustumTiles(f, 0.0, 100.0, f.lightBasisWs, 0.1, tile, 0.3, m));
+  EXPECT_EQ(m.count(), 0u);
+}
+
+TEST(CacheTiles, OnlyTheFirstFrameWithoutMarksFallsBack) {
+  // A cut: the partial cascades of the first frame without marks draw nothing (their pixels
+  // fall back to the last cascade); the next frames without marks draw every tile the view can
+  // sample in them; the first marks then only add what the view can sample.
+  const csm::ShadowSettings s = tileSettings();
+  const std::int64_t res = s.resolution;
+  View v = viewAt(glm::dvec3(0.0, 2.0, 0.0));
+  csm::CacheState state;
+  csm::CascadeFrame f = frameOf(s, v);
+  csm::ReceiverTileMarks marks = marksOf(s, f, v, groundReceivers(v, 300.0, 2.0));
+  csm::CacheTileInputs in = tileInputs(s, f, &marks);
+  csm::CachePlan p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+  csm::markCacheRecorded(p, state);
+  EXPECT_EQ(state.unmarkedFrames, 0u);
+  v = viewAt(glm::dvec3(900.0, 2.0, -700.0));
+  const std::uint32_t last = f.cascadeCount - 1;
+  for (int frame = 0; frame < 3; ++frame) {
+    f = frameOf(s, v);
+    in = tileInputs(s, f, nullptr);
+    p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+    EXPECT_EQ(state.unmarkedFrames, std::uint32_t(frame + 1));
+    std::uint32_t partial = 0;
+    for (std::uint32_t i = 0; i < last; ++i) {
+      const csm::CacheCascadePlan& c = p.cascades[i];
+      if (!c.partial) continue;
+      ++partial;
+      if (frame == 0) {
+        EXPECT_EQ(c.marked.count(), 0u) << i;
+        EXPECT_TRUE(c.stale.empty()) << i;
+        continue;
+      }
+      const csm::TileMask view = frustumTiles(s, f, c.box, i, sampledNearM(f, i));
+      EXPECT_EQ(c.marked, view) << i;
+      for (std::int64_t y = 0; y < csm::kTileGridSide; ++y) {
+        for (std::int64_t x = 0; x < csm::kTileGridSide; ++x) {
+          const glm::i64vec2 w = view.origin + glm::i64vec2(x, y);
+          const std::int64_t t = res / csm::kTilesPerSide;
+          const bool inBox = !csm::TexelRect{w.x * t, w.y * t, (w.x + 1) * t, (w.y + 1) * t}
+                                  .intersect(c.box)
+                                  .empty();
+          if (view.test(x, y) && inBox) {
+            EXPECT_TRUE(c.tiles.test(x, y)) << i << ": " << x << ", " << y;
+          }
+        }
+      }
+      if (frame == 2) {
+        EXPECT_EQ(c.tilesDrawn, 0u) << i << ": the same view holds them already";
+      }
+    }
+    EXPECT_GT(partial, 0u);
+    csm::markCacheRecorded(p, state);
+  }
+  marks = marksOf(s, f, v, groundReceivers(v, 300.0, 2.0));
+  f = frameOf(s, v);
+  in = tileInputs(s, f, &marks);
+  p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+  EXPECT_EQ(state.unmarkedFrames, 0u);
+  for (std::uint32_t i = 0; i < last; ++i) {
+    const csm::CacheCascadePlan& c = p.cascades[i];
+    if (!c.partial) continue;
+    EXPECT_EQ(c.tilesDrawn, 0u) << i << ": the view's tiles are held already";
+    EXPECT_LE(c.marked.count(), frustumTiles(s, f, c.box, i, sampledNearM(f, i)).count()) << i;
+  }
+}
+
+TEST(CacheTiles, PartialCascadesDrawOnlyMarkedTilesAndTheLastWhatTheViewSamples) {
   const csm::ShadowSettings s = tileSettings();
   const std::int64_t res = s.resolution, tile = res / csm::kTilesPerSide;
   View v = viewAt(glm::dvec3(0.0, 2.0, 0.0));
   csm::CacheState state;
-  // Frame 1, no marks yet: the partial cascades draw nothing, the last one everything.
+  // Frame 1, no marks yet: the partial cascades draw nothing, the last one every tile the view
+  // can sample in it (every depth of the shadows: the others fall back to it), and no more.
   csm::CascadeFrame f = frameOf(s, v);
   csm::CacheTileInputs in = tileInputs(s, f, nullptr);
   csm::CachePlan p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
@@ -212,12 +384,35 @@ TEST(CacheTiles, PartialCascadesDrawOnlyMarkedTilesAndTheLastIsWhole) {
   for (std::uint32_t i = 0; i < f.cascadeCount; ++i) {
     const csm::CacheCascadePlan& c = p.cascades[i];
     const double margin = (in.reachTexels[last] + 2.0) * f.cascades[last].texelSizeLs.x;
-    EXPECT_EQ(c.partial, i < last && csm::cacheBoxHoldsSphere(
-                                         p.cascades[last].box, f.cascades[last].texelSizeLs.x,
-                                         f.lightBasisWs, state.layers[last].zNear,
-                                         state.layers[last].zFar, margin, f.cascades[i]))
+    EXPECT_EQ(c.partial, i == last || csm::cacheBoxHoldsSphere(
+                                          p.cascades[last].box, f.cascades[last].texelSizeLs.x,
+                                          f.lightBasisWs, state.layers[last].zNear,
+                                          state.layers[last].zFar, margin, f.cascades[i]))
         << i;
-    if (c.partial) {
+    if (i == last) {
+      const csm::TileMask view = frustumTiles(s, f, c.box, last, f.splitsM[0]);
+      EXPECT_EQ(c.marked, view);
+      EXPECT_GT(view.count(), 0u);
+      EXPECT_LT(view.count(), tilesInBox(c.box, res))
+          << "a 60 degree view at this sun samples only part of the last cascade's box";
+      std::uint64_t viewArea = 0;
+      for (std::int64_t y = 0; y < csm::kTileGridSide; ++y) {
+        for (std::int64_t x = 0; x < csm::kTileGridSide; ++x) {
+          const glm::i64vec2 w = view.origin + glm::i64vec2(x, y);
+          const csm::TexelRect r =
+              csm::TexelRect{w.x * tile, w.y * tile, (w.x + 1) * tile, (w.y + 1) * tile}.intersect(
+                  c.box);
+          // Every tile the view samples is drawn whole and held.
+          if (view.test(x, y)) {
+            EXPECT_EQ(areaIn(c.stale, r), r.area()) << x << ", " << y;
+            EXPECT_TRUE(c.tiles.test(x, y) || r.empty()) << x << ", " << y;
+          }
+          viewArea += view.test(x, y) ? r.area() : 0u;
+        }
+      }
+      EXPECT_LE(c.staleTexels, 2 * viewArea);
+      EXPECT_LT(c.staleTexels, std::uint64_t(res * res));
+    } else if (c.partial) {
       EXPECT_TRUE(c.stale.empty()) << i;
       EXPECT_EQ(c.tiles.count(), 0u) << i;
     } else {
@@ -261,6 +456,11 @@ TEST(CacheTiles, PartialCascadesDrawOnlyMarkedTilesAndTheLastIsWhole) {
     }
     EXPECT_GT(wholeArea, 0u) << i;
     EXPECT_EQ(c.staleTexels, wholeArea) << i;
+    // The marks, only where this frame's view can sample the cascade.
+    const csm::TileMask view = frustumTiles(s, f, c.box, i, sampledNearM(f, i));
+    for (std::uint32_t w = 0; w < csm::kTileWords; ++w) {
+      EXPECT_EQ(c.marked.bits[w] & ~view.bits[w], 0u) << i << " word " << w;
+    }
     EXPECT_LE(gaps, c.marked.count()) << i;
     EXPECT_EQ(c.tilesMarked, c.marked.count());
   }
@@ -387,6 +587,7 @@ TEST(CacheTiles, ANarrowViewKeepsTheCascadesTheLastBoxDoesNotHoldWhole) {
         state.layers[last].zNear, state.layers[last].zFar, margin, f.cascades[i]);
     EXPECT_EQ(p.cascades[i].partial, inside) << i;
     whole += inside ? 0u : 1u;
+    // A cascade drawn whole while its slice lies outside the last box.
     if (!inside) {
       EXPECT_TRUE(p.cascades[i].full) << i;
     }
@@ -413,8 +614,9 @@ TEST(CacheTiles, TheUniformBlockHoldsEachPartialCascadesTiles) {
   for (std::uint32_t i = 0; i < f.cascadeCount; ++i) {
     const csm::CacheCascadePlan& c = p.cascades[i];
     EXPECT_FLOAT_EQ(u.tileGrid[i].z, float(in.reachTexels[i])) << i;
-    EXPECT_EQ((u.tilePartialMask >> i) & 1u, c.partial ? 1u : 0u) << i;
-    if (!c.partial) continue;
+    const bool last = i + 1 == f.cascadeCount;
+    EXPECT_EQ((u.tilePartialMask >> i) & 1u, c.partial && !last ? 1u : 0u) << i;
+    if (!c.partial || last) continue;
     ++partial;
     // The grid's first tile lies at most a tile before the box's first texel.
     EXPECT_EQ(double(u.tileGrid[i].x), double(c.box.x0 - c.tiles.origin.x * tile));

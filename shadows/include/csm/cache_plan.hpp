@@ -93,6 +93,10 @@ struct CacheShownState {
 struct CacheState {
   std::array<CacheLayerState, kMaxCascades> layers{};
   std::array<CacheShownState, kMaxCascades> shown{};
+  /// Receiver-marked tiles: frames planned in a row without marks (after a cut, until the
+  /// first depth buffer after it has been reduced). The first of them falls back; the others
+  /// draw what the view can sample (csm::markFrustumTiles).
+  std::uint32_t unmarkedFrames = 0;
 };
 
 /// One cascade's part of a frame's cache plan.
@@ -144,8 +148,11 @@ inline constexpr std::size_t kTilePiecesBeforeBounds = 8;
 /// pixels sample, and how far each cascade's filter reads.
 struct CacheTileInputs {
   /// The latest marks (csm::ReceiverTileMarks from the host's depth buffer, a few frames old);
-  /// null or absent (cascadeCount 0): none yet (after a cut), so nothing more is drawn in the
-  /// partial cascades until marks arrive and their pixels fall back.
+  /// null or absent (cascadeCount 0): none yet (after a cut). The first frame without marks
+  /// draws nothing more in the partial cascades (their pixels fall back); the next ones draw
+  /// what the frame's view can sample (csm::markFrustumTiles) until marks arrive. Marks are
+  /// used only where the frame's view can sample them, and the last cascade is drawn where the
+  /// view can sample it (a frame without its camera's frustum: whole).
   const ReceiverTileMarks* marks = nullptr;
   /// Per cascade, how far (texels) its filter reads around a receiver
   /// (csm::receiverSampleReachTexels for the frame's settings).
@@ -174,15 +181,19 @@ struct CachePlan {
 /// frame's, a deferred one's cascade becomes what it shows (its matrix formed for this frame's
 /// camera). A frame of another resolution, or none, is left as it is: the plan is then empty.
 ///
-/// With `tiles` (receiver-marked tiles), the last active cascade is drawn whole and refreshed
-/// every frame (it is the fallback), and every other active cascade whose slice (its bounding
-/// sphere, widened by the last cascade's filter reach and two texels) lies inside the last
-/// cascade's box and depth window is partial (cacheTilePartial): it draws only the stale texels
-/// of marked tiles (the marks carried onto its grid, carryTileMarks, across a light step through
-/// its sphere's depth range) and every marked tile it does not hold yet, whole (with gaps of up
-/// to kTileGapFill tiles between two such in a row); a stale texel in a tile it does not draw
-/// makes that tile not held, until a mark asks for it. A cascade that stops being partial draws
-/// what it did not hold.
+/// With `tiles` (receiver-marked tiles), the last active cascade is the fallback: refreshed
+/// every frame and drawn over every tile the frame's view can sample in it
+/// (csm::markFrustumTiles over its own depths and, when another cascade is partial, every depth
+/// of the shadows: whole for a frame without its camera's frustum), so no pixel that reads it
+/// misses. Every other active cascade whose slice (its bounding sphere, widened by the last
+/// cascade's filter reach and two texels) lies inside the last cascade's box and depth window is
+/// partial (cacheBoxHoldsSphere): it draws only the stale texels of marked tiles (the marks
+/// carried onto its grid, carryTileMarks, across a light step through its sphere's depth range,
+/// and only where the view can sample them) and every marked tile it does not hold yet, whole
+/// (with gaps of up to kTileGapFill tiles between two such in a row); a stale texel in a tile it
+/// does not draw makes that tile not held, until a mark asks for it. Without marks, the first
+/// frame marks nothing and the next ones what the view can sample (CacheState::unmarkedFrames).
+/// A cascade that stops being partial draws what it did not hold.
 CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t resolution,
                          std::uint64_t budgetTexels, std::uint32_t exactCascades,
                          const CacheTileInputs* tiles = nullptr);

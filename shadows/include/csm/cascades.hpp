@@ -110,6 +110,13 @@ struct CascadeFrame {
   bool histogramDriven = false;
   /// The light direction used this frame was advanced (settings.lightStepDeg > 0 with a history).
   bool lightStepped = false;
+  /// The camera's frustum about cameraPositionWs and cameraForwardWs: its up axis, the tangent
+  /// of half its vertical field of view and its aspect (computeCascades fills them in; 0 in a
+  /// frame built by hand: not known). Every visible receiver lies inside it, so the texels a
+  /// cascade can be sampled at are known in the same frame (csm::markFrustumTiles).
+  glm::dvec3 cameraUpWs{0.0, 1.0, 0.0};
+  double cameraTanHalfFovY = 0.0;
+  double cameraAspect = 0.0;
 };
 
 namespace detail {

@@ -176,7 +176,8 @@ struct CachePlan;
                                              const CachePlan& plan) noexcept;
 
 /// Fills the receiver-marked tile fields of a block packed from `plan` (packCachedUniforms does;
-/// the renderer again after invalidations since planning): for each partial cascade its grid
+/// the renderer again after invalidations since planning): for each partial cascade but the last
+/// active one (the fallback, drawn wherever the view can sample it) its grid
 /// offset and held tiles, and for every active one its filter's reach (`reachTexels`).
 void packTileUniforms(CsmUniforms& u, const CachePlan& plan,
                       const std::array<double, kMaxCascades>& reachTexels) noexcept;

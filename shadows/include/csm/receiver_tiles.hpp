@@ -89,4 +89,17 @@ void carryTileMarks(const ReceiverTileMarks& marks, std::uint32_t i, const glm::
                     double texelM, std::int64_t tileTexels, double zNearLs, double zFarLs,
                     TileMask& mask, const glm::dvec3& shiftWs = glm::dvec3(0.0)) noexcept;
 
+/// The tiles of a cascade that a receiver inside `frame`'s view frustum, at a view depth in
+/// [nearM, farM], can sample with a filter reading up to `reachM` metres around its light-space
+/// x, y: every tile of `mask`'s grid (its bits are replaced; tiles of `tileTexels` texels of
+/// `texelM` metres on the light-space grid of basis `basis`) that the frustum section's
+/// light-space outline, widened by reachM and a texel on every side, touches. Exact and
+/// conservative in the same frame (no depth buffer, no lag), but blind to what hides the
+/// receivers: the sky, and what lies behind the nearest surface, are marked too. False, and no
+/// tile marked, when the frame does not carry its camera's frustum (cameraTanHalfFovY or
+/// cameraAspect 0: a frame built by hand) or an input is not finite or out of range.
+bool markFrustumTiles(const CascadeFrame& frame, double nearM, double farM, const glm::dmat3& basis,
+                      double texelM, std::int64_t tileTexels, double reachM,
+                      TileMask& mask) noexcept;
+
 }  // namespace csm

@@ -326,39 +326,74 @@ CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t r
   for (std::uint32_t i = 0; i < count; ++i) {
     if (plan.cascades[i].active) last = i;
   }
+  bool anyPartial = false;
+  for (std::uint32_t i = 0; tiles != nullptr && std::int64_t(i) < last; ++i) {
+    CacheCascadePlan& p = plan.cascades[i];
+    if (!p.active) continue;
+    const auto l = std::uint32_t(last);
+    const double texelL = frame.cascades[l].texelSizeLs.x;
+    const double margin = (tiles->reachTexels[l] + 2.0) * texelL;
+    p.partial = cacheBoxHoldsSphere(plan.cascades[l].box, texelL, basis, state.layers[l].zNear,
+                                    state.layers[l].zFar, margin, frame.cascades[i]);
+    anyPartial = anyPartial || p.partial;
+  }
+  // The view depths at which the lighting reads cascade i: its slice and the blend band of the
+  // one before it.
+  auto sampledNearM = [&](std::uint32_t i) {
+    if (i == 0) return frame.splitsM[0];
+    return frame.splitsM[i] - frame.blendBand * (frame.splitsM[i] - frame.splitsM[i - 1]);
+  };
+  const bool hasMarks = tiles != nullptr && tiles->marks != nullptr && tiles->marks->present();
   for (std::uint32_t i = 0; i < count; ++i) {
     CacheCascadePlan& p = plan.cascades[i];
     if (!p.active) continue;
     const Cascade& c = frame.cascades[i];
-    if (tiles != nullptr && std::int64_t(i) < last) {
-      const auto l = std::uint32_t(last);
-      const double texelL = frame.cascades[l].texelSizeLs.x;
-      const double margin = (tiles->reachTexels[l] + 2.0) * texelL;
-      p.partial = cacheBoxHoldsSphere(plan.cascades[l].box, texelL, basis, state.layers[l].zNear,
-                                      state.layers[l].zFar, margin, c);
-    }
-    if (p.partial) {
-      p.marked = tileGridOf(p.box, res);
-      if (tiles->marks != nullptr) {
-        // Across a light step a marked column's receivers lie in the cascade's sphere.
-        const double z = (glm::transpose(tiles->marks->lightBasisWs) * c.sphereCenterWs).z;
-        const double r = 1.25 * c.sphereRadiusM;
-        carryTileMarks(*tiles->marks, i, basis, c.texelSizeLs.x, tileTexelsOf(res), z - r, z + r,
-                       p.marked);
-        // The receivers a slice holds move with the camera: the marks also where the camera's
-        // move since they were taken carries them.
-        const glm::dvec3 moved = frame.cameraPositionWs - tiles->marks->cameraPositionWs;
-        if (moved != glm::dvec3(0.0)) {
-          TileMask ahead = p.marked;
-          carryTileMarks(*tiles->marks, i, basis, c.texelSizeLs.x, tileTexelsOf(res), z - r, z + r,
-                         ahead, moved);
-          for (std::uint32_t w = 0; w < kTileWords; ++w) p.marked.bits[w] |= ahead.bits[w];
+    if (tiles != nullptr) {
+      // What the view's frustum can sample, this frame: for the last cascade, everything the
+      // lighting may read in it, its slice and every pixel that falls back to it.
+      const bool isLast = std::int64_t(i) == last;
+      const double texel = c.texelSizeLs.x;
+      TileMask view = tileGridOf(p.box, res);
+      const bool seen = markFrustumTiles(
+          frame, isLast && anyPartial ? frame.splitsM[0] : sampledNearM(i), frame.splitsM[i + 1],
+          basis, texel, tileTexelsOf(res), tiles->reachTexels[i] * texel, view);
+      if (isLast && seen) {
+        p.partial = true;
+        p.marked = view;
+      } else if (p.partial) {
+        p.marked = tileGridOf(p.box, res);
+        if (hasMarks) {
+          // Across a light step a marked column's receivers lie in the cascade's sphere.
+          const double z = (glm::transpose(tiles->marks->lightBasisWs) * c.sphereCenterWs).z;
+          const double r = 1.25 * c.sphereRadiusM;
+          carryTileMarks(*tiles->marks, i, basis, texel, tileTexelsOf(res), z - r, z + r, p.marked);
+          // The receivers a slice holds move with the camera: the marks also where the camera's
+          // move since they were taken carries them.
+          const glm::dvec3 moved = frame.cameraPositionWs - tiles->marks->cameraPositionWs;
+          if (moved != glm::dvec3(0.0)) {
+            TileMask ahead = p.marked;
+            carryTileMarks(*tiles->marks, i, basis, texel, tileTexelsOf(res), z - r, z + r, ahead,
+                           moved);
+            for (std::uint32_t w = 0; w < kTileWords; ++w) p.marked.bits[w] |= ahead.bits[w];
+          }
+          // Of those, only what this frame's view can sample.
+          if (seen) {
+            for (std::uint32_t w = 0; w < kTileWords; ++w) p.marked.bits[w] &= view.bits[w];
+          }
+        } else if (seen && state.unmarkedFrames > 0) {
+          // No marks since the frame before (the marks of the first depth buffer after a cut
+          // are still on their way): what the view can sample. Only the first frame without
+          // marks falls back.
+          p.marked = view;
         }
       }
     }
     planCascadeTiles(p, state.layers[i], res);
     const CacheShownState& sh = state.shown[i];
     candidates[i] = {true, sh.valid, sh.lagFrames, p.covered, p.staleTexels};
+  }
+  if (tiles != nullptr) {
+    state.unmarkedFrames = hasMarks ? 0 : std::min(state.unmarkedFrames + 1, 1u << 30);
   }
   // The budget: refreshed cascades show this frame; deferred ones what they showed. With tiles
   // the last cascade, the fallback, is always refreshed.

@@ -555,6 +555,9 @@ Result<CascadeFrame> computeCascades(const ShadowSettings& settings, const Camer
   frame.cameraPositionWs = camera.positionWs;
   const glm::dquat orientation = glm::normalize(camera.orientationWs);
   frame.cameraForwardWs = orientation * glm::dvec3(0.0, 0.0, -1.0);
+  frame.cameraUpWs = orientation * glm::dvec3(0.0, 1.0, 0.0);
+  frame.cameraTanHalfFovY = std::tan(0.5 * camera.fovYRad);
+  frame.cameraAspect = camera.aspect;
 
   FrameInputs in{settings, camera, history};
   in.basis = frame.lightBasisWs;

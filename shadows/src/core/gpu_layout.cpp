@@ -198,6 +198,12 @@ void packTileUniforms(CsmUniforms& u, const CachePlan& plan,
                       const std::array<double, kMaxCascades>& reachTexels) noexcept {
   u.tilePartialMask = 0;
   const std::int64_t tile = std::max<std::int64_t>(plan.resolution / kTilesPerSide, 1);
+  // The last active cascade has nothing to fall back to: drawn where the view can sample it, it
+  // holds every texel a pixel reads there, and its bit stays clear.
+  std::uint32_t last = kMaxCascades;
+  for (std::uint32_t i = 0; i < std::min(plan.cascadeCount, kMaxCascades); ++i) {
+    if (plan.cascades[i].active) last = i;
+  }
   u.tileInvTexels = plan.resolution > 0 ? float(1.0 / double(tile)) : 0.0f;
   for (std::uint32_t i = 0; i < kMaxCascades; ++i) {
     u.tileGrid[i] = glm::vec4(0.0f);
@@ -205,7 +211,7 @@ void packTileUniforms(CsmUniforms& u, const CachePlan& plan,
     if (i >= plan.cascadeCount || !plan.cascades[i].active) continue;
     const CacheCascadePlan& p = plan.cascades[i];
     u.tileGrid[i].z = float(std::isfinite(reachTexels[i]) ? reachTexels[i] : 0.0);
-    if (!p.partial) continue;
+    if (!p.partial || i == last) continue;
     u.tilePartialMask |= 1u << i;
     u.tileGrid[i].x = float(p.box.x0 - p.tiles.origin.x * tile);
     u.tileGrid[i].y = float(p.box.y0 - p.tiles.origin.y * tile);

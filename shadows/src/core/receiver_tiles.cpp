@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <limits>
 
 #include "csm/cache_rects.hpp"
 #include "csm/gpu_layout.hpp"
@@ -169,6 +170,81 @@ void carryTileMarks(const ReceiverTileMarks& m, std::uint32_t i, const glm::dmat
       }
     }
   }
+}
+
+namespace {
+
+// Widens [lo, hi] to hold the x of segment a-b where its y lies in [y0, y1].
+void clipToBand(const glm::dvec2& a, const glm::dvec2& b, double y0, double y1, double& lo,
+                double& hi) noexcept {
+  double t0 = 0.0, t1 = 1.0;
+  const double dy = b.y - a.y;
+  if (dy == 0.0) {
+    if (a.y < y0 || a.y > y1) return;
+  } else {
+    const double ta = (y0 - a.y) / dy, tb = (y1 - a.y) / dy;
+    t0 = std::max(t0, std::min(ta, tb));
+    t1 = std::min(t1, std::max(ta, tb));
+    if (t0 > t1) return;
+  }
+  const double x0 = a.x + (b.x - a.x) * t0, x1 = a.x + (b.x - a.x) * t1;
+  lo = std::min({lo, x0, x1});
+  hi = std::max({hi, x0, x1});
+}
+
+}  // namespace
+
+bool markFrustumTiles(const CascadeFrame& frame, double nearM, double farM, const glm::dmat3& basis,
+                      double texelM, std::int64_t tileTexels, double reachM,
+                      TileMask& mask) noexcept {
+  mask.bits = {};
+  const double tanY = frame.cameraTanHalfFovY;
+  const double tanX = tanY * frame.cameraAspect;
+  if (!(tanY > 0.0) || !(tanX > 0.0) || !std::isfinite(tanX) || !(nearM >= 0.0) ||
+      !(farM >= nearM) || !std::isfinite(farM) || !(texelM > 0.0) || !std::isfinite(texelM) ||
+      tileTexels <= 0 || !(reachM >= 0.0) || !std::isfinite(reachM)) {
+    return false;
+  }
+  // The section's 8 corners in light space, about the camera (exact at any distance from the
+  // origin), and the camera's light-space x, y relative to the grid's first tile.
+  const glm::dmat3 basisT = glm::transpose(basis);
+  const glm::dvec3 fwd = frame.cameraForwardWs;
+  const glm::dvec3 up = frame.cameraUpWs;
+  const glm::dvec3 right = glm::cross(fwd, up);
+  const double tileM = texelM * double(tileTexels);
+  const glm::dvec3 camLs = basisT * frame.cameraPositionWs;
+  const glm::dvec2 cam = glm::dvec2(camLs.x, camLs.y) - glm::dvec2(mask.origin) * tileM;
+  std::array<glm::dvec2, 8> corners;
+  std::size_t n = 0;
+  for (const double d : {nearM, farM}) {
+    for (const double sx : {-1.0, 1.0}) {
+      for (const double sy : {-1.0, 1.0}) {
+        const glm::dvec3 q = basisT * (fwd * d + right * (sx * tanX * d) + up * (sy * tanY * d));
+        corners[n++] = cam + glm::dvec2(q.x, q.y);
+      }
+    }
+  }
+  for (const glm::dvec2& c : corners) {
+    if (!std::isfinite(c.x) || !std::isfinite(c.y)) return false;
+  }
+  // The outline is the convex hull of the corners, so its section by a row's band is that of
+  // the segments between every two corners (each lies in the hull; the hull's edges are among
+  // them). A tile is touched where the band's x extent meets its own, both widened.
+  const double widen = reachM + texelM;
+  for (std::int64_t y = 0; y < kTileGridSide; ++y) {
+    const double y0 = double(y) * tileM - widen, y1 = double(y + 1) * tileM + widen;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (std::size_t a = 0; a < corners.size(); ++a) {
+      for (std::size_t b = a; b < corners.size(); ++b)
+        clipToBand(corners[a], corners[b], y0, y1, lo, hi);
+    }
+    if (!(lo <= hi)) continue;
+    for (std::int64_t x = 0; x < kTileGridSide; ++x) {
+      const double x0 = double(x) * tileM - widen, x1 = double(x + 1) * tileM + widen;
+      if (x1 >= lo && x0 <= hi) mask.set(x, y);
+    }
+  }
+  return true;
 }
 
 }  // namespace csm
