@@ -67,6 +67,11 @@ class HeadlessFlight {
         throw std::runtime_error("frame " + std::to_string(i) + ": " + *e);
     }
     if (cut) renderer_.cameraCut();
+    // The frame after a cut draws the cut's marks (and fits its range): one wait for it.
+    if (renderer_.wantsLatestReceivers()) {
+      target_.waitIdle();
+      renderer_.takeLatestReceivers();
+    }
     engine::Camera cam;
     poseCamera(cam, path.at(t, seconds), aspect, o_.settings);
     const auto cpu0 = Clock::now();

@@ -106,6 +106,12 @@ int runWindowed(Options o) {
         cascadeStatsWindow(st, timer, gpu, cpuFrameMs, engine::validationMessageCount(), false);
       imgui.endFrame();
 
+      // The frame after a cut draws the cut's marks: wait for it (before this frame's slot is
+      // begun, whose fence is reset then).
+      if (renderer.wantsLatestReceivers()) {
+        target.waitIdle();
+        renderer.takeLatestReceivers();
+      }
       std::optional<engine::Frame> f = target.beginFrame();
       if (target.swapchainGeneration() != generation) {
         target.waitIdle();

@@ -422,6 +422,21 @@ void WorldRenderer::cameraCut() {
   // is used here.
   shadow_->cameraCut();
   if (tileReducer_) tileReducer_->invalidate();
+  cutPending_ = settings_.receiverSplits || (marking() && tileReducer_);
+  latestAfterCut_ = false;
+}
+
+void WorldRenderer::takeLatestReceivers() {
+  // Every slot but the last filled was emptied by the cut, so the reads that follow find
+  // nothing older than these results.
+  latestAfterCut_ = false;
+  if (settings_.receiverSplits) {
+    const csm::vk::Status s = shadow_->useLatestReceiverDepth();
+    if (!s.ok()) throw std::runtime_error("ShadowView::useLatestReceiverDepth: " + s.message());
+  }
+  if (!tileReducer_ || !shadow_->options().tiles) return;
+  const auto latest = tileReducer_->read(lastTileSlot_);
+  if (latest && latest->tiles.present()) shadow_->setReceiverTiles(latest->tiles);
 }
 
 std::optional<std::string> WorldRenderer::prepare(const engine::Camera& camera, FrameStats& stats) {
@@ -670,12 +685,10 @@ void WorldRenderer::recordTileMarks(const engine::Frame& f, engine::GpuTimer& ti
       stats.tilesMarked[c] = previous->tiles.markedCount(c);
     }
   }
-  // Receiver-marked tiles: the next frame's shadow pass draws what these marks ask for (none
-  // after a cut, until the first depth buffer after it has been reduced).
-  if (shadow_->options().tiles) {
-    shadow_->setReceiverTiles(previous && previous->tiles.present()
-                                  ? std::optional<csm::ReceiverTileMarks>(previous->tiles)
-                                  : std::nullopt);
+  // Receiver-marked tiles: the next frame's shadow pass draws what these marks ask for. Without
+  // a result (sky only, or a slot emptied by a cut) the marks stay; cameraCut() dropped them.
+  if (shadow_->options().tiles && previous && previous->tiles.present()) {
+    shadow_->setReceiverTiles(previous->tiles);
   }
   const glm::mat4& p = camera_.projection();
   csm::vk::DepthProjection dp{p[2][2], p[3][2], 1.0f};
@@ -689,6 +702,7 @@ void WorldRenderer::recordTileMarks(const engine::Frame& f, engine::GpuTimer& ti
                            dp, f.slot, {&shadow_->frame(), &frameCamera_, &shadow_->settings()});
   timer.end(f.cmd, "tile marks");
   if (!s.ok()) throw std::runtime_error("DepthRangeReducer::record (tile marks): " + s.message());
+  lastTileSlot_ = f.slot;
 }
 
 void WorldRenderer::recordDepthRange(const engine::Frame& f, engine::GpuTimer& timer,
@@ -711,6 +725,11 @@ void WorldRenderer::recordDepthRange(const engine::Frame& f, engine::GpuTimer& t
     if (!s.ok()) throw std::runtime_error("ShadowView::recordReceiverDepth: " + s.message());
   }
   if (marking() && tileReducer_) recordTileMarks(f, timer, stats);
+  // The cut's frame has recorded its reductions: the next frame may take their results at once.
+  if (cutPending_) {
+    cutPending_ = false;
+    latestAfterCut_ = true;
+  }
   // Back to the layout the render target expects at endFrame.
   engine::imageBarrier(
       cmd, f.depthImage, aspect, VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT,

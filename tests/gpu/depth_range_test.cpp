@@ -892,4 +892,100 @@ TEST_F(DepthRangeTest, ViewTilesAreOneSwitchAndTakeTheReducersMarks) {
   reducer.reset();
 }
 
+// After a cut the host may wait for the cut's frame and take its reduction at once
+// (ShadowView::useLatestReceiverDepth): the next frame's partial cascades then draw that frame's
+// marks instead of what the frustum can sample, and the reads of the older slots that follow do
+// not replace them. Refused by name with the fit and the tiles off; after a cut with nothing
+// recorded since, it changes nothing.
+TEST_F(DepthRangeTest, ViewTakesTheLatestMarksAtOnceAfterACut) {
+  constexpr std::uint32_t kW = 333, kH = 187;
+  const double fovDeg = 60.0, nearM = 0.5, farM = 1500.0;
+  const GroundView g = groundView(kW, kH, fovDeg);
+  glm::mat4 projection(glm::perspectiveRH_ZO(glm::radians(fovDeg), g.aspect, nearM, farM));
+  projection[1][1] = -projection[1][1];
+  const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
+  csm::ShadowSettings s;
+  s.shadowDistanceM = 300.0;
+  s.resolution = 1024;
+  const engine::Image depth = uploadDepth(g.scene, kW, kH);
+  const csm::vk::ReceiverDepthInput input{
+      depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, projection};
+  auto [view, reducer, slots] = makeViewAndReducer();
+  ASSERT_TRUE(view && reducer);
+  ASSERT_GE(slots, 2u);
+  ASSERT_TRUE(view->setSettings(s).ok());
+  const csm::vk::Status off = view->useLatestReceiverDepth();
+  EXPECT_EQ(off.code(), csm::vk::ErrorCode::kWrongOrder);
+  EXPECT_NE(off.message().find("options.tiles = false"), std::string::npos) << off.message();
+  csm::vk::RendererOptions options;
+  options.cache = true;
+  options.tiles = true;
+  ASSERT_TRUE(view->setSettings(s, options).ok());
+
+  // The marks a reducer by hand takes of the same depth buffer, frame and settings.
+  std::optional<csm::ReceiverDepthRange> hand;
+  auto partialMarks = [&](bool expectMarks) {
+    const csm::CachePlan& plan = view->renderer().cachePlan();
+    std::uint32_t partial = 0, marked = 0;
+    for (std::uint32_t i = 0; i + 1 < plan.cascadeCount; ++i) {
+      const csm::CacheCascadePlan& p = plan.cascades[i];
+      if (!p.partial) continue;
+      ++partial;
+      if (!expectMarks) {
+        EXPECT_EQ(p.marked.count(), 0u) << "cascade " << i;
+        continue;
+      }
+      EXPECT_TRUE(hand && hand->tiles.present());
+      if (!hand || !hand->tiles.present()) continue;
+      marked += p.marked.count();
+      for (std::uint32_t w = 0; w < csm::kTileWords; ++w) {
+        // Where the frustum can sample them (a superset here: the same view).
+        EXPECT_EQ(p.marked.bits[w] & ~hand->tiles.bits[i][w], 0u) << "cascade " << i;
+      }
+    }
+    EXPECT_GT(partial, 0u);
+    if (expectMarks) {
+      EXPECT_GT(marked, 0u);
+    }
+  };
+  for (int round = 0; round < 2; ++round) {
+    SCOPED_TRACE(round == 0 ? "the start" : "after a cut");
+    if (round == 1) {
+      view->cameraCut();
+      // Nothing recorded since the cut: nothing to take.
+      ASSERT_TRUE(view->useLatestReceiverDepth().ok());
+    }
+    // The cut's frame: no marks, its partial cascades fall back; its reduction recorded.
+    ctx().submitAndWait([&](VkCommandBuffer cmd) {
+      ASSERT_TRUE(view->record(cmd, g.cam, light).ok());
+      partialMarks(false);
+      ASSERT_TRUE(view->recordReceiverDepth(cmd, input).ok());
+      ASSERT_TRUE(reducer
+                      ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                               {kW, kH}, g.proj, 0, {&view->frame(), &g.cam, &s})
+                      .ok());
+    });
+    hand = reducer->read(0);
+    // The host waited (submitAndWait): the next frame draws the cut's marks, and so do the
+    // frames after it while the reads of the older slots find nothing newer.
+    ASSERT_TRUE(view->useLatestReceiverDepth().ok());
+    for (std::uint32_t k = 0; k < 2 * slots; ++k) {
+      SCOPED_TRACE("frame " + std::to_string(k + 1));
+      ctx().submitAndWait([&](VkCommandBuffer cmd) {
+        ASSERT_TRUE(view->record(cmd, g.cam, light).ok());
+        partialMarks(true);
+        ASSERT_TRUE(view->recordReceiverDepth(cmd, input).ok());
+      });
+      const csm::CachePlan& plan = view->renderer().cachePlan();
+      for (std::uint32_t i = 0; i + 1 < plan.cascadeCount; ++i) {
+        if (plan.cascades[i].partial && k > 0) {
+          EXPECT_EQ(plan.cascades[i].tilesDrawn, 0u) << "cascade " << i << ": held already";
+        }
+      }
+    }
+  }
+  view.reset();
+  reducer.reset();
+}
+
 }  // namespace

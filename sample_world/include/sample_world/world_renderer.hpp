@@ -101,6 +101,14 @@ class WorldRenderer {
   /// earlier frames (receiver-driven splits) is dropped instead of being applied to the new view,
   /// and the cascades' history is reset (csm::vk::ShadowView::resetHistory).
   void cameraCut();
+  /// The frame after a cut, with receiver-marked tiles or the receiver fit: true when the host
+  /// should wait for the GPU (the cut's frame complete) and call takeLatestReceivers() before
+  /// prepare(), so that this frame draws the cut's marks (and fits its range) instead of what the
+  /// frustum can sample.
+  [[nodiscard]] bool wantsLatestReceivers() const noexcept { return latestAfterCut_; }
+  /// After the host waited for every submitted frame: the results of the last recorded
+  /// reductions (the cut's frame) go to the next prepare().
+  void takeLatestReceivers();
 
   /// CPU side of a frame: cascades, caster culling, lit-pass culling and instance lists.
   /// Returns the error of computeCascades (invalid camera) instead of throwing.
@@ -204,6 +212,11 @@ class WorldRenderer {
   // frame in flight, the frame's slot), and the camera of the frame prepare() computed.
   std::unique_ptr<csm::vk::DepthRangeReducer> tileReducer_;
   csm::Camera frameCamera_{};
+  // After a cut: the reductions were recorded since (the slot tileReducer_ filled last), and
+  // the next frame may take their results at once (wantsLatestReceivers).
+  bool cutPending_ = true;  // the start is a cut
+  bool latestAfterCut_ = false;
+  std::uint32_t lastTileSlot_ = 0;
 
   // Per chunk: the bounds of everything in it (view culling of the lit pass).
   std::vector<csm::AabbWs> chunkBounds_;

@@ -475,6 +475,7 @@ Status ShadowView::record(VkCommandBuffer cmd, const Camera& camera,
 void ShadowView::dropReceiverDepth() noexcept {
   if (state_->reducer_) state_->reducer_->invalidate();
   state_->receiverRange_.reset();
+  state_->olderReads_ = 0;
 }
 
 void ShadowView::cameraCut() noexcept {
@@ -527,20 +528,46 @@ Status ShadowView::recordReceiverDepth(VkCommandBuffer cmd, const ReceiverDepthI
   Status s =
       state_->reducer_->record(cmd, depth.depthView, depth.layout, depth.extent, dp, slot, bounds);
   if (!s.ok()) return s;
-  // The tiles its pixels sampled go to the renderer (none yet: nothing more is drawn in the
-  // partial cascades); the range to the fit, without the bounds where only the tiles asked for
-  // them.
-  if (tiles) {
-    state_->renderer_->setReceiverTiles(previous && previous->tiles.present()
-                                            ? std::optional<ReceiverTileMarks>(previous->tiles)
-                                            : std::nullopt);
+  if (state_->olderReads_ > 0) {
+    --state_->olderReads_;  // older than what useLatestReceiverDepth() took
+  } else {
+    applyReceiverResult(std::move(previous));
   }
-  if (previous) {
-    previous->tiles = {};
-    if (!boxes) previous->lightBounds = {};
-  }
-  if (fit) state_->receiverRange_ = previous;  // else a range the host set stays
   state_->reducerSlot_ = (slot + 1) % state_->reducer_->slotCount();
+  return {};
+}
+
+// A reduction's result: the tiles its pixels sampled go to the renderer (kept when there are
+// none: sky only, or a slot emptied by a cut, whose drop cameraCut() made); the range (none: the
+// full range) to the fit, without the bounds where only the tiles asked for them.
+void ShadowView::applyReceiverResult(std::optional<ReceiverDepthRange> result) {
+  const bool fit = state_->options_.receiverFit != ReceiverFit::kOff;
+  const bool boxes = state_->options_.receiverFit == ReceiverFit::kSplitsAndBoxes;
+  if (state_->options_.tiles && result && result->tiles.present()) {
+    state_->renderer_->setReceiverTiles(result->tiles);
+  }
+  if (result) {
+    result->tiles = {};
+    if (!boxes) result->lightBounds = {};
+  }
+  if (fit) state_->receiverRange_ = std::move(result);  // else a range the host set stays
+}
+
+Status ShadowView::useLatestReceiverDepth() {
+  const bool fit = state_->options_.receiverFit != ReceiverFit::kOff;
+  if ((!fit && !state_->options_.tiles) || !state_->reducer_) {
+    return Status(ErrorCode::kWrongOrder,
+                  "ShadowView::useLatestReceiverDepth with options.receiverFit = kOff and "
+                  "options.tiles = false: turn the receiver fit or the tiles on (setSettings) "
+                  "first");
+  }
+  const std::uint32_t n = state_->reducer_->slotCount();
+  std::optional<ReceiverDepthRange> latest =
+      state_->reducer_->read((state_->reducerSlot_ + n - 1) % n);
+  if (!latest) return {};
+  applyReceiverResult(std::move(latest));
+  // The next n - 1 recordReceiverDepth() read the slots filled before it.
+  state_->olderReads_ = n - 1;
   return {};
 }
 

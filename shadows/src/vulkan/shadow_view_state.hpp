@@ -16,6 +16,8 @@ struct ShadowView::State {
   std::unique_ptr<ShadowRenderer> renderer_;
   std::unique_ptr<DepthRangeReducer> reducer_;  // the receiver fit's, made when it is turned on
   std::uint32_t reducerSlot_ = 0;               // the slot the next recordReceiverDepth fills
+  // Reads older than the result useLatestReceiverDepth() took, still to come (not applied).
+  std::uint32_t olderReads_ = 0;
   ShadowSettings settings_{};
   RendererOptions options_{};
   LightingSpecialization spec_{ShadowSettings{}};  // of settings_, for the lighting pipeline

@@ -187,11 +187,21 @@ class ShadowView {
   /// pixels sample (the reduction's result is read by the recordReceiverDepth of frame
   /// N + framesInFlight, whose recording means the host has waited for frame N's fence);
   /// before a first result, after cameraCut() and while only sky is seen they cover the full
-  /// range (and the partial cascades' pixels fall back). Refused, naming the field, when the fit
-  /// and the tiles are off, before the frame's compute() (or after a record(cmd, frame) whose
-  /// camera the view does not know, with kSplitsAndBoxes or tiles), or for an unusable layout,
-  /// extent or projection; nothing is recorded then.
+  /// range. The tiles are kept until a newer result replaces them (also while only sky is seen);
+  /// after cameraCut() and before a first result there are none: the first frame's partial
+  /// cascades fall back, the next ones draw what the frustum can sample. Refused, naming the
+  /// field, when the fit and the tiles are off, before the frame's compute() (or after a
+  /// record(cmd, frame) whose camera the view does not know, with kSplitsAndBoxes or tiles), or
+  /// for an unusable layout, extent or projection; nothing is recorded then.
   Status recordReceiverDepth(VkCommandBuffer cmd, const ReceiverDepthInput& depth);
+  /// The result of the last recordReceiverDepth() at once, for a host that has waited for that
+  /// frame to complete on the GPU (its fence, or the queue idle): its marks, and with the fit its
+  /// range, are used from the next compute() on, instead of framesInFlight frames later. Meant
+  /// for the frame after a cameraCut(): one wait, and the partial cascades draw the marks of
+  /// the cut's frame instead of what the frustum can sample (almost their whole boxes). Refused
+  /// when the fit and the tiles are off; a frame without a result (sky only, none recorded
+  /// since the cut) changes nothing.
+  Status useLatestReceiverDepth();
   /// The view-depth range of the receivers, for a host with its own reduction (as
   /// DepthRangeReducer reports it, a frame or two late); nothing (the default, and what a host
   /// passes after a camera cut or while no result is ready) = the full range. With its
@@ -252,6 +262,7 @@ class ShadowView {
   void adoptCasters(std::span<const MeshDraw> meshes, std::span<const CasterInstance> instances);
   void applyThinMargins();
   void cullInto(const CascadeFrame& frame);
+  void applyReceiverResult(std::optional<ReceiverDepthRange> result);
 
   void dropReceiverDepth() noexcept;
   Status checkHandle(const char* call, CasterHandle handle) const;
