@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -140,6 +141,31 @@ class DepthRangeTest : public engine_test::GpuTest {
     engine::uploadImage(ctx(), depth, engine::asBytes(std::span<const float>(scene.depth)),
                         VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
     return depth;
+  }
+
+  // The tiles' tests: a 60 degree view of the ground (the cascades before the last lie in its
+  // box: they can be partial), its projection, light, settings and depth buffer.
+  struct TileView {
+    GroundView g;
+    glm::mat4 projection{1.0f};
+    csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
+    csm::ShadowSettings s;
+    std::optional<engine::Image> depth;
+    csm::vk::ReceiverDepthInput input{};
+  };
+  std::unique_ptr<TileView> tileView(std::uint32_t w, std::uint32_t h) {
+    const double fovDeg = 60.0, nearM = 0.5, farM = 1500.0;
+    auto t = std::make_unique<TileView>();
+    t->g = groundView(w, h, fovDeg);
+    t->projection = glm::perspectiveRH_ZO(glm::radians(fovDeg), t->g.aspect, nearM, farM);
+    t->projection[1][1] = -t->projection[1][1];
+    EXPECT_EQ(t->g.proj.p22, t->projection[2][2]);
+    EXPECT_EQ(t->g.proj.p32, t->projection[3][2]);
+    t->s.shadowDistanceM = 300.0;
+    t->s.resolution = 1024;
+    t->depth.emplace(uploadDepth(t->g.scene, w, h));
+    t->input = {t->depth->view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {w, h}, t->projection};
+    return t;
   }
 };
 
@@ -782,20 +808,8 @@ TEST_F(DepthRangeTest, ViewReceiverFitIsOneSwitchAndMatchesTheReducerByHand) {
 // full range and no receiver range is kept.
 TEST_F(DepthRangeTest, ViewTilesAreOneSwitchAndTakeTheReducersMarks) {
   constexpr std::uint32_t kW = 333, kH = 187;
-  // A 60 degree view (the cascades before the last lie in its box: they can be partial).
-  const double fovDeg = 60.0, nearM = 0.5, farM = 1500.0;
-  const GroundView g = groundView(kW, kH, fovDeg);
-  glm::mat4 projection(glm::perspectiveRH_ZO(glm::radians(fovDeg), g.aspect, nearM, farM));
-  projection[1][1] = -projection[1][1];
-  ASSERT_EQ(g.proj.p22, projection[2][2]);
-  ASSERT_EQ(g.proj.p32, projection[3][2]);
-  const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
-  csm::ShadowSettings s;
-  s.shadowDistanceM = 300.0;
-  s.resolution = 1024;
-  const engine::Image depth = uploadDepth(g.scene, kW, kH);
-  const csm::vk::ReceiverDepthInput input{
-      depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, projection};
+  const std::unique_ptr<TileView> t = tileView(kW, kH);
+  [[maybe_unused]] const auto& [g, projection, light, s, depth, input] = *t;
 
   auto [view, reducer, slots] = makeViewAndReducer();
   ASSERT_TRUE(view && reducer);
@@ -865,7 +879,7 @@ TEST_F(DepthRangeTest, ViewTilesAreOneSwitchAndTakeTheReducersMarks) {
       const std::uint32_t slot = k % slots;
       hand = reducer->read(slot);
       ASSERT_TRUE(reducer
-                      ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                      ->record(cmd, depth->view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
                                {kW, kH}, g.proj, slot, {&view->frame(), &g.cam, &s})
                       .ok());
     });
@@ -899,17 +913,8 @@ TEST_F(DepthRangeTest, ViewTilesAreOneSwitchAndTakeTheReducersMarks) {
 // recorded since, it changes nothing.
 TEST_F(DepthRangeTest, ViewTakesTheLatestMarksAtOnceAfterACut) {
   constexpr std::uint32_t kW = 333, kH = 187;
-  const double fovDeg = 60.0, nearM = 0.5, farM = 1500.0;
-  const GroundView g = groundView(kW, kH, fovDeg);
-  glm::mat4 projection(glm::perspectiveRH_ZO(glm::radians(fovDeg), g.aspect, nearM, farM));
-  projection[1][1] = -projection[1][1];
-  const csm::DirectionalLight light{glm::dvec3(0.45, -0.8, -0.35)};
-  csm::ShadowSettings s;
-  s.shadowDistanceM = 300.0;
-  s.resolution = 1024;
-  const engine::Image depth = uploadDepth(g.scene, kW, kH);
-  const csm::vk::ReceiverDepthInput input{
-      depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, {kW, kH}, projection};
+  const std::unique_ptr<TileView> t = tileView(kW, kH);
+  [[maybe_unused]] const auto& [g, projection, light, s, depth, input] = *t;
   auto [view, reducer, slots] = makeViewAndReducer();
   ASSERT_TRUE(view && reducer);
   ASSERT_GE(slots, 2u);
@@ -961,7 +966,7 @@ TEST_F(DepthRangeTest, ViewTakesTheLatestMarksAtOnceAfterACut) {
       partialMarks(false);
       ASSERT_TRUE(view->recordReceiverDepth(cmd, input).ok());
       ASSERT_TRUE(reducer
-                      ->record(cmd, depth.view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                      ->record(cmd, depth->view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
                                {kW, kH}, g.proj, 0, {&view->frame(), &g.cam, &s})
                       .ok());
     });
