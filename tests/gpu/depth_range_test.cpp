@@ -16,6 +16,7 @@
 #include <csm/light_space.hpp>
 #include <csm/receiver_bounds.hpp>
 #include <csm/receiver_tiles.hpp>
+#include <csm/selection.hpp>
 #include <csm/splits.hpp>
 #include <csm/vulkan/depth_range.hpp>
 #include <csm/vulkan/shadow_view.hpp>
@@ -857,9 +858,7 @@ TEST_F(DepthRangeTest, ViewTilesAreOneSwitchAndTakeTheReducersMarks) {
       for (std::uint32_t i = 0; i < last; ++i) {
         const csm::CacheCascadePlan& p = plan.cascades[i];
         if (!p.partial) continue;
-        const double nearM =
-            i == 0 ? f.splitsM[0] : f.splitsM[i] - f.blendBand * (f.splitsM[i] - f.splitsM[i - 1]);
-        const csm::TileMask sampled = viewTiles(i, nearM);
+        const csm::TileMask sampled = viewTiles(i, csm::cascadeReadFromM(f, i, f.blendBand));
         if (!hand || !hand->tiles.present()) {
           // The first frame without marks falls back; the next ones draw what the view samples.
           const csm::TileMask none{p.marked.origin, {}};

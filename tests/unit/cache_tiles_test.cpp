@@ -14,6 +14,7 @@
 #include <csm/cascades.hpp>
 #include <csm/gpu_layout.hpp>
 #include <csm/receiver_tiles.hpp>
+#include <csm/selection.hpp>
 
 namespace {
 
@@ -198,13 +199,6 @@ TEST(CacheTiles, CarriedMarksHoldEveryReceiverAcrossALightStepAndACameraMove) {
   EXPECT_GT(checked, 1000u);
 }
 
-/// The view depth where the lighting starts reading cascade i of `f` (the blend band of the one
-/// before it).
-double sampledNearM(const csm::CascadeFrame& f, std::uint32_t i) {
-  if (i == 0) return f.splitsM[0];
-  return f.splitsM[i] - f.blendBand * (f.splitsM[i] - f.splitsM[i - 1]);
-}
-
 /// The tiles of cascade i (on the grid of box `box`) that the view of `f` can sample at view
 /// depths [nearM, splitsM[i + 1]].
 csm::TileMask frustumTiles(const csm::ShadowSettings& s, const csm::CascadeFrame& f,
@@ -255,8 +249,8 @@ TEST(CacheTiles, FrustumTilesHoldEveryReceiverTheViewCanSee) {
           std::array<csm::TileMask, csm::kMaxCascades> own{}, all{};
           for (std::uint32_t i = 0; i < f.cascadeCount; ++i) {
             if (f.cascades[i].empty) continue;
-            for (auto [mask, nearM] :
-                 {std::pair{&own[i], sampledNearM(f, i)}, std::pair{&all[i], f.splitsM[0]}}) {
+            for (auto [mask, nearM] : {std::pair{&own[i], csm::cascadeReadFromM(f, i, f.blendBand)},
+                                       std::pair{&all[i], f.splitsM[0]}}) {
               mask->origin = empty.gridOrigin[i];
               ASSERT_TRUE(csm::markFrustumTiles(f, nearM, f.splitsM[i + 1], f.lightBasisWs,
                                                 empty.texelM[i], tile, empty.reachM[i], *mask));
@@ -335,7 +329,8 @@ TEST(CacheTiles, OnlyTheFirstFrameWithoutMarksFallsBack) {
         EXPECT_TRUE(c.stale.empty()) << i;
         continue;
       }
-      const csm::TileMask view = frustumTiles(s, f, c.box, i, sampledNearM(f, i));
+      const csm::TileMask view =
+          frustumTiles(s, f, c.box, i, csm::cascadeReadFromM(f, i, f.blendBand));
       EXPECT_EQ(c.marked, view) << i;
       for (std::int64_t y = 0; y < csm::kTileGridSide; ++y) {
         for (std::int64_t x = 0; x < csm::kTileGridSide; ++x) {
@@ -365,7 +360,9 @@ TEST(CacheTiles, OnlyTheFirstFrameWithoutMarksFallsBack) {
     const csm::CacheCascadePlan& c = p.cascades[i];
     if (!c.partial) continue;
     EXPECT_EQ(c.tilesDrawn, 0u) << i << ": the view's tiles are held already";
-    EXPECT_LE(c.marked.count(), frustumTiles(s, f, c.box, i, sampledNearM(f, i)).count()) << i;
+    EXPECT_LE(c.marked.count(),
+              frustumTiles(s, f, c.box, i, csm::cascadeReadFromM(f, i, f.blendBand)).count())
+        << i;
   }
 }
 
@@ -457,7 +454,8 @@ TEST(CacheTiles, PartialCascadesDrawOnlyMarkedTilesAndTheLastWhatTheViewSamples)
     EXPECT_GT(wholeArea, 0u) << i;
     EXPECT_EQ(c.staleTexels, wholeArea) << i;
     // The marks, only where this frame's view can sample the cascade.
-    const csm::TileMask view = frustumTiles(s, f, c.box, i, sampledNearM(f, i));
+    const csm::TileMask view =
+        frustumTiles(s, f, c.box, i, csm::cascadeReadFromM(f, i, f.blendBand));
     for (std::uint32_t w = 0; w < csm::kTileWords; ++w) {
       EXPECT_EQ(c.marked.bits[w] & ~view.bits[w], 0u) << i << " word " << w;
     }

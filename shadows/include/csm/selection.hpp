@@ -22,6 +22,12 @@ struct CascadeSelection {
 [[nodiscard]] CascadeSelection selectCascade(const CascadeFrame& frame, double viewDepthM,
                                              double blendBand) noexcept;
 
+/// The view depth from which the lighting reads cascade i (selectCascade with `blendBand`):
+/// split_0 for cascade 0, else where the blend band of cascade i - 1 starts (split_i itself
+/// without a band).
+[[nodiscard]] double cascadeReadFromM(const CascadeFrame& frame, std::uint32_t i,
+                                      double blendBand) noexcept;
+
 /// How far a receiver at `viewDepthM` has faded to lit, in [0, 1]: 0 before
 /// fadeEndM - fadeLengthM, rising as smoothstep to 1 at frame.fadeEndM (and beyond). The
 /// shadow factor becomes mix(s, 1, shadowFade()). Always 0 when fadeLengthM is 0 (no fade).

@@ -7,6 +7,8 @@
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 
+#include "csm/selection.hpp"
+
 namespace csm {
 
 std::int64_t cacheBoxStart(double centerLs, double texel, std::int64_t res) noexcept {
@@ -337,26 +339,23 @@ CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t r
                                     state.layers[l].zFar, margin, frame.cascades[i]);
     anyPartial = anyPartial || p.partial;
   }
-  // The view depths at which the lighting reads cascade i: its slice and the blend band of the
-  // one before it.
-  auto sampledNearM = [&](std::uint32_t i) {
-    if (i == 0) return frame.splitsM[0];
-    return frame.splitsM[i] - frame.blendBand * (frame.splitsM[i] - frame.splitsM[i - 1]);
-  };
   const bool hasMarks = tiles != nullptr && tiles->marks != nullptr && tiles->marks->present();
   for (std::uint32_t i = 0; i < count; ++i) {
     CacheCascadePlan& p = plan.cascades[i];
     if (!p.active) continue;
     const Cascade& c = frame.cascades[i];
-    if (tiles != nullptr) {
-      // What the view's frustum can sample, this frame: for the last cascade, everything the
-      // lighting may read in it, its slice and every pixel that falls back to it.
-      const bool isLast = std::int64_t(i) == last;
+    const bool isLast = std::int64_t(i) == last;
+    if (tiles != nullptr && (isLast || p.partial)) {
+      // What the view's frustum can sample, this frame, from the depth the lighting reads the
+      // cascade at (its slice and the blend band before it); for the last cascade, with a
+      // partial one, every depth: every pixel that falls back reads it.
       const double texel = c.texelSizeLs.x;
       TileMask view = tileGridOf(p.box, res);
       const bool seen = markFrustumTiles(
-          frame, isLast && anyPartial ? frame.splitsM[0] : sampledNearM(i), frame.splitsM[i + 1],
-          basis, texel, tileTexelsOf(res), tiles->reachTexels[i] * texel, view);
+          frame,
+          isLast && anyPartial ? frame.splitsM[0] : cascadeReadFromM(frame, i, frame.blendBand),
+          frame.splitsM[i + 1], basis, texel, tileTexelsOf(res), tiles->reachTexels[i] * texel,
+          view);
       if (isLast && seen) {
         p.partial = true;
         p.marked = view;

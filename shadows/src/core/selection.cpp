@@ -19,7 +19,7 @@ CascadeSelection selectCascade(const CascadeFrame& frame, double viewDepth,
   sel.index = static_cast<int>(i);
   if (blendBand > 0.0 && i + 1 < n && !frame.cascades[i + 1].empty) {
     const double splitFar = frame.splitsM[i + 1];
-    const double bandStart = splitFar - blendBand * (splitFar - frame.splitsM[i]);
+    const double bandStart = cascadeReadFromM(frame, i + 1, blendBand);
     // The band starts at bandStart inclusive, as in csmSelectCascade (csm.glsl): weight 0 there.
     if (viewDepth >= bandStart) {
       sel.blendIndex = static_cast<int>(i + 1);
@@ -27,6 +27,11 @@ CascadeSelection selectCascade(const CascadeFrame& frame, double viewDepth,
     }
   }
   return sel;
+}
+
+double cascadeReadFromM(const CascadeFrame& frame, std::uint32_t i, double blendBand) noexcept {
+  if (i == 0) return frame.splitsM[0];
+  return frame.splitsM[i] - blendBand * (frame.splitsM[i] - frame.splitsM[i - 1]);
 }
 
 double shadowFade(const CascadeFrame& frame, double viewDepthM) noexcept {
