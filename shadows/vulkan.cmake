@@ -8,7 +8,8 @@ target_sources(csm_core PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src/core/gpu_layout.
                                 ${CMAKE_CURRENT_SOURCE_DIR}/src/core/presets.cpp)
 
 csm_compile_shaders(csm_depth_shaders SOURCE_DIR ${CMAKE_CURRENT_SOURCE_DIR}/shaders
-                    csm_depth.vert csm_depth_layered.vert csm_depth_thin.geom)
+                    csm_depth.vert csm_depth_layered.vert csm_depth_thin.geom
+                    csm_cache_restore.vert csm_cache_restore.frag)
 
 # The depth-range reduction (receiver-driven splits) is compiled for SPIR-V 1.5 (Vulkan 1.2):
 # glslang's SPIR-V 1.6 output of a compute shader uses LocalSizeId, which needs maintenance4.

@@ -145,6 +145,11 @@ constexpr std::array<std::pair<const char*, SplitScheme>, 3> kSchemes{{
 }};
 constexpr std::array<std::pair<const char*, csm::BoxFit>, 2> kBoxFits{
     {{"sphere", csm::BoxFit::kSphere}, {"tight", csm::BoxFit::kTight}}};
+constexpr std::array<std::pair<const char*, csm::CacheRestore>, 4> kCacheRestores{
+    {{"shadercopy", csm::CacheRestore::kShaderCopy},
+     {"redraw", csm::CacheRestore::kRedraw},
+     {"copyrects", csm::CacheRestore::kCopyRects},
+     {"wholelayer", csm::CacheRestore::kWholeLayer}}};
 constexpr std::array<std::pair<const char*, csm::ReceiverSplitScheme>, 2> kReceiverSchemes{
     {{"range", csm::ReceiverSplitScheme::kRange},
      {"histogram", csm::ReceiverSplitScheme::kHistogram}}};
@@ -232,6 +237,10 @@ const std::vector<Entry>& table() {
           "an integer in [0, 2^40]: 0 = no cap, else at least shadow.resolution^2", 0,
           1099511627776.0, true,
           [](AppSettings& s) -> std::uint64_t& { return s.cacheBudgetTexels; }),
+      // How a cached layer gets its static depth back (a comparison switch: same depth).
+      choice(
+          "shadow.cacheRestore", "one of shadercopy, redraw, copyrects, wholelayer", kCacheRestores,
+          [](AppSettings& s) -> csm::CacheRestore& { return s.shadow.diagnostics.cacheRestore; }),
       number<float>("shadow.minCasterTexels", "texels in [0, 1e6]", 0, 1e6, false,
                     [](AppSettings& s) -> float& { return s.shadow.minCasterTexels; }),
       depthFormatEntry(),

@@ -130,7 +130,7 @@ class CacheRig {
 
   /// Adds a view: cached, or the reference (cached but fully re-rendered every frame).
   ViewRig& addView(std::uint64_t budgetTexels = 0,
-                   csm::CacheRestore restore = csm::CacheRestore::kRedraw) {
+                   csm::CacheRestore restore = csm::ShadowDiagnostics{}.cacheRestore) {
     csm::vk::RendererOptions options;
     options.cache = true;
     options.renderMode = csm::vk::RenderMode::kPerLayer;
@@ -295,10 +295,11 @@ class CacheFlight : public ::testing::TestWithParam<std::string> {};
 // Views: 0 cached, 1 the reference (fully re-rendered every frame), 2 cached but never given the
 // caster added mid-flight (the map without it).
 TEST_P(CacheFlight, EveryFrameBitIdenticalToFullRender) {
-  // "path" or "path_restore": the cached view restores its layers by redraw (the default), by
-  // rectangle copies or by whole-layer copies.
+  // "path" or "path_restore": the cached view restores its layers by the shader copy (the
+  // default), by redrawing, by rectangle copies or by whole-layer copies.
   const std::string path = GetParam().substr(0, GetParam().find('_'));
-  csm::CacheRestore restore = csm::CacheRestore::kRedraw;
+  csm::CacheRestore restore = csm::CacheRestore::kShaderCopy;
+  if (GetParam().ends_with("_redraw")) restore = csm::CacheRestore::kRedraw;
   if (GetParam().ends_with("_copyrects")) restore = csm::CacheRestore::kCopyRects;
   if (GetParam().ends_with("_wholelayer")) restore = csm::CacheRestore::kWholeLayer;
   CacheRig rig;
@@ -719,8 +720,8 @@ double medianOf(std::vector<double> v) {
 
 // Not a test (timings decide nothing): what restoring the sampled layers costs with whole-layer
 // copies and with the changed rectangles, cache on, the two views recorded alternately in one
-// run (each frame in the other order). By hand, for README (CSM_CACHE_TIMING_B=copyrects:
-// rectangle copies instead of redrawn rectangles):
+// run (each frame in the other order). By hand, for the docs (CSM_CACHE_TIMING_B=shadercopy,
+// the default, redraw or copyrects: how the second view restores its rectangles):
 //   CSM_CACHE_TIMING_RES=4096 shadow_cache_tests --gtest_also_run_disabled_tests
 //       --gtest_filter='*CopyRectsVsWholeLayer*'
 TEST(ShadowCacheTiming, DISABLED_CopyRectsVsWholeLayer) {
@@ -729,9 +730,10 @@ TEST(ShadowCacheTiming, DISABLED_CopyRectsVsWholeLayer) {
   const std::uint32_t res = resEnv != nullptr ? std::uint32_t(std::atoi(resEnv)) : 4096u;
   const int frames = std::max(4, flightFrames() / 4);
   const char* bEnv = std::getenv("CSM_CACHE_TIMING_B");
-  const bool copyRects = bEnv != nullptr && std::string(bEnv) == "copyrects";
-  const csm::CacheRestore restoreB =
-      copyRects ? csm::CacheRestore::kCopyRects : csm::CacheRestore::kRedraw;
+  const std::string bName = bEnv != nullptr ? bEnv : "shadercopy";
+  csm::CacheRestore restoreB = csm::CacheRestore::kShaderCopy;
+  if (bName == "copyrects") restoreB = csm::CacheRestore::kCopyRects;
+  if (bName == "redraw") restoreB = csm::CacheRestore::kRedraw;
   std::array<std::unique_ptr<csm::vk::ShadowView>, 2> views;
   for (std::size_t v = 0; v < 2; ++v) {
     views[v] = glue::createShadowView(*rig.ctx_);
@@ -779,8 +781,10 @@ TEST(ShadowCacheTiming, DISABLED_CopyRectsVsWholeLayer) {
       "%.2f ms whole-layer copies, %.2f ms %s; median per-frame ratio %.2fx; "
       "texels copied %.3g vs %.3g\n",
       kCascades, res, frames - 2, medianOf(ms[0]), medianOf(ms[1]),
-      copyRects ? "rectangle copies" : "redrawn rectangles", medianOf(ratio), double(copied[0]),
-      double(copied[1]));
+      restoreB == csm::CacheRestore::kCopyRects ? "rectangle copies"
+      : restoreB == csm::CacheRestore::kRedraw  ? "redrawn rectangles"
+                                                : "shader-copied rectangles",
+      medianOf(ratio), double(copied[0]), double(copied[1]));
   EXPECT_EQ(engine::validationMessageCount(), 0u);
 }
 
@@ -1137,8 +1141,8 @@ INSTANTIATE_TEST_SUITE_P(Paths, CacheBudget, ::testing::Values("fast", "sun", "s
                          [](const auto& info) { return info.param; });
 
 INSTANTIATE_TEST_SUITE_P(Paths, CacheFlight,
-                         ::testing::Values("walk", "fast", "turn", "sun", "walk_copyrects",
-                                           "fast_wholelayer"),
+                         ::testing::Values("walk", "fast", "turn", "sun", "walk_redraw",
+                                           "walk_copyrects", "fast_wholelayer"),
                          [](const auto& info) { return info.param; });
 
 // The callback form of recordShadowPass on stabilised per-layer cascades without the cache: the

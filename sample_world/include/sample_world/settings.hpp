@@ -37,7 +37,7 @@ struct AppSettings {
   bool depth16 = false;
   /// Cached cascades (csm::vk::RendererOptions::cache): static casters' depth kept across
   /// frames, only what changed re-rendered; the world's dynamic casters drawn every frame. On by
-  /// default (the fly-through's shadow pass is 7x cheaper on `fast` with it; every frame is
+  /// default (the fly-through's shadow pass is 8x cheaper on `fast` with it; every frame is
   /// exact). Needs stabilised cascades and the per-layer render mode.
   bool shadowCache = true;
   /// The cache's texel budget (csm::vk::RendererOptions::cacheBudgetTexels): at most this many

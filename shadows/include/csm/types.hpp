@@ -90,21 +90,27 @@ enum class PcfKernel : std::uint32_t {
 
 /// How a cached cascade's sampled layer is restored to the static depth
 /// (ShadowDiagnostics::cacheRestore). Whatever the choice, a new window or a change over most of
-/// the layer copies the whole layer.
+/// the layer copies the whole layer, and every choice gives the same depth in every texel.
 enum class CacheRestore : std::uint8_t {
   /// Copy the whole static layer whenever anything in the cascade changed (dynamic casters
   /// included): the simplest scheme.
   kWholeLayer,
-  /// Copy only the changed rectangles. Measured 1.8x slower than kWholeLayer and 5x slower than
-  /// kRedraw on lavapipe (its partial depth copies cost more than whole ones;
-  /// shadows/docs/cache.md).
+  /// Copy only the changed rectangles (vkCmdCopyImage). On lavapipe its partial depth copies
+  /// cost about as much as whole ones (shadows/docs/cache.md).
   kCopyRects,
   /// Clear the changed rectangles and draw the static casters over them again, scissored,
   /// in the dynamic casters' pass: no copy. Bit-identical (a texel is always rasterised with the
-  /// same vertices, viewport and tile). The default: measured fastest. Rectangles adding up to an
-  /// eighth of the layer or more (receiver-marked tiles after a new window or a cut) are copied
-  /// instead: redrawing them would cost as much as drawing them.
+  /// same vertices, viewport and tile). Costs every triangle of every static caster that touches
+  /// a rectangle: cheap in small scenes, many milliseconds where a small vehicle stands on a big
+  /// terrain patch. Rectangles adding up to an eighth of the layer or more are copied instead.
   kRedraw,
+  /// The default. Draw each changed rectangle, scissored, in the dynamic casters' pass with a
+  /// fragment shader that reads the static layer texel by texel and writes that depth: a copy
+  /// whose cost follows the texels restored, not the casters over them, with no transfer
+  /// between the passes. Bit-identical on float depth formats (the value is written as read);
+  /// on a UNORM depth format (D16), whose conversion from the shader's float Vulkan leaves to
+  /// the implementation's rounding, it restores as kRedraw.
+  kShaderCopy,
 };
 
 /// The switches that exist to measure the module against itself, in one group: each turns off
@@ -123,7 +129,7 @@ struct ShadowDiagnostics {
   /// Cached cascades: how the sampled layer gets the static depth back where it changed (the
   /// rectangles re-rendered this frame and those dynamic casters covered last frame) before the
   /// dynamic casters are drawn. Every choice gives the same depth; only the cost differs.
-  CacheRestore cacheRestore = CacheRestore::kRedraw;
+  CacheRestore cacheRestore = CacheRestore::kShaderCopy;
   /// Where the renderer's cullMode is none: casters flagged CasterInstance::closed are drawn with
   /// their faces turned away from the light culled. Along any light ray the nearest surface of
   /// a closed caster faces the light, so every texel keeps its depth while about half of those

@@ -124,10 +124,11 @@ std::optional<ValidationError> validate(const ShadowSettings& s) {
   }
   if (!(s.diagnostics.cacheRestore == CacheRestore::kWholeLayer ||
         s.diagnostics.cacheRestore == CacheRestore::kCopyRects ||
-        s.diagnostics.cacheRestore == CacheRestore::kRedraw)) {
+        s.diagnostics.cacheRestore == CacheRestore::kRedraw ||
+        s.diagnostics.cacheRestore == CacheRestore::kShaderCopy)) {
     return refuse("settings.diagnostics.cacheRestore",
                   static_cast<double>(s.diagnostics.cacheRestore),
-                  "0 (whole layer), 1 (copy rects) or 2 (redraw)");
+                  "0 (whole layer), 1 (copy rects), 2 (redraw) or 3 (shader copy)");
   }
   if (!(s.fadeFraction >= 0.0 && s.fadeFraction <= 1.0)) {
     return refuse("settings.fadeFraction", s.fadeFraction,

@@ -201,7 +201,9 @@ Status ShadowRenderer::Impl::buildStaticImage(const ShadowSettings& settings, Vk
   ci.arrayLayers = settings.cascadeCount;
   ci.samples = VK_SAMPLE_COUNT_1_BIT;
   ci.tiling = VK_IMAGE_TILING_OPTIMAL;
-  ci.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  // Sampled: the shader copy (CacheRestore::kShaderCopy) reads it.
+  ci.usage = VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
+             VK_IMAGE_USAGE_SAMPLED_BIT;
   ci.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   ci.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
   // Built into `out`; on failure what was made is destroyed (it was never recorded).
@@ -229,6 +231,38 @@ Status ShadowRenderer::Impl::buildStaticImage(const ShadowSettings& settings, Vk
     const std::string name = "csm static depth cache layer " + std::to_string(i);
     setName(handleBits(out.views[i]), VK_OBJECT_TYPE_IMAGE_VIEW, name.c_str());
   }
+  // The shader copy's sets, one a layer, living with the image (a set recorded in a frame in
+  // flight is never rewritten).
+  const VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, settings.cascadeCount};
+  auto pci = vkInit<VkDescriptorPoolCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO);
+  pci.maxSets = settings.cascadeCount;
+  pci.poolSizeCount = 1;
+  pci.pPoolSizes = &size;
+  r = vkCreateDescriptorPool(dev, &pci, nullptr, &out.pool);
+  if (r != VK_SUCCESS) return fail(vkError(r, "vkCreateDescriptorPool(csm static cache)"));
+  setName(handleBits(out.pool), VK_OBJECT_TYPE_DESCRIPTOR_POOL, "csm static depth cache pool");
+  std::array<VkDescriptorSetLayout, kMaxCascades> layouts;
+  layouts.fill(restoreSetLayout_);
+  auto ai = vkInit<VkDescriptorSetAllocateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO);
+  ai.descriptorPool = out.pool;
+  ai.descriptorSetCount = settings.cascadeCount;
+  ai.pSetLayouts = layouts.data();
+  r = vkAllocateDescriptorSets(dev, &ai, out.sets.data());
+  if (r != VK_SUCCESS) return fail(vkError(r, "vkAllocateDescriptorSets(csm static cache)"));
+  std::array<VkDescriptorImageInfo, kMaxCascades> infos{};
+  std::array<VkWriteDescriptorSet, kMaxCascades> writes{};
+  for (std::uint32_t i = 0; i < settings.cascadeCount; ++i) {
+    infos[i] = {depthSampler_, out.views[i], VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
+    writes[i] = vkInit<VkWriteDescriptorSet>(VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET);
+    writes[i].dstSet = out.sets[i];
+    writes[i].dstBinding = 0;
+    writes[i].descriptorCount = 1;
+    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    writes[i].pImageInfo = &infos[i];
+    const std::string name = "csm static depth cache set " + std::to_string(i);
+    setName(handleBits(out.sets[i]), VK_OBJECT_TYPE_DESCRIPTOR_SET, name.c_str());
+  }
+  vkUpdateDescriptorSets(dev, settings.cascadeCount, writes.data(), 0, nullptr);
   bytes = req.size;
   return {};
 }
@@ -238,6 +272,8 @@ void ShadowRenderer::Impl::installStaticImage(Retired& built, VkDeviceSize bytes
   staticImage_ = built.image;
   staticMemory_ = built.memory;
   std::copy(built.views, built.views + kMaxCascades, std::begin(staticViews_));
+  staticPool_ = built.pool;
+  staticSets_ = built.sets;
   cacheBytes_ = bytes;
   staticInitialised_ = false;
   built = Retired{};
@@ -250,9 +286,12 @@ void ShadowRenderer::Impl::retireStaticImage() noexcept {
   old.image = staticImage_;
   old.memory = staticMemory_;
   std::copy(std::begin(staticViews_), std::end(staticViews_), old.views);
+  old.pool = staticPool_;
   retired_.push_back(old);
   staticImage_ = VK_NULL_HANDLE;
   staticMemory_ = VK_NULL_HANDLE;
+  staticPool_ = VK_NULL_HANDLE;
+  staticSets_ = {};
   std::fill(std::begin(staticViews_), std::end(staticViews_), VK_NULL_HANDLE);
   cacheBytes_ = 0;
   staticInitialised_ = false;
@@ -276,7 +315,7 @@ struct ShadowRenderer::Impl::CachedPass {
   std::vector<TexelRect> casterRects;           // computed once per cascade
   const MeshDraw* bound = nullptr;
   glm::dmat3 basisT{1.0};  // the light basis (transposed) of the cascade being drawn
-  std::vector<TexelRect> dirty, copyParts;
+  std::vector<TexelRect> dirty, copyParts, shaderCopyParts;
   std::vector<LayerRect> layerRects, staticPieces, redrawParts;
   std::vector<VkImageCopy> copyRegions;
   std::vector<PieceHit> hits;
@@ -506,9 +545,11 @@ bool ShadowRenderer::Impl::recordCachedCascade(CachedPass& pass, std::uint32_t i
   changed.insert(changed.end(), drawn.rects.begin(), drawn.rects.end());
   rememberDynamicRects(pass, i, list);  // none when !dynamicNow
   changed.insert(changed.end(), drawn.rects.begin(), drawn.rects.end());
-  recordStaticCopy(pass.cmd, i, pass.copyRegions, whole);
-  st.copied = !pass.copyRegions.empty();
-  if (dynamicNow || !pass.redrawParts.empty()) recordDynamicPass(pass, i, list);
+  const bool shaderCopy = !pass.shaderCopyParts.empty();
+  recordStaticCopy(pass.cmd, i, pass.copyRegions, whole, shaderCopy);
+  st.copied = !pass.copyRegions.empty() || shaderCopy;
+  if (dynamicNow || !pass.redrawParts.empty() || shaderCopy) recordDynamicPass(pass, i, list);
+  if (shaderCopy) recordStaticLayerBack(pass.cmd, i);
   drawn.last = dynamicNow;
   return true;
 }
@@ -537,9 +578,11 @@ void ShadowRenderer::Impl::recordStaticRects(CachedPass& pass, std::uint32_t i,
 
 // How the sampled layer gets the static depth back. It holds the static depth except where it
 // was re-rendered this frame and where dynamic casters were drawn last time: only those
-// rectangles are restored, copied (kCopyRects: pass.copyRegions) or cleared and redrawn with
-// the static casters (kRedraw: pass.redrawParts); the whole layer is copied on a full render,
-// when they are most of it, or with kWholeLayer. Returns whether the whole layer is copied.
+// rectangles are restored, drawn with the static layer's depth (kShaderCopy:
+// pass.shaderCopyParts), copied (kCopyRects: pass.copyRegions) or cleared and redrawn with the
+// static casters (kRedraw, and kShaderCopy on a UNORM format: pass.redrawParts); the whole layer
+// is copied on a full render, when they are most of it, or with kWholeLayer. Returns whether the
+// whole layer is copied.
 bool ShadowRenderer::Impl::planRestore(CachedPass& pass, std::uint32_t i, bool full) {
   const std::int64_t res = resolution_;
   const CacheWindowPlacement& win = cache_.shown[i].window;
@@ -547,7 +590,9 @@ bool ShadowRenderer::Impl::planRestore(CachedPass& pass, std::uint32_t i, bool f
   CascadeCacheStats& st = cacheStats_[i];
   pass.copyParts.clear();
   pass.redrawParts.clear();
-  bool whole = full || settings_.diagnostics.cacheRestore == CacheRestore::kWholeLayer;
+  pass.shaderCopyParts.clear();
+  const CacheRestore mode = settings_.diagnostics.cacheRestore;
+  bool whole = full || mode == CacheRestore::kWholeLayer;
   if (!whole) {
     for (const TexelRect& r : pass.dirty) {
       split(win, res, r, pass.layerRects);
@@ -561,8 +606,13 @@ bool ShadowRenderer::Impl::planRestore(CachedPass& pass, std::uint32_t i, bool f
   // Redrawing the static casters costs as much as drawing them: where the rectangles are an
   // eighth of the layer or more (receiver-marked tiles after a new window or a cut) they are
   // copied instead.
+  if (!whole && shaderCopyRestore()) {
+    // The copy's cost follows the texels: every rectangle, however large.
+    for (const TexelRect& r : pass.copyParts) st.restoredTexels += r.area();
+    pass.shaderCopyParts.swap(pass.copyParts);
+  }
   const bool large = totalArea(pass.copyParts) * 8 >= std::uint64_t(res * res);
-  if (!whole && !large && settings_.diagnostics.cacheRestore == CacheRestore::kRedraw) {
+  if (!whole && !large && (mode == CacheRestore::kRedraw || mode == CacheRestore::kShaderCopy)) {
     // The restored rectangles, with the block each lies in (as the box's own split).
     split(win, res, pass.boxes[i], pass.layerRects);
     for (const TexelRect& p : pass.copyParts) {
@@ -621,9 +671,12 @@ void ShadowRenderer::Impl::rememberDynamicRects(CachedPass& pass, std::uint32_t 
 
 // Static layer `i` -> the sampled layer `i` (`regions`; `whole`: the whole layer, so its old
 // content is discarded), leaving both as depth attachments. No regions (nothing to restore,
-// dynamic casters appear): the sampled layer straight to the attachment.
+// dynamic casters appear, or the shader copy): the sampled layer straight to the attachment;
+// `readStatic` (the shader copy): the static layer to the sampled layout for the dynamic pass's
+// fragment shader (recordStaticLayerBack returns it).
 void ShadowRenderer::Impl::recordStaticCopy(VkCommandBuffer cmd, std::uint32_t i,
-                                            std::span<const VkImageCopy> regions, bool whole) {
+                                            std::span<const VkImageCopy> regions, bool whole,
+                                            bool readStatic) {
   VkImageMemoryBarrier2 b[2] = {
       vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2),
       vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2)};
@@ -653,8 +706,12 @@ void ShadowRenderer::Impl::recordStaticCopy(VkCommandBuffer cmd, std::uint32_t i
     b[1].dstStageMask = kDepthStages;
     b[1].dstAccessMask = kDepthAccess;
     b[1].newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    dep.imageMemoryBarrierCount = 1;
-    dep.pImageMemoryBarriers = b + 1;
+    // The static layer, drawn this frame or not, read texel by texel by the shader copy.
+    b[0].dstStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+    b[0].dstAccessMask = VK_ACCESS_2_SHADER_SAMPLED_READ_BIT;
+    b[0].newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+    dep.imageMemoryBarrierCount = readStatic ? 2 : 1;
+    dep.pImageMemoryBarriers = readStatic ? b : b + 1;
     vkCmdPipelineBarrier2(cmd, &dep);
     return;
   }
@@ -679,14 +736,64 @@ void ShadowRenderer::Impl::recordStaticCopy(VkCommandBuffer cmd, std::uint32_t i
   vkCmdPipelineBarrier2(cmd, &dep);
 }
 
-// The sampled layer's dynamic pass: the rectangles restored by redrawing (pass.redrawParts)
-// cleared and drawn with the static casters, then the dynamic casters over the box.
+// Static layer `i` back to the depth attachment layout after the shader copy read it (between
+// frames every static layer is DEPTH_ATTACHMENT_OPTIMAL).
+void ShadowRenderer::Impl::recordStaticLayerBack(VkCommandBuffer cmd, std::uint32_t i) {
+  auto b = vkInit<VkImageMemoryBarrier2>(VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2);
+  b.srcStageMask = VK_PIPELINE_STAGE_2_FRAGMENT_SHADER_BIT;
+  b.srcAccessMask = VK_ACCESS_2_NONE;
+  b.dstStageMask = kDepthStages;
+  b.dstAccessMask = kDepthAccess;
+  b.oldLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+  b.newLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+  b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  b.image = staticImage_;
+  b.subresourceRange = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, 1, i, 1};
+  auto dep = vkInit<VkDependencyInfo>(VK_STRUCTURE_TYPE_DEPENDENCY_INFO);
+  dep.imageMemoryBarrierCount = 1;
+  dep.pImageMemoryBarriers = &b;
+  vkCmdPipelineBarrier2(cmd, &dep);
+}
+
+bool ShadowRenderer::Impl::shaderCopyRestore() const noexcept {
+  return settings_.diagnostics.cacheRestore == CacheRestore::kShaderCopy &&
+         (options_.depthFormat == VK_FORMAT_D32_SFLOAT ||
+          options_.depthFormat == VK_FORMAT_D32_SFLOAT_S8_UINT);
+}
+
+// The shader copy (CacheRestore::kShaderCopy) inside the sampled layer's dynamic pass: one
+// triangle over the layer per rectangle of pass.shaderCopyParts, scissored to it, writing the
+// static layer's depth (the test always passes). Leaves the depth pipeline and its set bound.
+void ShadowRenderer::Impl::recordShaderCopy(CachedPass& pass, std::uint32_t i) {
+  VkCommandBuffer cmd = pass.cmd;
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, restorePipeline_);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, restoreLayout_, 0, 1,
+                          &staticSets_[i], 0, nullptr);
+  vkCmdSetCullMode(cmd, VK_CULL_MODE_NONE);
+  const VkViewport vp{0.0f, 0.0f, float(resolution_), float(resolution_), 0.0f, 1.0f};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  for (const TexelRect& r : pass.shaderCopyParts) {
+    const VkRect2D scissor = vkRect(r);
+    vkCmdSetScissor(cmd, 0, 1, &scissor);
+    vkCmdDraw(cmd, 3, 1, 0, 0);
+  }
+  vkCmdSetCullMode(cmd, drawCull_);
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, pipelineLayout_, 0, 1, &depthSet_,
+                          0, nullptr);
+}
+
+// The sampled layer's dynamic pass: the rectangles restored by the shader copy
+// (pass.shaderCopyParts) or by redrawing (pass.redrawParts: cleared and drawn with the static
+// casters), then the dynamic casters over the box.
 void ShadowRenderer::Impl::recordDynamicPass(CachedPass& pass, std::uint32_t i,
                                              const std::vector<std::uint32_t>& list) {
   const CacheWindowPlacement& win = cache_.shown[i].window;
   CascadeCacheStats& st = cacheStats_[i];
   beginDepthRendering(pass.cmd, layerViews_[i], 1, false, cascadeLabel(i, "dynamic"), pipeline_);
   pass.bound = nullptr;
+  if (!pass.shaderCopyParts.empty()) recordShaderCopy(pass, i);
   for (const LayerRect& lr : pass.redrawParts) clearRect(pass.cmd, vkRect(lr.layer));
   st.restoreTriangles += pass.drawPieces(i, win, list, pass.redrawParts, st.mergedDraws);
   split(win, resolution_, pass.boxes[i], pass.layerRects);

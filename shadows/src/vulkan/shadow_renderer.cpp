@@ -12,6 +12,8 @@
 #include <cstdio>
 #include <string>
 
+#include <csm_shaders/csm_cache_restore.frag.spv.h>
+#include <csm_shaders/csm_cache_restore.vert.spv.h>
 #include <csm_shaders/csm_depth.vert.spv.h>
 #include <csm_shaders/csm_depth_layered.vert.spv.h>
 
@@ -283,6 +285,25 @@ Status ShadowRenderer::Impl::createPipelineLayout() {
   ci.pPushConstantRanges = ranges;
   CSM_VK_TRY(vkCreatePipelineLayout(dev, &ci, nullptr, &pipelineLayout_));
   setName(handleBits(pipelineLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT, "csm depth pipeline layout");
+  // CacheRestore::kShaderCopy: one static layer, sampled by the fragment stage.
+  VkDescriptorSetLayoutBinding b{};
+  b.binding = 0;
+  b.descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+  b.descriptorCount = 1;
+  b.stageFlags = VK_SHADER_STAGE_FRAGMENT_BIT;
+  auto li =
+      vkInit<VkDescriptorSetLayoutCreateInfo>(VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO);
+  li.bindingCount = 1;
+  li.pBindings = &b;
+  CSM_VK_TRY(vkCreateDescriptorSetLayout(dev, &li, nullptr, &restoreSetLayout_));
+  setName(handleBits(restoreSetLayout_), VK_OBJECT_TYPE_DESCRIPTOR_SET_LAYOUT,
+          "csm cache restore set layout");
+  ci.pSetLayouts = &restoreSetLayout_;
+  ci.pushConstantRangeCount = 0;
+  ci.pPushConstantRanges = nullptr;
+  CSM_VK_TRY(vkCreatePipelineLayout(dev, &ci, nullptr, &restoreLayout_));
+  setName(handleBits(restoreLayout_), VK_OBJECT_TYPE_PIPELINE_LAYOUT,
+          "csm cache restore pipeline layout");
   return {};
 }
 
@@ -397,6 +418,15 @@ Status ShadowRenderer::Impl::createShaderModules() {
     CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &layeredModule_));
     setName(handleBits(layeredModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_depth_layered.vert");
   }
+  ci.codeSize = sizeof(csm_cache_restore_vert_spv);
+  ci.pCode = csm_cache_restore_vert_spv;
+  CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &restoreVertexModule_));
+  setName(handleBits(restoreVertexModule_), VK_OBJECT_TYPE_SHADER_MODULE, "csm_cache_restore.vert");
+  ci.codeSize = sizeof(csm_cache_restore_frag_spv);
+  ci.pCode = csm_cache_restore_frag_spv;
+  CSM_VK_TRY(vkCreateShaderModule(dev, &ci, nullptr, &restoreFragmentModule_));
+  setName(handleBits(restoreFragmentModule_), VK_OBJECT_TYPE_SHADER_MODULE,
+          "csm_cache_restore.frag");
   return {};
 }
 
@@ -444,12 +474,16 @@ ShadowRenderer::Impl::~Impl() {
   vkDestroyFence(dev, clearFence_, nullptr);
   vkDestroyShaderModule(dev, vertexModule_, nullptr);
   vkDestroyShaderModule(dev, layeredModule_, nullptr);
+  vkDestroyShaderModule(dev, restoreVertexModule_, nullptr);
+  vkDestroyShaderModule(dev, restoreFragmentModule_, nullptr);
   vkDestroyBuffer(dev, uniformBuffer_, nullptr);
   vkFreeMemory(dev, uniformMemory_, nullptr);
   vkDestroySampler(dev, compareSampler_, nullptr);
   vkDestroySampler(dev, depthSampler_, nullptr);
   vkDestroyDescriptorPool(dev, pool_, nullptr);
   vkDestroyPipelineLayout(dev, pipelineLayout_, nullptr);
+  vkDestroyPipelineLayout(dev, restoreLayout_, nullptr);
+  vkDestroyDescriptorSetLayout(dev, restoreSetLayout_, nullptr);
   vkDestroyDescriptorSetLayout(dev, depthSetLayout_, nullptr);
   vkDestroyDescriptorSetLayout(dev, lightingLayout_, nullptr);
 }
@@ -489,8 +523,10 @@ void ShadowRenderer::Impl::collectRetired(bool all) noexcept {
 void ShadowRenderer::Impl::destroyPipelines() noexcept {
   vkDestroyPipeline(device_.device, pipeline_, nullptr);
   vkDestroyPipeline(device_.device, layeredPipeline_, nullptr);
+  vkDestroyPipeline(device_.device, restorePipeline_, nullptr);
   pipeline_ = VK_NULL_HANDLE;
   layeredPipeline_ = VK_NULL_HANDLE;
+  restorePipeline_ = VK_NULL_HANDLE;
   destroyThinPipeline();
 }
 

@@ -179,7 +179,11 @@ class ShadowRenderer::Impl {
   void rememberDynamicRects(CachedPass& pass, std::uint32_t cascade,
                             const std::vector<std::uint32_t>& list);
   void recordStaticCopy(VkCommandBuffer cmd, std::uint32_t cascade,
-                        std::span<const VkImageCopy> regions, bool whole);
+                        std::span<const VkImageCopy> regions, bool whole, bool readStatic);
+  void recordShaderCopy(CachedPass& pass, std::uint32_t cascade);
+  void recordStaticLayerBack(VkCommandBuffer cmd, std::uint32_t cascade);
+  /// CacheRestore::kShaderCopy where the depth format keeps the float it is given (D32).
+  [[nodiscard]] bool shaderCopyRestore() const noexcept;
   void recordDynamicPass(CachedPass& pass, std::uint32_t cascade,
                          const std::vector<std::uint32_t>& list);
   void recordCachedEnd(VkCommandBuffer cmd, std::uint32_t copiedMask);
@@ -219,8 +223,14 @@ class ShadowRenderer::Impl {
   VkShaderModule vertexModule_ = VK_NULL_HANDLE;
   VkShaderModule layeredModule_ = VK_NULL_HANDLE;
   VkShaderModule thinGeometryModule_ = VK_NULL_HANDLE;  // csm_depth_thin.geom
-  VkPipeline thinPipeline_ = VK_NULL_HANDLE;            // per-layer, widening thin casters
-  VkPipeline thinLayeredPipeline_ = VK_NULL_HANDLE;     // layered, widening thin casters
+  // CacheRestore::kShaderCopy: csm_cache_restore.vert/.frag, one sampled static layer a set.
+  VkShaderModule restoreVertexModule_ = VK_NULL_HANDLE;
+  VkShaderModule restoreFragmentModule_ = VK_NULL_HANDLE;
+  VkDescriptorSetLayout restoreSetLayout_ = VK_NULL_HANDLE;
+  VkPipelineLayout restoreLayout_ = VK_NULL_HANDLE;
+  VkPipeline restorePipeline_ = VK_NULL_HANDLE;
+  VkPipeline thinPipeline_ = VK_NULL_HANDLE;         // per-layer, widening thin casters
+  VkPipeline thinLayeredPipeline_ = VK_NULL_HANDLE;  // layered, widening thin casters
   std::uint32_t thinResolution_ = 0;
   float thinWidenTexels_ = 0.0f;
   VkFormat thinFormat_ = VK_FORMAT_UNDEFINED;
@@ -295,7 +305,8 @@ class ShadowRenderer::Impl {
     VkDeviceMemory memory = VK_NULL_HANDLE;
     VkImageView views[kMaxCascades + 1] = {};
     VkDescriptorPool pool = VK_NULL_HANDLE;
-    VkPipeline pipelines[2] = {};
+    VkPipeline pipelines[3] = {};  // per-layer, layered, restore (buildPipelines)
+    std::array<VkDescriptorSet, kMaxCascades> sets{};  // in `pool` (the static image's)
   };
   std::vector<Retired> retired_;
 
@@ -331,6 +342,8 @@ class ShadowRenderer::Impl {
   VkImage staticImage_ = VK_NULL_HANDLE;
   VkDeviceMemory staticMemory_ = VK_NULL_HANDLE;
   VkImageView staticViews_[kMaxCascades] = {};
+  VkDescriptorPool staticPool_ = VK_NULL_HANDLE;  // the restore's sets, one a static layer
+  std::array<VkDescriptorSet, kMaxCascades> staticSets_{};
   bool staticInitialised_ = false;
   VkDeviceSize cacheBytes_ = 0;
   bool wrapSampling_ = false;  // the lighting set uses the REPEAT samplers (cache on)

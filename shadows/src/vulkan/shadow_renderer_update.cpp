@@ -503,8 +503,35 @@ Status ShadowRenderer::Impl::buildPipelines(VkFormat format, Retired& out) {
     setName(handleBits(pipes[layered]), VK_OBJECT_TYPE_PIPELINE,
             layered ? "csm depth pipeline (layered)" : "csm depth pipeline");
   }
+  // The cache's shader copy (CacheRestore::kShaderCopy): a triangle over the layer, scissored.
+  VkPipelineShaderStageCreateInfo stages[2] = {
+      vkInit<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO),
+      vkInit<VkPipelineShaderStageCreateInfo>(VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO)};
+  stages[0].stage = VK_SHADER_STAGE_VERTEX_BIT;
+  stages[0].module = restoreVertexModule_;
+  stages[0].pName = "main";
+  stages[1].stage = VK_SHADER_STAGE_FRAGMENT_BIT;
+  stages[1].module = restoreFragmentModule_;
+  stages[1].pName = "main";
+  DepthPipelineDesc desc;
+  desc.stages = stages;
+  desc.stageCount = 2;
+  desc.vertexLayout = layout_;
+  desc.depthClamp = device_.depthClampEnabled;
+  desc.layout = restoreLayout_;
+  desc.depthFormat = format;
+  desc.restore = true;
+  VkPipeline restore = VK_NULL_HANDLE;
+  const VkResult r = createDepthPipeline(device_.device, device_.pipelineCache, desc, &restore);
+  if (r != VK_SUCCESS) {
+    vkDestroyPipeline(device_.device, pipes[0], nullptr);
+    vkDestroyPipeline(device_.device, pipes[1], nullptr);
+    return vkError(r, "vkCreateGraphicsPipelines(csm cache restore)");
+  }
+  setName(handleBits(restore), VK_OBJECT_TYPE_PIPELINE, "csm cache restore pipeline");
   out.pipelines[0] = pipes[0];
   out.pipelines[1] = pipes[1];
+  out.pipelines[2] = restore;
   return {};
 }
 
@@ -514,10 +541,12 @@ void ShadowRenderer::Impl::installPipelines(Retired& built) noexcept {
     old.afterRecord = records_;
     old.pipelines[0] = pipeline_;
     old.pipelines[1] = layeredPipeline_;
+    old.pipelines[2] = restorePipeline_;
     retired_.push_back(old);
   }
   pipeline_ = built.pipelines[0];
   layeredPipeline_ = built.pipelines[1];
+  restorePipeline_ = built.pipelines[2];
   pipelinesBuilt_ = true;
   built = Retired{};
 }

@@ -12,10 +12,10 @@ VkResult createDepthPipeline(VkDevice device, VkPipelineCache cache, const Depth
   VkVertexInputAttributeDescription attr{0, 0, layout.positionFormat, layout.positionOffset};
   auto vin = vkInit<VkPipelineVertexInputStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO);
-  vin.vertexBindingDescriptionCount = 1;
-  vin.pVertexBindingDescriptions = &binding;
-  vin.vertexAttributeDescriptionCount = 1;
-  vin.pVertexAttributeDescriptions = &attr;
+  vin.vertexBindingDescriptionCount = desc.restore ? 0 : 1;
+  vin.pVertexBindingDescriptions = desc.restore ? nullptr : &binding;
+  vin.vertexAttributeDescriptionCount = desc.restore ? 0 : 1;
+  vin.pVertexAttributeDescriptions = desc.restore ? nullptr : &attr;
   auto ia = vkInit<VkPipelineInputAssemblyStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO);
   ia.topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
@@ -28,7 +28,7 @@ VkResult createDepthPipeline(VkDevice device, VkPipelineCache cache, const Depth
   rs.pNext = desc.rasterizationNext;
   rs.depthClampEnable = desc.depthClamp ? VK_TRUE : VK_FALSE;
   rs.polygonMode = VK_POLYGON_MODE_FILL;
-  rs.depthBiasEnable = VK_TRUE;
+  rs.depthBiasEnable = desc.restore ? VK_FALSE : VK_TRUE;
   rs.lineWidth = 1.0f;
   auto ms = vkInit<VkPipelineMultisampleStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO);
@@ -37,7 +37,7 @@ VkResult createDepthPipeline(VkDevice device, VkPipelineCache cache, const Depth
       VK_STRUCTURE_TYPE_PIPELINE_DEPTH_STENCIL_STATE_CREATE_INFO);
   ds.depthTestEnable = VK_TRUE;
   ds.depthWriteEnable = VK_TRUE;
-  ds.depthCompareOp = VK_COMPARE_OP_LESS_OR_EQUAL;
+  ds.depthCompareOp = desc.restore ? VK_COMPARE_OP_ALWAYS : VK_COMPARE_OP_LESS_OR_EQUAL;
   auto cb = vkInit<VkPipelineColorBlendStateCreateInfo>(
       VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO);
   const VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR,

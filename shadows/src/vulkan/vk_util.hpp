@@ -104,6 +104,10 @@ struct DepthPipelineDesc {
   VkPipelineLayout layout = VK_NULL_HANDLE;
   /// The depth attachment's format (dynamic rendering).
   VkFormat depthFormat = VK_FORMAT_UNDEFINED;
+  /// The cache's shader copy (CacheRestore::kShaderCopy): no vertex input, no depth bias, the
+  /// depth test always passes and the fragment's depth is written. The dynamic states are the
+  /// depth pipelines' (their values set for the depth pass stay valid across the switch).
+  bool restore = false;
 };
 
 /// Creates one depth pipeline (vkCreateGraphicsPipelines through `cache`); `*out` is
