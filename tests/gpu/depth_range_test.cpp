@@ -853,17 +853,24 @@ TEST_F(DepthRangeTest, ViewTilesAreOneSwitchAndTakeTheReducersMarks) {
         return m;
       };
       const std::uint32_t last = plan.cascadeCount - 1;
-      ASSERT_TRUE(plan.cascades[last].partial) << "the last cascade: drawn where the view samples";
-      EXPECT_EQ(plan.cascades[last].marked, viewTiles(last, f.splitsM[0]));
+      if (k == 0) {
+        // The view's first frame, without marks: every cascade whole (nothing falls back).
+        for (std::uint32_t i = 0; i <= last; ++i) {
+          EXPECT_FALSE(plan.cascades[i].partial) << "cascade " << i;
+          EXPECT_TRUE(plan.cascades[i].full) << "cascade " << i;
+        }
+      } else {
+        ASSERT_TRUE(plan.cascades[last].partial)
+            << "the last cascade: drawn where the view samples";
+        EXPECT_EQ(plan.cascades[last].marked, viewTiles(last, f.splitsM[0]));
+      }
       for (std::uint32_t i = 0; i < last; ++i) {
         const csm::CacheCascadePlan& p = plan.cascades[i];
         if (!p.partial) continue;
         const csm::TileMask sampled = viewTiles(i, csm::cascadeReadFromM(f, i, f.blendBand));
         if (!hand || !hand->tiles.present()) {
-          // The first frame without marks falls back; the next ones draw what the view samples.
-          const csm::TileMask none{p.marked.origin, {}};
-          EXPECT_EQ(p.marked, k == 0 ? none : sampled)
-              << "cascade " << i << ": marks before any result";
+          // After the first frame (whole), the frames without marks draw what the view samples.
+          EXPECT_EQ(p.marked, sampled) << "cascade " << i << ": marks before any result";
           continue;
         }
         // The same frame every time: the same grid, the same tiles (where the view samples).
@@ -928,7 +935,8 @@ TEST_F(DepthRangeTest, ViewTakesTheLatestMarksAtOnceAfterACut) {
 
   // The marks a reducer by hand takes of the same depth buffer, frame and settings.
   std::optional<csm::ReceiverDepthRange> hand;
-  auto partialMarks = [&](bool expectMarks) {
+  // `whole`: the view's first frame without marks draws every cascade whole.
+  auto partialMarks = [&](bool expectMarks, bool whole = false) {
     const csm::CachePlan& plan = view->renderer().cachePlan();
     std::uint32_t partial = 0, marked = 0;
     for (std::uint32_t i = 0; i + 1 < plan.cascadeCount; ++i) {
@@ -947,7 +955,7 @@ TEST_F(DepthRangeTest, ViewTakesTheLatestMarksAtOnceAfterACut) {
         EXPECT_EQ(p.marked.bits[w] & ~hand->tiles.bits[i][w], 0u) << "cascade " << i;
       }
     }
-    EXPECT_GT(partial, 0u);
+    EXPECT_EQ(partial > 0u, !whole);
     if (expectMarks) {
       EXPECT_GT(marked, 0u);
     }
@@ -959,10 +967,11 @@ TEST_F(DepthRangeTest, ViewTakesTheLatestMarksAtOnceAfterACut) {
       // Nothing recorded since the cut: nothing to take.
       ASSERT_TRUE(view->useLatestReceiverDepth().ok());
     }
-    // The cut's frame: no marks, its partial cascades fall back; its reduction recorded.
+    // The cut's frame: no marks, its partial cascades fall back (at the start: every cascade
+    // whole); its reduction recorded.
     ctx().submitAndWait([&](VkCommandBuffer cmd) {
       ASSERT_TRUE(view->record(cmd, g.cam, light).ok());
-      partialMarks(false);
+      partialMarks(false, round == 0);
       ASSERT_TRUE(view->recordReceiverDepth(cmd, input).ok());
       ASSERT_TRUE(reducer
                       ->record(cmd, depth->view(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,

@@ -100,6 +100,17 @@ csm::CacheTileInputs tileInputs(const csm::ShadowSettings& s, const csm::Cascade
   return in;
 }
 
+/// The cache's state just before a camera cut: one frame shown far away (the view's first frame,
+/// drawn whole), with marks until then. The next frame opens a new window in every cascade.
+csm::CacheState stateBeforeCut(const csm::ShadowSettings& s) {
+  csm::CacheState state;
+  csm::CascadeFrame f = frameOf(s, viewAt(glm::dvec3(5000.0, 2.0, -5000.0)));
+  const csm::CacheTileInputs in = tileInputs(s, f, nullptr);
+  csm::markCacheRecorded(csm::planCacheFrame(f, state, s.resolution, 0, 1, &in), state);
+  state.unmarkedFrames = 0;
+  return state;
+}
+
 /// The tiles of row y that a partial cascade draws whole: those marked and not held (in its
 /// box), and the gaps of at most kTileGapFill tiles between two of them.
 template <class Held, class InBox>
@@ -298,6 +309,62 @@ TEST(CacheTiles, FrustumTilesHoldEveryReceiverTheViewCanSee) {
   EXPECT_EQ(m.count(), 0u);
 }
 
+TEST(CacheTiles, TheViewsFirstFrameWithoutMarksDrawsEveryCascadeWhole) {
+  // Nothing shown yet and no marks (the start, or a new image): every cascade whole, as the
+  // cache alone draws it, so no pixel falls back; the next frame without marks draws only the
+  // stale texels of what the view can sample, which the first frame holds already.
+  const csm::ShadowSettings s = tileSettings();
+  const View v = viewAt(glm::dvec3(-1e7, 2.0, 1e7));
+  csm::CacheState state;
+  csm::CascadeFrame f = frameOf(s, v);
+  csm::CacheTileInputs in = tileInputs(s, f, nullptr);
+  csm::CachePlan p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+  const std::uint64_t layer = std::uint64_t(s.resolution) * s.resolution;
+  for (std::uint32_t i = 0; i < f.cascadeCount; ++i) {
+    const csm::CacheCascadePlan& c = p.cascades[i];
+    EXPECT_FALSE(c.partial) << i;
+    EXPECT_TRUE(c.full) << i;
+    EXPECT_EQ(c.staleTexels, layer) << i;
+    EXPECT_EQ(c.tilesDrawn, 0u) << i;
+  }
+  EXPECT_EQ(csm::packCachedUniforms(f, s, {}, p).tilePartialMask, 0u);
+  csm::markCacheRecorded(p, state);
+  EXPECT_EQ(state.unmarkedFrames, 1u);
+  // The same view again, still without marks: partial cascades now, each holding every tile
+  // the first frame drew, so nothing is drawn.
+  f = frameOf(s, v);
+  in = tileInputs(s, f, nullptr);
+  p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+  std::uint32_t partial = 0;
+  for (std::uint32_t i = 0; i + 1 < f.cascadeCount; ++i) {
+    const csm::CacheCascadePlan& c = p.cascades[i];
+    if (!c.partial) continue;
+    ++partial;
+    EXPECT_GT(c.marked.count(), 0u) << i << ": what the view can sample";
+    EXPECT_TRUE(c.stale.empty()) << i;
+    EXPECT_EQ(c.tilesDrawn, 0u) << i;
+    // Every tile of the box is held: the first frame drew them all.
+    const std::int64_t t = s.resolution / csm::kTilesPerSide;
+    for (std::int64_t y = 0; y < csm::kTileGridSide; ++y) {
+      for (std::int64_t x = 0; x < csm::kTileGridSide; ++x) {
+        const glm::i64vec2 w = c.tiles.origin + glm::i64vec2(x, y);
+        const csm::TexelRect r{w.x * t, w.y * t, (w.x + 1) * t, (w.y + 1) * t};
+        if (!r.intersect(c.box).empty()) {
+          EXPECT_TRUE(c.tiles.test(x, y)) << i;
+        }
+      }
+    }
+  }
+  EXPECT_GT(partial, 0u);
+  // With marks at the first frame (a host that had them), the first frame is partial already.
+  csm::CacheState marked;
+  f = frameOf(s, v);
+  const csm::ReceiverTileMarks marks = marksOf(s, f, v, groundReceivers(v, 300.0, 2.0));
+  in = tileInputs(s, f, &marks);
+  p = csm::planCacheFrame(f, marked, s.resolution, 0, 1, &in);
+  EXPECT_TRUE(p.cascades[0].partial);
+}
+
 TEST(CacheTiles, OnlyTheFirstFrameWithoutMarksFallsBack) {
   // A cut: the partial cascades of the first frame without marks draw nothing (their pixels
   // fall back to the last cascade); the next frames without marks draw every tile the view can
@@ -370,9 +437,10 @@ TEST(CacheTiles, PartialCascadesDrawOnlyMarkedTilesAndTheLastWhatTheViewSamples)
   const csm::ShadowSettings s = tileSettings();
   const std::int64_t res = s.resolution, tile = res / csm::kTilesPerSide;
   View v = viewAt(glm::dvec3(0.0, 2.0, 0.0));
-  csm::CacheState state;
-  // Frame 1, no marks yet: the partial cascades draw nothing, the last one every tile the view
-  // can sample in it (every depth of the shadows: the others fall back to it), and no more.
+  csm::CacheState state = stateBeforeCut(s);
+  // A cut's first frame, no marks yet: the partial cascades draw nothing, the last one every tile
+  // the view can sample in it (every depth of the shadows: the others fall back to it), and no
+  // more.
   csm::CascadeFrame f = frameOf(s, v);
   csm::CacheTileInputs in = tileInputs(s, f, nullptr);
   csm::CachePlan p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
@@ -572,7 +640,7 @@ TEST(CacheTiles, PartialCascadesDrawOnlyMarkedTilesAndTheLastWhatTheViewSamples)
 TEST(CacheTiles, ANarrowViewKeepsTheCascadesTheLastBoxDoesNotHoldWhole) {
   const csm::ShadowSettings s = tileSettings();
   const View v = viewAt(glm::dvec3(0.0, 25.0, 0.0), 8.0);
-  csm::CacheState state;
+  csm::CacheState state = stateBeforeCut(s);
   csm::CascadeFrame f = frameOf(s, v);
   const csm::CacheTileInputs in = tileInputs(s, f, nullptr);
   const csm::CachePlan p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
@@ -596,7 +664,7 @@ TEST(CacheTiles, ANarrowViewKeepsTheCascadesTheLastBoxDoesNotHoldWhole) {
 TEST(CacheTiles, TheUniformBlockHoldsEachPartialCascadesTiles) {
   const csm::ShadowSettings s = tileSettings();
   const View v = viewAt(glm::dvec3(-1e7, 2.0, 1e7));
-  csm::CacheState state;
+  csm::CacheState state = stateBeforeCut(s);
   csm::CascadeFrame f = frameOf(s, v);
   csm::CacheTileInputs in = tileInputs(s, f, nullptr);
   csm::CachePlan p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);

@@ -192,7 +192,8 @@ struct CachePlan {
 /// and only where the view can sample them) and every marked tile it does not hold yet, whole
 /// (with gaps of up to kTileGapFill tiles between two such in a row); a stale texel in a tile it
 /// does not draw makes that tile not held, until a mark asks for it. Without marks, the first
-/// frame marks nothing and the next ones what the view can sample (CacheState::unmarkedFrames).
+/// frame marks nothing and the next ones what the view can sample (CacheState::unmarkedFrames),
+/// except on the view's first frame (no layer shown yet), which draws every cascade whole.
 /// A cascade that stops being partial draws what it did not hold.
 CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t resolution,
                          std::uint64_t budgetTexels, std::uint32_t exactCascades,

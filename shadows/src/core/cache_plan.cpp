@@ -325,11 +325,18 @@ CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t r
   }
   // Receiver-marked tiles: the cascades the last one can stand in for draw only marked tiles.
   std::int64_t last = -1;
+  bool shownAny = false;
   for (std::uint32_t i = 0; i < count; ++i) {
     if (plan.cascades[i].active) last = i;
+    shownAny = shownAny || state.shown[i].valid;
   }
+  const bool hasMarks = tiles != nullptr && tiles->marks != nullptr && tiles->marks->present();
+  // The view's first frame (no layer shown yet: the start, or a new image) without marks draws
+  // every cascade whole, as the cache alone does: no depth buffer has been marked, and a frame
+  // that pays for every cascade anyway spares the next one the marked tiles of all of them.
+  const bool first = tiles != nullptr && !shownAny && !hasMarks;
   bool anyPartial = false;
-  for (std::uint32_t i = 0; tiles != nullptr && std::int64_t(i) < last; ++i) {
+  for (std::uint32_t i = 0; tiles != nullptr && !first && std::int64_t(i) < last; ++i) {
     CacheCascadePlan& p = plan.cascades[i];
     if (!p.active) continue;
     const auto l = std::uint32_t(last);
@@ -339,13 +346,12 @@ CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t r
                                     state.layers[l].zFar, margin, frame.cascades[i]);
     anyPartial = anyPartial || p.partial;
   }
-  const bool hasMarks = tiles != nullptr && tiles->marks != nullptr && tiles->marks->present();
   for (std::uint32_t i = 0; i < count; ++i) {
     CacheCascadePlan& p = plan.cascades[i];
     if (!p.active) continue;
     const Cascade& c = frame.cascades[i];
     const bool isLast = std::int64_t(i) == last;
-    if (tiles != nullptr && (isLast || p.partial)) {
+    if (tiles != nullptr && !first && (isLast || p.partial)) {
       // What the view's frustum can sample, this frame, from the depth the lighting reads the
       // cascade at (its slice and the blend band before it); for the last cascade, with a
       // partial one, every depth: every pixel that falls back reads it.

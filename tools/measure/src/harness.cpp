@@ -5,6 +5,7 @@
 #include <csm_shaders/stability_accuracy.vert.spv.h>
 #include <csm_shaders/stability_accuracy_lod.frag.spv.h>
 #include <csm/moments.hpp>
+#include <csm/receiver_tiles.hpp>
 #include <engine/debug.hpp>
 #include <engine/errors.hpp>
 #include <engine/gpu_timer.hpp>
@@ -162,8 +163,24 @@ csm::vk::Status Harness::configure(const csm::ShadowSettings& settings,
       options.renderMode != csm::vk::RenderMode::kLayered && settings.diagnostics.stabilize) {
     withLods.cache = true;
   }
+  // CSM_SHADOW_TILES=1: cached and with receiver-marked tiles wherever they are allowed (a
+  // depth-comparison kernel); probe() marks the tiles its receivers sample for the next frame,
+  // a frame late, as a host's reduction of its depth buffer at best would (ctest
+  // stability.tiles.*). The first probe after configure() (a run starts with a jump: a camera
+  // cut) marks its own frame, so the cut's fallback is not counted as shimmer.
+  if (const char* tiles = std::getenv("CSM_SHADOW_TILES");
+      tiles != nullptr && std::string(tiles) == "1" &&
+      options.renderMode != csm::vk::RenderMode::kLayered && settings.diagnostics.stabilize &&
+      !csm::isPrefiltered(settings.kernel)) {
+    withLods.cache = true;
+    withLods.tiles = true;
+  }
   const csm::vk::Status s = view_->setSettings(settings, withLods);
-  if (s.ok()) options_ = withLods;
+  if (s.ok()) {
+    options_ = withLods;
+    view_->setReceiverTiles(std::nullopt);  // marks of other settings
+    tilesMarked_ = false;
+  }
   return s;
 }
 
@@ -219,10 +236,25 @@ std::vector<ProbeResult> Harness::probe(const csm::CascadeFrame& frame,
     if (!pixels.empty()) points[i].pixel = pixels[i];
   }
   probe_->setPoints(points);
+  // CSM_SHADOW_TILES=1: the tiles these receivers sample, for the next frame (and this one when
+  // it is the first since configure()).
+  std::optional<csm::ReceiverTileMarks> marks;
+  if (options_.tiles) {
+    marks = csm::emptyReceiverTileMarks(view_->settings(), frame);
+    for (const Receiver& r : receivers) {
+      csm::markReceiverTiles(*marks, r.posWs,
+                             glm::dot(r.posWs - frame.cameraPositionWs, frame.cameraForwardWs));
+    }
+    if (!tilesMarked_) view_->setReceiverTiles(marks);
+  }
   ctx_->submitAndWait([&](VkCommandBuffer cmd) {
     recordShadow(cmd, frame);
     probe_->record(cmd, view_->lightingSet(), kernel, blend);
   });
+  if (marks) {
+    view_->setReceiverTiles(std::move(marks));
+    tilesMarked_ = true;
+  }
   return probe_->results();
 }
 

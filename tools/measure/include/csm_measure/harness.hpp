@@ -179,6 +179,7 @@ class Harness {
   csm::CasterSet casterSet_;
   std::array<uint32_t, csm::kMaxCascades> cascadeLod_{};
   uint64_t shadowTriangles_ = 0;
+  bool tilesMarked_ = false;  // CSM_SHADOW_TILES=1: probe() has marked tiles since configure()
 
   std::unique_ptr<glue::ShadowProbe> probe_;
   std::unique_ptr<AccuracyTargets> accuracy_;
