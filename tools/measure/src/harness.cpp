@@ -240,11 +240,9 @@ std::vector<ProbeResult> Harness::probe(const csm::CascadeFrame& frame,
   // it is the first since configure()).
   std::optional<csm::ReceiverTileMarks> marks;
   if (options_.tiles) {
-    marks = csm::emptyReceiverTileMarks(view_->settings(), frame);
-    for (const Receiver& r : receivers) {
-      csm::markReceiverTiles(*marks, r.posWs,
-                             glm::dot(r.posWs - frame.cameraPositionWs, frame.cameraForwardWs));
-    }
+    std::vector<glm::dvec3> receiversWs(receivers.size());
+    for (size_t i = 0; i < receivers.size(); ++i) receiversWs[i] = receivers[i].posWs;
+    marks = receiverTileMarks(frame, receiversWs);
     if (!tilesMarked_) view_->setReceiverTiles(marks);
   }
   ctx_->submitAndWait([&](VkCommandBuffer cmd) {
@@ -343,11 +341,44 @@ std::vector<PixelSample> Harness::renderAccuracy(const csm::Camera& camera,
   const engine::Camera cam = glue::toEngineCamera(camera);
   const glm::mat4 viewProjCr = cam.viewProjectionCr();
   std::memcpy(accuracy_->frameUniforms.mapped(), &viewProjCr, sizeof(viewProjCr));
-  ctx_->submitAndWait([&](VkCommandBuffer cmd) {
-    recordShadow(cmd, frame);
-    recordAccuracyPass(cmd, camera.positionWs, extent, pipeline);
-  });
-  return readAccuracySamples(camera.positionWs, extent, shadowImage);
+  const auto render = [&](engine::CpuImage* image) {
+    ctx_->submitAndWait([&](VkCommandBuffer cmd) {
+      recordShadow(cmd, frame);
+      recordAccuracyPass(cmd, camera.positionWs, extent, pipeline);
+    });
+    return readAccuracySamples(camera.positionWs, extent, image);
+  };
+  if (!options_.tiles) return render(shadowImage);
+  // Receiver-marked tiles: the frame once to find its pixels, then again with the layers holding
+  // only the tiles those pixels mark (every static texel invalidated, so each partial cascade
+  // draws exactly its marked tiles): the steady state of a view whose marks are current. The
+  // settings' kernel is the one lit with, as a host's lighting pipeline takes it from the view
+  // (the marks' and the fallback's reach follow it).
+  if (view_->settings().kernel != kernel) {
+    csm::ShadowSettings settings = view_->settings();
+    settings.kernel = kernel;
+    const csm::vk::Status s = view_->setSettings(settings, options_);
+    if (!s.ok()) throw std::runtime_error("renderAccuracy: " + s.message());
+  }
+  const std::vector<PixelSample> first = render(nullptr);
+  std::vector<glm::dvec3> receivers;
+  receivers.reserve(first.size());
+  for (const PixelSample& p : first) {
+    if (!tileMarkFilter_ || tileMarkFilter_(p.x, p.y)) receivers.push_back(p.posWs);
+  }
+  view_->setReceiverTiles(receiverTileMarks(frame, receivers));
+  view_->invalidateAll();
+  tilesMarked_ = true;
+  return render(shadowImage);
+}
+
+csm::ReceiverTileMarks Harness::receiverTileMarks(const csm::CascadeFrame& frame,
+                                                  std::span<const glm::dvec3> receiversWs) const {
+  csm::ReceiverTileMarks marks = csm::emptyReceiverTileMarks(view_->settings(), frame);
+  for (const glm::dvec3& p : receiversWs) {
+    csm::markReceiverTiles(marks, p, glm::dot(p - frame.cameraPositionWs, frame.cameraForwardWs));
+  }
+  return marks;
 }
 
 void Harness::recordAccuracyPass(VkCommandBuffer cmd, const glm::dvec3& cameraWs, VkExtent2D extent,

@@ -19,6 +19,7 @@
 #include "csm/vulkan/shadow_view.hpp"
 
 #include <array>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -138,7 +139,12 @@ class Harness {
 
   /// Renders the shadow pass and an accuracy frame of `extent` pixels for `camera`; returns
   /// every pixel a surface covers. `shadowImage` (optional) receives the shadow factor as grey
-  /// (background dark blue) for people to look at.
+  /// (background dark blue) for people to look at. With receiver-marked tiles
+  /// (RendererOptions::tiles, or CSM_SHADOW_TILES=1): `kernel` becomes the settings' kernel,
+  /// and the frame is rendered once to find its pixels, then again with every static texel
+  /// invalidated and the tiles those pixels mark (receiverTileMarks()) as the view's marks, so
+  /// each partial cascade holds exactly its marked tiles: what a view whose marks are current
+  /// samples. The second render is returned.
   std::vector<PixelSample> renderAccuracy(const csm::Camera& camera, const csm::CascadeFrame& frame,
                                           VkExtent2D extent, csm::PcfKernel kernel,
                                           bool blend = true,
@@ -150,6 +156,19 @@ class Harness {
   FrameTimings timeFrame(const csm::Camera& camera, const csm::DirectionalLight& light,
                          csm::CascadeHistory& history, VkExtent2D extent, csm::PcfKernel kernel,
                          bool blend = true);
+
+  /// With tiles: which pixels of renderAccuracy()'s first render mark the tiles they sample
+  /// (every pixel by default; empty restores that). The tests leave some out to show that a
+  /// missing mark changes the image (the fallback), so their comparison can fail.
+  void setTileMarkFilter(std::function<bool(uint32_t x, uint32_t y)> filter) {
+    tileMarkFilter_ = std::move(filter);
+  }
+
+  /// The tiles that receivers at `receiversWs` sample in `frame` at the current settings
+  /// (csm::markReceiverTiles per receiver; the CPU form of the GPU's marking, which marks per
+  /// block of pixels and so at least these).
+  csm::ReceiverTileMarks receiverTileMarks(const csm::CascadeFrame& frame,
+                                           std::span<const glm::dvec3> receiversWs) const;
 
   /// Bytes of the shadow map at the current settings and format, the moment images of a
   /// prefiltered filter included.
@@ -179,7 +198,8 @@ class Harness {
   csm::CasterSet casterSet_;
   std::array<uint32_t, csm::kMaxCascades> cascadeLod_{};
   uint64_t shadowTriangles_ = 0;
-  bool tilesMarked_ = false;  // CSM_SHADOW_TILES=1: probe() has marked tiles since configure()
+  std::function<bool(uint32_t, uint32_t)> tileMarkFilter_;
+  bool tilesMarked_ = false;  // tiles: probe() or renderAccuracy() has set marks since configure()
 
   std::unique_ptr<glue::ShadowProbe> probe_;
   std::unique_ptr<AccuracyTargets> accuracy_;
