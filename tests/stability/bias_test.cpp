@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -291,150 +292,158 @@ void runBiasMatrix(bool prefiltered, const char* reportName) {
       truthDesc.occluders = &sc.scene;
       truthDesc.surfaceFeatures = true;
       truthDesc.footprintRadii = prefiltered ? csm_measure::kMipFootprintRadii : 0.0;
-      for (const View& view : sc.views) {
-        // CSM_BIAS_ELEVATION=e: only that elevation (for investigations; the asserts on leaks
-        // per elevation are then skipped).
-        if (const char* e = std::getenv("CSM_BIAS_ELEVATION"); e && std::stod(e) != view.elevation)
-          continue;
-        csm::DirectionalLight light;
-        light.directionWs = sunDirection(view.elevation, view.azimuth);
-        csm_measure::BiasTruth truth;
-        bool haveTruth = false;
-        for (const Variant& var : view.variants) {
-          csm::ShadowSettings settings =
-              sc.planes ? planeSettings(var.stabilize) : testSettings(var.stabilize);
-          settings.resolution = view.resolution;
-          // A prefiltered filter is the settings' own (the renderer then resolves the moments);
-          // the percentage-closer kernels keep the settings' default, as when kBefore was
-          // measured, and are chosen per render.
-          if (csm::isPrefiltered(var.kernel)) settings.kernel = var.kernel;
-          // The hard end of the shadows, as when kBefore was measured: the fade to lit takes
-          // its receivers out of the bias metric (computeBiasTruth), which would change the
-          // population the leak ratios compare. The fade has its own test (ShadowFade.*).
-          settings.fadeFraction = 0.0;
-          if (const char* v = std::getenv("CSM_BIAS_NORMAL"))
-            settings.normalOffsetTexels = std::stof(v);
-          if (const char* v = std::getenv("CSM_BIAS_FLOOR"))
-            settings.depthFloorTexels = std::stof(v);
-          if (const char* v = std::getenv("CSM_BIAS_SLOPE")) settings.depthBiasSlope = std::stof(v);
-          csm::vk::RendererOptions opt;
-          opt.depthFormat = var.format;
-          CSM_ASSERT_STATUS(harness->configure(settings, opt));
-          csm::CascadeHistory history;
-          const csm::CascadeFrame frame = harness->computeFrame(sc.camera, light, history);
-          engine::CpuImage image;
-          const auto pixels =
-              harness->renderAccuracy(sc.camera, frame, sc.view, var.kernel, true, &image);
-          if (!haveTruth) {
-            truth = csm_measure::computeBiasTruth(pixels, sc.view.width, sc.view.height, frame,
-                                                  tracer, light, truthDesc);
-            haveTruth = true;
-          }
-          const csm_measure::BiasStats st =
-              csm_measure::scoreBias(pixels, truth, light, sc.minFacing);
-          if (std::getenv("CSM_BIAS_DEBUG") && st.litInteriorBelow099 > 0) {
-            int shown = 0;
+      // Grouped by depth format: a new format builds a new image and pipelines (about 40 ms on
+      // lavapipe, as much as the render), so each view's truth is kept for the next format.
+      std::vector<std::optional<csm_measure::BiasTruth>> truths(sc.views.size());
+      for (const VkFormat format : kFormats) {
+        for (size_t vi = 0; vi < sc.views.size(); ++vi) {
+          const View& view = sc.views[vi];
+          // CSM_BIAS_ELEVATION=e: only that elevation (for investigations; the asserts on leaks
+          // per elevation are then skipped).
+          if (const char* e = std::getenv("CSM_BIAS_ELEVATION");
+              e && std::stod(e) != view.elevation)
+            continue;
+          csm::DirectionalLight light;
+          light.directionWs = sunDirection(view.elevation, view.azimuth);
+          for (const Variant& var : view.variants) {
+            if (var.format != format) continue;
+            csm::ShadowSettings settings =
+                sc.planes ? planeSettings(var.stabilize) : testSettings(var.stabilize);
+            settings.resolution = view.resolution;
+            // A prefiltered filter is the settings' own (the renderer then resolves the moments);
+            // the percentage-closer kernels keep the settings' default, as when kBefore was
+            // measured, and are chosen per render.
+            if (csm::isPrefiltered(var.kernel)) settings.kernel = var.kernel;
+            // The hard end of the shadows, as when kBefore was measured: the fade to lit takes
+            // its receivers out of the bias metric (computeBiasTruth), which would change the
+            // population the leak ratios compare. The fade has its own test (ShadowFade.*).
+            settings.fadeFraction = 0.0;
+            if (const char* v = std::getenv("CSM_BIAS_NORMAL"))
+              settings.normalOffsetTexels = std::stof(v);
+            if (const char* v = std::getenv("CSM_BIAS_FLOOR"))
+              settings.depthFloorTexels = std::stof(v);
+            if (const char* v = std::getenv("CSM_BIAS_SLOPE"))
+              settings.depthBiasSlope = std::stof(v);
+            csm::vk::RendererOptions opt;
+            opt.depthFormat = var.format;
+            CSM_ASSERT_STATUS(harness->configure(settings, opt));
+            csm::CascadeHistory history;
+            const csm::CascadeFrame frame = harness->computeFrame(sc.camera, light, history);
+            engine::CpuImage image;
+            const auto pixels =
+                harness->renderAccuracy(sc.camera, frame, sc.view, var.kernel, true, &image);
+            if (!truths[vi]) {
+              truths[vi] = csm_measure::computeBiasTruth(pixels, sc.view.width, sc.view.height,
+                                                         frame, tracer, light, truthDesc);
+            }
+            const csm_measure::BiasTruth& truth = *truths[vi];
+            const csm_measure::BiasStats st =
+                csm_measure::scoreBias(pixels, truth, light, sc.minFacing);
+            if (std::getenv("CSM_BIAS_DEBUG") && st.litInteriorBelow099 > 0) {
+              int shown = 0;
+              for (const auto& p : pixels) {
+                if (truth.at(p.x, p.y) != csm_measure::BiasClass::kLitInterior || p.shadow >= 0.99f)
+                  continue;
+                if (++shown > 8) break;
+                const double nl = glm::dot(glm::dvec3(p.normalWs), -light.directionWs);
+                const glm::dvec3 lp = p.posWs - sc.scene.originWs();
+                std::printf(
+                    "   dark px %u,%u n %.2f %.2f %.2f NL %.3f casc %d (texel %.3f m) blend %d "
+                    "w %.2f s %.3f at %.2f %.2f %.2f\n",
+                    p.x, p.y, p.normalWs.x, p.normalWs.y, p.normalWs.z, nl, p.cascade,
+                    frame.cascades[size_t(p.cascade)].texelSizeM(), p.blendCascade, p.blendWeight,
+                    p.shadow, lp.x, lp.y, lp.z);
+              }
+            }
+            EXPECT_EQ(st.nonFinite, 0u);
+            EXPECT_EQ(st.unmatched, 0u);
+            // Faces turned from the light (a roof slope beyond the ridge) are dark by their own
+            // shading: every kernel, PCSS included, gives exactly 0 there. Counted on the planes,
+            // whose meshes are flat-shaded (the pixel's normal is its facet's, which the shader's
+            // facing test uses; the terrain's smooth normals differ near the terminator).
+            uint64_t turnedAway = 0, turnedAwayNotDark = 0;
             for (const auto& p : pixels) {
-              if (truth.at(p.x, p.y) != csm_measure::BiasClass::kLitInterior || p.shadow >= 0.99f)
+              if (!sc.planes || p.cascade < 0 ||
+                  !(glm::dot(glm::dvec3(p.normalWs), -light.directionWs) < -1e-3)) {
                 continue;
-              if (++shown > 8) break;
-              const double nl = glm::dot(glm::dvec3(p.normalWs), -light.directionWs);
-              const glm::dvec3 lp = p.posWs - sc.scene.originWs();
-              std::printf(
-                  "   dark px %u,%u n %.2f %.2f %.2f NL %.3f casc %d (texel %.3f m) blend %d "
-                  "w %.2f s %.3f at %.2f %.2f %.2f\n",
-                  p.x, p.y, p.normalWs.x, p.normalWs.y, p.normalWs.z, nl, p.cascade,
-                  frame.cascades[size_t(p.cascade)].texelSizeM(), p.blendCascade, p.blendWeight,
-                  p.shadow, lp.x, lp.y, lp.z);
+              }
+              ++turnedAway;
+              turnedAwayNotDark += p.shadow != 0.0f ? 1 : 0;
             }
-          }
-          EXPECT_EQ(st.nonFinite, 0u);
-          EXPECT_EQ(st.unmatched, 0u);
-          // Faces turned from the light (a roof slope beyond the ridge) are dark by their own
-          // shading: every kernel, PCSS included, gives exactly 0 there. Counted on the planes,
-          // whose meshes are flat-shaded (the pixel's normal is its facet's, which the shader's
-          // facing test uses; the terrain's smooth normals differ near the terminator).
-          uint64_t turnedAway = 0, turnedAwayNotDark = 0;
-          for (const auto& p : pixels) {
-            if (!sc.planes || p.cascade < 0 ||
-                !(glm::dot(glm::dvec3(p.normalWs), -light.directionWs) < -1e-3)) {
-              continue;
+            nlohmann::json j = {{"scene", sc.name},
+                                {"elevation_deg", view.elevation},
+                                {"azimuth_deg", view.azimuth},
+                                {"format", formatName(var.format)},
+                                {"kernel", csm::kernelName(var.kernel)},
+                                {"stabilized", var.stabilize},
+                                {"resolution", view.resolution},
+                                {"false_shadow_below_099", st.below099()},
+                                {"false_shadow_lit_facing", st.acne()},
+                                {"false_shadow_lit_facing_incl_edges", st.acneRaw()},
+                                {"dimmed_lit_facing", st.dimmed()},
+                                {"false_lit_near_contact", st.leaks()},
+                                {"false_lit_near_contact_facing", st.leaksFacing()},
+                                {"turned_away", turnedAway},
+                                {"turned_away_not_dark", turnedAwayNotDark},
+                                {"counts", st.toJson()}};
+            report["cases"].push_back(j);
+            const std::string what =
+                std::string(sc.name) + " elevation " + std::to_string(view.elevation) +
+                " azimuth " + std::to_string(view.azimuth) + " " + formatName(var.format) + " " +
+                csm::kernelName(var.kernel) + (var.stabilize ? "" : " unstabilised") + " " +
+                std::to_string(view.resolution);
+            std::printf(
+                "%-7s elev %7.3f az %5.1f %s %-9s %s %4u: <0.99 %.4f%% (%llu/%llu) acne %.4f%% "
+                "dimmed %.4f%% raw %.3f%% leaks %.2f%% (%llu/%llu)\n",
+                sc.name, view.elevation, view.azimuth, formatName(var.format),
+                csm::kernelName(var.kernel), var.stabilize ? "stab" : "free", view.resolution,
+                100.0 * st.below099(), (unsigned long long)st.litInteriorBelow099,
+                (unsigned long long)st.litInterior, 100.0 * st.acne(), 100.0 * st.dimmed(),
+                100.0 * st.acneRaw(), 100.0 * st.leaks(), (unsigned long long)st.contactLit,
+                (unsigned long long)st.contact);
+            std::fflush(stdout);
+            (sc.planes ? perElevationPlanes : perElevation)[view.elevation].add(st);
+            // The planes are lit almost whole; on terrain and poles a low sun leaves few lit facing
+            // pixels away from every edge and outline (pooled per scene below).
+            if (sc.planes) {
+              EXPECT_GT(st.litInterior, 1000u) << what;
             }
-            ++turnedAway;
-            turnedAwayNotDark += p.shadow != 0.0f ? 1 : 0;
-          }
-          nlohmann::json j = {{"scene", sc.name},
-                              {"elevation_deg", view.elevation},
-                              {"azimuth_deg", view.azimuth},
-                              {"format", formatName(var.format)},
-                              {"kernel", csm::kernelName(var.kernel)},
-                              {"stabilized", var.stabilize},
-                              {"resolution", view.resolution},
-                              {"false_shadow_below_099", st.below099()},
-                              {"false_shadow_lit_facing", st.acne()},
-                              {"false_shadow_lit_facing_incl_edges", st.acneRaw()},
-                              {"dimmed_lit_facing", st.dimmed()},
-                              {"false_lit_near_contact", st.leaks()},
-                              {"false_lit_near_contact_facing", st.leaksFacing()},
-                              {"turned_away", turnedAway},
-                              {"turned_away_not_dark", turnedAwayNotDark},
-                              {"counts", st.toJson()}};
-          report["cases"].push_back(j);
-          const std::string what =
-              std::string(sc.name) + " elevation " + std::to_string(view.elevation) + " azimuth " +
-              std::to_string(view.azimuth) + " " + formatName(var.format) + " " +
-              csm::kernelName(var.kernel) + (var.stabilize ? "" : " unstabilised") + " " +
-              std::to_string(view.resolution);
-          std::printf(
-              "%-7s elev %7.3f az %5.1f %s %-9s %s %4u: <0.99 %.4f%% (%llu/%llu) acne %.4f%% "
-              "dimmed %.4f%% raw %.3f%% leaks %.2f%% (%llu/%llu)\n",
-              sc.name, view.elevation, view.azimuth, formatName(var.format),
-              csm::kernelName(var.kernel), var.stabilize ? "stab" : "free", view.resolution,
-              100.0 * st.below099(), (unsigned long long)st.litInteriorBelow099,
-              (unsigned long long)st.litInterior, 100.0 * st.acne(), 100.0 * st.dimmed(),
-              100.0 * st.acneRaw(), 100.0 * st.leaks(), (unsigned long long)st.contactLit,
-              (unsigned long long)st.contact);
-          std::fflush(stdout);
-          (sc.planes ? perElevationPlanes : perElevation)[view.elevation].add(st);
-          // The planes are lit almost whole; on terrain and poles a low sun leaves few lit facing
-          // pixels away from every edge and outline (pooled per scene below).
-          if (sc.planes) {
-            EXPECT_GT(st.litInterior, 1000u) << what;
-          }
-          interiorPerScene[sc.name] += st.litInterior;
-          EXPECT_LE(st.below099(), kMaxAcne) << what;
-          EXPECT_LE(st.dimmed(), kMaxDimmed) << what;
-          EXPECT_LE(st.acne(), kMaxAcne) << what;
-          EXPECT_EQ(turnedAwayNotDark, 0u) << what << ": faces turned from the light not dark";
-          turnedAwayPerScene[sc.name] += turnedAway;
-          // One picture per scene and elevation (default kernel and format, 1024^2, the first
-          // azimuth of the scene's matrix).
-          // The prefiltered matrix: msm's.
-          const double pictureAzimuth = sc.planes ? 45.0 : 30.0;
-          const csm::PcfKernel pictureKernel =
-              prefiltered ? csm::PcfKernel::kMsm : csm::PcfKernel::kTent3;
-          if (var.format == VK_FORMAT_D32_SFLOAT && var.kernel == pictureKernel && var.stabilize &&
-              view.resolution == 1024 && view.azimuth == pictureAzimuth) {
-            // The faint end stretched ([0.9, 1] to black..white), lit interior pixels under 0.99
-            // magenta: what the 0.99 count sees.
-            engine::CpuImage faint = image;
-            for (const auto& p : pixels) {
-              uint8_t* px = &faint.rgba[4 * (size_t(p.y) * faint.width + p.x)];
-              const auto v = uint8_t(255.0f * std::clamp((p.shadow - 0.9f) * 10.0f, 0.0f, 1.0f));
-              const bool marked =
-                  truth.at(p.x, p.y) == csm_measure::BiasClass::kLitInterior && p.shadow < 0.99f;
-              px[0] = marked ? 255 : v;
-              px[1] = marked ? 0 : v;
-              px[2] = marked ? 255 : v;
+            interiorPerScene[sc.name] += st.litInterior;
+            EXPECT_LE(st.below099(), kMaxAcne) << what;
+            EXPECT_LE(st.dimmed(), kMaxDimmed) << what;
+            EXPECT_LE(st.acne(), kMaxAcne) << what;
+            EXPECT_EQ(turnedAwayNotDark, 0u) << what << ": faces turned from the light not dark";
+            turnedAwayPerScene[sc.name] += turnedAway;
+            // One picture per scene and elevation (default kernel and format, 1024^2, the first
+            // azimuth of the scene's matrix).
+            // The prefiltered matrix: msm's.
+            const double pictureAzimuth = sc.planes ? 45.0 : 30.0;
+            const csm::PcfKernel pictureKernel =
+                prefiltered ? csm::PcfKernel::kMsm : csm::PcfKernel::kTent3;
+            if (var.format == VK_FORMAT_D32_SFLOAT && var.kernel == pictureKernel &&
+                var.stabilize && view.resolution == 1024 && view.azimuth == pictureAzimuth) {
+              // The faint end stretched ([0.9, 1] to black..white), lit interior pixels under 0.99
+              // magenta: what the 0.99 count sees.
+              engine::CpuImage faint = image;
+              for (const auto& p : pixels) {
+                uint8_t* px = &faint.rgba[4 * (size_t(p.y) * faint.width + p.x)];
+                const auto v = uint8_t(255.0f * std::clamp((p.shadow - 0.9f) * 10.0f, 0.0f, 1.0f));
+                const bool marked =
+                    truth.at(p.x, p.y) == csm_measure::BiasClass::kLitInterior && p.shadow < 0.99f;
+                px[0] = marked ? 255 : v;
+                px[1] = marked ? 0 : v;
+                px[2] = marked ? 255 : v;
+              }
+              csm_measure::paintBiasErrors(image, pixels, truth);
+              char name[128];
+              const char* prefix = prefiltered ? "bias_msm" : "bias";
+              std::snprintf(name, sizeof(name), "/%s_%s_elev%g.png", prefix, sc.name,
+                            view.elevation);
+              engine::writePng(artefactDir() + name, image);
+              std::snprintf(name, sizeof(name), "/%s_%s_elev%g_faint.png", prefix, sc.name,
+                            view.elevation);
+              engine::writePng(artefactDir() + name, faint);
             }
-            csm_measure::paintBiasErrors(image, pixels, truth);
-            char name[128];
-            const char* prefix = prefiltered ? "bias_msm" : "bias";
-            std::snprintf(name, sizeof(name), "/%s_%s_elev%g.png", prefix, sc.name, view.elevation);
-            engine::writePng(artefactDir() + name, image);
-            std::snprintf(name, sizeof(name), "/%s_%s_elev%g_faint.png", prefix, sc.name,
-                          view.elevation);
-            engine::writePng(artefactDir() + name, faint);
           }
         }
       }
