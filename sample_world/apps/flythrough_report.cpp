@@ -62,6 +62,8 @@ json cascadesJson(const world::FrameStats& st) {
       arr.back()["tiles_partial"] = true;
       arr.back()["tiles_drawn"] = st.tilesDrawn[c];
       arr.back()["tiles_held"] = st.tilesHeld[c];
+      // settings.tileBudgetTexels: marked tiles left for a later frame (their pixels fell back).
+      arr.back()["tiles_deferred"] = st.tilesDeferred[c];
     }
   }
   return arr;
@@ -146,6 +148,7 @@ json summaryJson(const std::vector<json>& framesJson, const world::AppSettings& 
   summary["shadow_cache_bytes"] = lastStats.cacheBytes;
   summary["moment_bytes"] = lastStats.momentBytes;
   summary["shadow_cache_budget_texels"] = settings.cacheBudgetTexels;
+  summary["shadow_tile_budget_texels"] = settings.tileBudgetTexels;
   summary["gpu_shadow_ms_median"] =
       median([](const json& f) { return f["gpu_ms"]["shadow"].get<double>(); });
   // The whole frame: shadow pass, depth pre-pass or G-buffer pass (0 without them) and lit pass

@@ -260,6 +260,11 @@ const std::vector<Entry>& table() {
       boolean("shadow.receiverBounds", [](AppSettings& s) -> bool& { return s.receiverBounds; }),
       boolean("shadow.tileMarks", [](AppSettings& s) -> bool& { return s.tileMarks; }),
       boolean("shadow.tiles", [](AppSettings& s) -> bool& { return s.shadowTiles; }),
+      number<std::uint64_t>(
+          "shadow.tileBudgetTexels",
+          "an integer in [0, 2^40]: 0 = no cap, else at least (shadow.resolution / 16)^2", 0,
+          1099511627776.0, true,
+          [](AppSettings& s) -> std::uint64_t& { return s.tileBudgetTexels; }),
       choice(
           "shadow.receiverSplitScheme", "one of range, histogram", kReceiverSchemes,
           [](AppSettings& s) -> csm::ReceiverSplitScheme& { return s.shadow.receiverSplitScheme; }),
@@ -475,6 +480,13 @@ std::optional<std::string> validateSettings(const AppSettings& s) {
     return "shadow.cacheBudgetTexels = " + std::to_string(s.cacheBudgetTexels) +
            " is invalid: allowed 0 (no cap) or at least shadow.resolution^2 = " +
            std::to_string(layer);
+  }
+  const std::uint64_t tile = std::uint64_t(s.shadow.resolution / csm::kTilesPerSide) *
+                             (s.shadow.resolution / csm::kTilesPerSide);
+  if (s.tileBudgetTexels != 0 && s.tileBudgetTexels < tile) {
+    return "shadow.tileBudgetTexels = " + std::to_string(s.tileBudgetTexels) +
+           " is invalid: allowed 0 (no cap) or at least one tile, (shadow.resolution / 16)^2 = " +
+           std::to_string(tile);
   }
   if (s.msmMomentBits != 64 && s.msmMomentBits != 128) {
     return "shadow.msmMomentBits = " + std::to_string(s.msmMomentBits) +

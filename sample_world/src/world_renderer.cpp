@@ -363,6 +363,7 @@ std::optional<std::string> WorldRenderer::apply(const AppSettings& settings) {
   options.cacheBudgetTexels = settings.cacheBudgetTexels;
   options.msmMomentBits = settings.msmMomentBits;
   options.tiles = settings.shadowTiles && options.cache;
+  options.tileBudgetTexels = settings.tileBudgetTexels;
   options.thinCasterWidenTexels = settings.thinCasters ? settings.thinWidenTexels : 0.0f;
   if (settings.casterLods) {
     for (std::uint32_t c = 0; c < csm::kMaxCascades; ++c) {
@@ -653,6 +654,7 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
   stats.tilesPartialMask = 0;
   stats.tilesDrawn = {};
   stats.tilesHeld = {};
+  stats.tilesDeferred = {};
   stats.cacheBytes = shadow_->renderer().cacheBytes();
   stats.momentBytes = shadow_->renderer().momentBytes();
   for (std::uint32_t c = 0; c < cascades.cascadeCount; ++c) {
@@ -665,6 +667,7 @@ void WorldRenderer::recordShadowPass(VkCommandBuffer cmd, engine::GpuTimer& time
       if (cs.partial) stats.tilesPartialMask |= 1u << c;
       stats.tilesDrawn[c] = cs.tilesDrawn;
       stats.tilesHeld[c] = cs.tilesHeld;
+      stats.tilesDeferred[c] = cs.tilesDeferred;
       stats.triangles[c] = cs.staticTriangles + cs.dynamicTriangles;
     } else {
       stats.texelsRendered[c] = std::uint64_t(cascades.resolution) * cascades.resolution;

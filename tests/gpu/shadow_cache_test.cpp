@@ -710,6 +710,16 @@ TEST(ShadowCache, BudgetOptionsAreValidated) {
   options.cacheExactCascades = 2;
   options.cacheBudgetTexels = std::uint64_t(kResolution) * kResolution;
   EXPECT_TRUE(rig.views_[0].view->setSettings(settings, options).ok());
+  // The tile budget: at least one tile, (resolution / 16)^2 = 1,024 texels at 512^2.
+  options.tileBudgetTexels = 1023;
+  s = rig.views_[0].view->setSettings(settings, options);
+  EXPECT_EQ(s.code(), csm::vk::ErrorCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("options.tileBudgetTexels = 1023 is invalid: allowed 0 (no cap) or "
+                             "at least one tile, (settings.resolution / 16)^2 = 1024"),
+            std::string::npos)
+      << s.message();
+  options.tileBudgetTexels = 1024;
+  EXPECT_TRUE(rig.views_[0].view->setSettings(settings, options).ok());
 }
 
 double medianOf(std::vector<double> v) {

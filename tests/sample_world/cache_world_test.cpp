@@ -348,6 +348,14 @@ world::AppSettings flightSettings(const std::string& config) {
   s.shadow.resolution = kResolution;
   if (config == "budget") s.cacheBudgetTexels = std::uint64_t(kResolution) * kResolution;
   if (config == "receivers") s.receiverSplits = true;
+  // The tile budget: a quarter of a layer a frame for the partial cascades, with a light step
+  // every 20 frames (a 200 s day) and a cut every 24 frames. (A step every second frame, as
+  // above, asks for more than the budget every frame: the budget is for spikes.)
+  if (config == "tilebudget") {
+    s.tileBudgetTexels = std::uint64_t(kResolution) * kResolution / 4;
+    s.clock.dayLengthS = 200.0;
+    s.clock.cutEveryS = 0.4;
+  }
   if (config == "pcss") s.shadow.kernel = csm::PcfKernel::kPcss;
   if (config == "vsm") s.shadow.kernel = csm::PcfKernel::kVsm;
   if (config == "evsm") s.shadow.kernel = csm::PcfKernel::kEvsm;
@@ -482,6 +490,13 @@ INSTANTIATE_TEST_SUITE_P(Paths, CacheWorld,
 // Validation stays silent.
 constexpr double kMaxFallback = 0.10;
 constexpr double kMeanFallback = 0.01;
+// With a tile budget (the "tilebudget" flights, a quarter of a layer a frame, at the
+// fly-through's pace): the tiles the budget leaves for later frames fall back too. A light
+// step's frame draws the first quarter layer of tiles from the camera out and most of its
+// pixels fall back (measured: 61% on day); the flight's mean stays small (measured: 4.3% on day,
+// 0.7% on cut).
+constexpr double kMaxBudgetFallback = 0.70;
+constexpr double kMeanBudgetFallback = 0.06;
 
 /// Frames per tile flight: CSM_TILE_WORLD_FRAMES, else 48.
 int tileFlightFrames() {
@@ -515,19 +530,31 @@ TEST_P(TileWorld, HeldTilesBitIdenticalToFullRenderAndFallbacksBounded) {
   int sinceReset = 0;
   std::uint64_t compared = 0, partialCascades = 0, wholeCascades = 0;
   std::uint64_t tiledTexels = 0, fullTexels = 0, settlingFrames = 0, settledFrames = 0;
+  std::uint64_t deferredTiles = 0;
+  const std::uint64_t budget = tiled.tileBudgetTexels;
   double maxFallback = 0.0, sumFallback = 0.0;
   int worstFrame = -1;
+  // The budget flights fly at the fly-through's pace (a path in 240 frames): a fifth of the path.
+  // Crossing a whole path in 48 frames asks for more than a quarter layer every frame.
+  const int pathFrames = budget != 0 ? 240 : frames;
   for (int i = 0; i < frames; ++i) {
-    rig.frame(i, frames);
+    rig.frame(i, pathFrames);
     sinceReset = (i == 0 || rig.lastCut()) ? 0 : sinceReset + 1;
     world::WorldRenderer& t = *rig.side(0).renderer;
     ASSERT_TRUE(t.shadowView().options().tiles);
     ASSERT_FALSE(rig.side(1).renderer->shadowView().options().cache);
     const csm::CascadeFrame& ft = t.cascades();
     const csm::CachePlan& plan = t.shadowRenderer().cachePlan();
+    std::uint32_t lastActive = 0;
+    std::uint64_t budgeted = 0;
+    for (std::uint32_t c = 0; c < ft.cascadeCount; ++c) {
+      if (!ft.cascades[c].empty) lastActive = c;
+    }
     for (std::uint32_t c = 0; c < ft.cascadeCount; ++c) {
       if (ft.cascades[c].empty) continue;
       const csm::CacheCascadePlan& p = plan.cascades[c];
+      if (p.partial && c != lastActive) budgeted += t.shadowRenderer().cacheStats()[c].staticTexels;
+      deferredTiles += t.shadowRenderer().cacheStats()[c].tilesDeferred;
       tiledTexels += t.shadowRenderer().cacheStats()[c].staticTexels;
       fullTexels += std::uint64_t(kResolution) * kResolution;
       std::string first;
@@ -543,6 +570,10 @@ TEST_P(TileWorld, HeldTilesBitIdenticalToFullRenderAndFallbacksBounded) {
                          << c << " (whole): " << n << " texels differ, first " << first;
         compared += std::uint64_t(kResolution) * kResolution;
       }
+    }
+    if (budget != 0) {
+      EXPECT_LE(budgeted, budget) << flight.path << " frame " << i
+                                  << ": the partial cascades drew more than the tile budget";
     }
     // Pixels in their own cascades (green) and fallen back (red).
     std::uint64_t own = 0, fell = 0;
@@ -582,18 +613,24 @@ TEST_P(TileWorld, HeldTilesBitIdenticalToFullRenderAndFallbacksBounded) {
     EXPECT_GT(factorCompared, std::uint64_t(frames) * kWidth * kHeight / 4);
   }
   EXPECT_LT(tiledTexels, fullTexels);
-  EXPECT_LE(maxFallback, kMaxFallback) << "frame " << worstFrame;
-  EXPECT_LE(settledFrames ? sumFallback / double(settledFrames) : 0.0, kMeanFallback);
+  // With a tile budget the frames after a cut or a light step leave tiles for later frames.
+  EXPECT_LE(maxFallback, budget != 0 ? kMaxBudgetFallback : kMaxFallback) << "frame " << worstFrame;
+  EXPECT_LE(settledFrames ? sumFallback / double(settledFrames) : 0.0,
+            budget != 0 ? kMeanBudgetFallback : kMeanFallback);
+  if (budget != 0) {
+    EXPECT_GT(deferredTiles, 0u) << "the budget deferred nothing: the case tests nothing";
+  }
   std::printf(
       "[tile world] %s/%s: %d frames (%llu the first after the start or a cut), %llu partial and "
       "%llu whole cascade-frames, %llu texels compared; fallen back: mean %.3f%%, worst %.3f%% "
-      "(frame %d); static texels drawn %.2f%% of a full render's\n",
+      "(frame %d); static texels drawn %.2f%% of a full render's; %llu tiles deferred\n",
       flight.path.c_str(), flight.config.c_str(), frames,
       static_cast<unsigned long long>(settlingFrames),
       static_cast<unsigned long long>(partialCascades),
       static_cast<unsigned long long>(wholeCascades), static_cast<unsigned long long>(compared),
       settledFrames ? 100.0 * sumFallback / double(settledFrames) : 0.0, 100.0 * maxFallback,
-      worstFrame, fullTexels ? 100.0 * double(tiledTexels) / double(fullTexels) : 0.0);
+      worstFrame, fullTexels ? 100.0 * double(tiledTexels) / double(fullTexels) : 0.0,
+      static_cast<unsigned long long>(deferredTiles));
   EXPECT_EQ(engine::validationMessageCount(), 0u);
 }
 
@@ -601,8 +638,11 @@ TEST_P(TileWorld, HeldTilesBitIdenticalToFullRenderAndFallbacksBounded) {
 // one plus the shadow factors compared (the default flights there would only repeat it).
 std::vector<Flight> tileFlights() {
   std::vector<Flight> out;
-  for (const Flight& f :
-       everyPathAnd({{"fast", "pcss"}, {"forest", "shadow"}, {"day", "shadow"}})) {
+  for (const Flight& f : everyPathAnd({{"fast", "pcss"},
+                                       {"forest", "shadow"},
+                                       {"day", "shadow"},
+                                       {"day", "tilebudget"},
+                                       {"cut", "tilebudget"}})) {
     if (f.config == "default" && (f.path == "forest" || f.path == "day")) continue;
     out.push_back(f);
   }

@@ -108,6 +108,25 @@ TEST(Cli, CacheBudgetTexels) {
   EXPECT_EQ(report["settings"]["shadow.cacheBudgetTexels"].get<std::uint64_t>(), 262144u);
   EXPECT_EQ(report["summary"]["shadow_cache_budget_texels"].get<std::uint64_t>(), 262144u);
   EXPECT_TRUE(report["per_frame"][0]["cascades"][0].contains("lag_frames"));
+  // The tile budget: below one tile refused the same way; a valid one reaches report.json.
+  r = runApp("--headless --set shadow.resolution=512 --set shadow.tileBudgetTexels=1000");
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.output.find("shadow.tileBudgetTexels = 1000 is invalid"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("= 1024"), std::string::npos) << r.output;
+  r = runApp("--headless --frames 4 --out " + out.string() + kSmallWorld +
+             " --set shadow.resolution=512 --set shadow.tiles=true"
+             " --set shadow.tileBudgetTexels=4096 --set view.width=320 --set view.height=180");
+  ASSERT_EQ(r.exitCode, 0) << r.output;
+  std::ifstream tiled(out / "report.json");
+  const json t = json::parse(tiled);
+  EXPECT_EQ(t["summary"]["shadow_tile_budget_texels"].get<std::uint64_t>(), 4096u);
+  bool deferredField = false;
+  for (const json& frame : t["per_frame"]) {
+    for (const json& c : frame["cascades"])
+      deferredField = deferredField || c.contains("tiles_deferred");
+  }
+  EXPECT_TRUE(deferredField) << "a partial cascade reports its deferred tiles";
 }
 
 // MSM's moments at 64 or 128 bits: anything else is refused naming the key; 64 bits halve the

@@ -6,6 +6,7 @@
 // block's tile fields.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -635,6 +636,142 @@ TEST(CacheTiles, PartialCascadesDrawOnlyMarkedTilesAndTheLastWhatTheViewSamples)
   EXPECT_GT(completed, 0u);
   csm::markCacheRecorded(p, state);
   for (std::uint32_t i = 0; i < f.cascadeCount; ++i) EXPECT_FALSE(state.layers[i].partial);
+}
+
+TEST(CacheTiles, ATileBudgetSpreadsTheMarkedTilesOverFramesFromTheCameraOut) {
+  // The frame after a cut takes the cut's marks: every partial cascade needs its marked tiles
+  // whole. With a budget of ten tiles' texels that spreads over frames: each frame draws at most
+  // the budget (and, while tiles wait, more than the budget less a tile), cascade 0 first and
+  // each from the camera out in square rings (no tile drawn lies in a ring farther out than
+  // one left waiting; once a cascade leaves tiles waiting, no later one draws); what was held stays
+  // held; the deferred tiles are counted; in the end every marked tile is held, as one frame
+  // without a budget holds them. 10^7 m from the origin too.
+  const csm::ShadowSettings s = tileSettings();
+  const std::int64_t res = s.resolution, tile = res / csm::kTilesPerSide;
+  const std::uint64_t tileArea = std::uint64_t(tile * tile);
+  const std::uint64_t budget = 10 * tileArea;
+  for (const glm::dvec3& at : {glm::dvec3(0.0, 2.0, 0.0), glm::dvec3(1e7, 2.0, -1e7)}) {
+    SCOPED_TRACE(at.x);
+    const View v = viewAt(at);
+    csm::CacheState state = stateBeforeCut(s);
+    csm::CascadeFrame f = frameOf(s, v);
+    csm::CacheTileInputs in = tileInputs(s, f, nullptr);
+    in.budgetTexels = budget;
+    csm::markCacheRecorded(csm::planCacheFrame(f, state, s.resolution, 0, 1, &in), state);
+    const csm::ReceiverTileMarks marks = marksOf(s, f, v, groundReceivers(v, 300.0, 1.0));
+    const std::uint32_t last = f.cascadeCount - 1;
+    // The same frame without a budget: what it would draw at once.
+    csm::CacheState unbudgeted = state;
+    f = frameOf(s, v);
+    in = tileInputs(s, f, &marks);
+    const csm::CachePlan all = csm::planCacheFrame(f, unbudgeted, s.resolution, 0, 1, &in);
+    std::uint64_t allTexels = 0;
+    for (std::uint32_t i = 0; i < last; ++i) {
+      if (all.cascades[i].partial) allTexels += all.cascades[i].staleTexels;
+      EXPECT_EQ(all.cascades[i].tilesDeferred, 0u) << i;
+    }
+    ASSERT_GT(allTexels, 4 * budget) << "the frame must need several budgets";
+    int frames = 0;
+    bool done = false;
+    for (; frames < 200 && !done; ++frames) {
+      f = frameOf(s, v);
+      in = tileInputs(s, f, &marks);
+      in.budgetTexels = budget;
+      const csm::CacheState before = state;
+      const csm::CachePlan p = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+      EXPECT_EQ(p.tileBudgetTexels, budget);
+      const glm::dmat3 basisT = glm::transpose(f.lightBasisWs);
+      const glm::dvec3 cameraLs = basisT * v.camera.positionWs;
+      std::uint64_t drawn = 0;
+      std::uint32_t deferred = 0;
+      bool waiting = false;
+      for (std::uint32_t i = 0; i < last; ++i) {
+        const csm::CacheCascadePlan& c = p.cascades[i];
+        if (!c.partial) continue;
+        drawn += c.staleTexels;
+        deferred += c.tilesDeferred;
+        if (waiting) {
+          EXPECT_EQ(c.staleTexels, 0u) << i << ": a cascade before this one left tiles waiting";
+        }
+        const double texel = f.cascades[i].texelSizeLs.x;
+        auto rectOf = [&](std::int64_t x, std::int64_t y) {
+          const glm::i64vec2 w = c.tiles.origin + glm::i64vec2(x, y);
+          return csm::TexelRect{w.x * tile, w.y * tile, (w.x + 1) * tile, (w.y + 1) * tile}
+              .intersect(c.box);
+        };
+        // The square ring (in tiles) of a tile about the camera.
+        auto ring = [&](std::int64_t x, std::int64_t y) {
+          const glm::i64vec2 w = c.tiles.origin + glm::i64vec2(x, y);
+          const double cx = (double(w.x) + 0.5) * double(tile) * texel - cameraLs.x;
+          const double cy = (double(w.y) + 0.5) * double(tile) * texel - cameraLs.y;
+          return std::max(std::abs(cx), std::abs(cy)) / (double(tile) * texel);
+        };
+        double nearestWaiting = INFINITY, farthestNewlyHeld = -1.0;
+        std::uint32_t waitingTiles = 0, newlyHeld = 0;
+        for (std::int64_t y = 0; y < csm::kTileGridSide; ++y) {
+          for (std::int64_t x = 0; x < csm::kTileGridSide; ++x) {
+            if (rectOf(x, y).empty()) continue;
+            const glm::i64vec2 w = c.tiles.origin + glm::i64vec2(x, y);
+            const bool wasHeld =
+                before.layers[i].partial && before.layers[i].tiles.testWorld(w.x, w.y);
+            if (wasHeld) {
+              EXPECT_TRUE(c.tiles.test(x, y)) << i << ": " << x << ", " << y << " was held";
+            }
+            if (!c.marked.test(x, y) || wasHeld) continue;
+            const double d = ring(x, y);
+            if (c.tiles.test(x, y)) {
+              ++newlyHeld;
+              farthestNewlyHeld = std::max(farthestNewlyHeld, d);
+            } else {
+              ++waitingTiles;
+              nearestWaiting = std::min(nearestWaiting, d);
+            }
+          }
+        }
+        EXPECT_EQ(c.tilesDeferred, waitingTiles) << i;
+        // From the camera out: no tile drawn lies in a ring farther out than a tile left
+        // waiting (one ring may be split between them).
+        if (newlyHeld > 0 && waitingTiles > 0) {
+          EXPECT_LE(farthestNewlyHeld, nearestWaiting + 1e-6)
+              << i << ": a tile " << farthestNewlyHeld << " tiles out is drawn while one "
+              << nearestWaiting << " tiles out waits";
+        }
+        waiting = waiting || waitingTiles > 0;
+      }
+      EXPECT_LE(drawn, budget) << "frame " << frames;
+      if (deferred > 0) {
+        EXPECT_GT(drawn + tileArea, budget) << "frame " << frames << ": tiles wait, budget unused";
+      }
+      // The last cascade, the fallback, is not counted: it draws what the view samples.
+      EXPECT_EQ(p.cascades[last].tilesDeferred, 0u);
+      done = deferred == 0;
+      csm::markCacheRecorded(p, state);
+    }
+    ASSERT_TRUE(done) << "the marked tiles were never all held";
+    EXPECT_GT(frames, 4);
+    EXPECT_LE(std::uint64_t(frames), 2 * (allTexels / (budget - tileArea) + 1));
+    for (std::uint32_t i = 0; i < last; ++i) {
+      const csm::CacheCascadePlan& c = all.cascades[i];
+      if (!c.partial) continue;
+      for (std::int64_t y = 0; y < csm::kTileGridSide; ++y) {
+        for (std::int64_t x = 0; x < csm::kTileGridSide; ++x) {
+          const glm::i64vec2 w = c.tiles.origin + glm::i64vec2(x, y);
+          if (c.marked.test(x, y) && c.tiles.test(x, y)) {
+            EXPECT_TRUE(state.layers[i].tiles.testWorld(w.x, w.y)) << i << ": " << x << ", " << y;
+          }
+        }
+      }
+    }
+    // Then nothing more: the same view holds its tiles.
+    f = frameOf(s, v);
+    in = tileInputs(s, f, &marks);
+    in.budgetTexels = budget;
+    const csm::CachePlan settled = csm::planCacheFrame(f, state, s.resolution, 0, 1, &in);
+    for (std::uint32_t i = 0; i < last; ++i) {
+      EXPECT_EQ(settled.cascades[i].staleTexels, 0u) << i;
+      EXPECT_EQ(settled.cascades[i].tilesDeferred, 0u) << i;
+    }
+  }
 }
 
 TEST(CacheTiles, ANarrowViewKeepsTheCascadesTheLastBoxDoesNotHoldWhole) {

@@ -119,6 +119,11 @@ struct AppSettings {
   /// (shadow.cache=false, or unstabilised) it does nothing. report.json gives "tiles_drawn" and
   /// "tiles_held" per cascade. Off by default.
   bool shadowTiles = false;
+  /// With shadowTiles: the most static texels the partial cascades draw per frame
+  /// (csm::vk::RendererOptions::tileBudgetTexels): a light step or a cut spreads over frames,
+  /// the pixels of tiles not drawn yet fall back meanwhile. 0 = no cap (default); else at least
+  /// one tile, (shadow.resolution / 16)^2. report.json gives "tiles_deferred" per cascade.
+  std::uint64_t tileBudgetTexels = 0;
 
   AppSettings();
 };

@@ -75,6 +75,8 @@ struct FrameStats {
   /// percentage-closer kernel): 8 bytes a texel for vsm and 64-bit msm where the device stores
   /// the compact formats, else 16.
   std::uint64_t momentBytes = 0;
+  /// settings.tileBudgetTexels: per cascade, the marked tiles the budget left for a later frame.
+  std::array<std::uint32_t, csm::kMaxCascades> tilesDeferred{};
 };
 
 class WorldRenderer {

@@ -133,6 +133,12 @@ struct CacheCascadePlan {
   TileMask marked;
   std::uint32_t tilesMarked = 0;
   std::uint32_t tilesDrawn = 0;
+  /// CacheTileInputs::budgetTexels: marked tiles in the box that the budget left for a later
+  /// frame (not held after this frame: their pixels fall back).
+  std::uint32_t tilesDeferred = 0;
+  /// The camera's light-space x, y in the cascade's texels (the tile budget draws the tiles
+  /// nearest to it first).
+  glm::dvec2 cameraTexel{0.0};
 };
 
 /// Receiver-marked tiles: a partial cascade also draws whole the gaps of up to this many tiles
@@ -157,6 +163,13 @@ struct CacheTileInputs {
   /// Per cascade, how far (texels) its filter reads around a receiver
   /// (csm::receiverSampleReachTexels for the frame's settings).
   std::array<double, kMaxCascades> reachTexels{};
+  /// The most static texels the partial cascades other than the last draw in one frame, 0 = no
+  /// cap. Their stale texels in held tiles go first, then the marked tiles they do not hold,
+  /// from the camera out; the cascades from the first out, and once one cascade's next piece
+  /// does not fit, no later cascade draws either. What is left waits for later frames (not held:
+  /// its pixels fall back to a coarser cascade). The last cascade (the fallback) and cascades
+  /// drawn whole are not counted.
+  std::uint64_t budgetTexels = 0;
 };
 
 /// One frame's cache decisions for every cascade, from planCacheFrame().
@@ -165,6 +178,8 @@ struct CachePlan {
   std::uint32_t resolution = 0;
   std::uint32_t refreshedMask = 0;  // bit i: cascade i refreshed
   std::array<CacheCascadePlan, kMaxCascades> cascades{};
+  /// CacheTileInputs::budgetTexels the plan was made with (0 = no cap).
+  std::uint64_t tileBudgetTexels = 0;
 };
 
 /// Whether what a layer shows (`shown`) covers slice `c` of a frame in light basis `basis`

@@ -166,13 +166,76 @@ void mergeRows(std::vector<TexelRect>& rects) {
   mergeAlong(rects, false);
 }
 
+// The stale texels of `p` inside `rect`.
+std::uint64_t staleIn(const CacheCascadePlan& p, const TexelRect& rect) {
+  std::uint64_t a = 0;
+  for (const TexelRect& r : p.stale) a += r.intersect(rect).area();
+  return a;
+}
+
+// The tile budget (CacheTileInputs::budgetTexels): of the marked tiles of `p` that need a draw,
+// those that fit in `left` texels, in order (held tiles' stale texels first, then the tiles the
+// layer does not hold, each in square rings from the camera out: what is drawn stays close to
+// one rectangle, so its casters are drawn once, not once per piece); the first that does not
+// fit ends the admission and empties `left`, so no later piece or cascade draws past it.
+// Returns the marks admitted; `deferred`: the marked tiles in the box left for a later frame.
+TileMask admitTiles(const CacheCascadePlan& p, const TileMask& before, std::int64_t res,
+                    std::uint64_t& left, std::uint32_t& deferred) {
+  struct Candidate {
+    bool held;
+    double ring;  // the Chebyshev distance from the camera
+    double distance2;
+    std::int64_t x, y;
+    std::uint64_t cost;
+  };
+  std::vector<Candidate> need;
+  const double t = double(tileTexelsOf(res));
+  for (std::int64_t y = 0; y < kTileGridSide; ++y) {
+    for (std::int64_t x = 0; x < kTileGridSide; ++x) {
+      const TexelRect rect = tileRect(before, x, y, res, p.box);
+      if (rect.empty() || !p.marked.test(x, y)) continue;
+      const bool held = before.test(x, y);
+      const std::uint64_t cost = held ? staleIn(p, rect) : rect.area();
+      if (cost == 0) continue;
+      // The tile's centre from the camera, in texels: both are world-anchored, so the difference
+      // is exact enough 10^7 m from the origin.
+      const double dx = (double(before.origin.x + x) + 0.5) * t - p.cameraTexel.x;
+      const double dy = (double(before.origin.y + y) + 0.5) * t - p.cameraTexel.y;
+      need.push_back({held, std::max(std::abs(dx), std::abs(dy)), dx * dx + dy * dy, x, y, cost});
+    }
+  }
+  std::sort(need.begin(), need.end(), [](const Candidate& a, const Candidate& b) {
+    if (a.held != b.held) return a.held;
+    if (a.ring != b.ring) return a.ring < b.ring;
+    if (a.distance2 != b.distance2) return a.distance2 < b.distance2;
+    return a.y != b.y ? a.y < b.y : a.x < b.x;
+  });
+  TileMask admitted = p.marked;
+  deferred = 0;
+  for (const Candidate& c : need) {
+    if (c.cost <= left) {
+      left -= c.cost;
+      continue;
+    }
+    left = 0;
+    admitted.set(c.x, c.y, false);
+    ++deferred;
+  }
+  return admitted;
+}
+
 // A partial cascade's draw: of its stale rectangles (p.stale) only what lies in marked tiles,
 // and every marked tile the layer does not hold, whole (with the gaps of at most kTileGapFill
 // tiles between two such in a row); a stale texel in a tile not drawn makes the tile not held.
+// With a tile budget (`left` not null: the texels still to spend this frame) only the marked
+// tiles admitTiles() admits, and gaps and the bounding rectangle only where they fit.
 // p.tiles: what the layer holds after the draw.
-void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t res) {
+void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t res,
+               std::uint64_t* left) {
   const TileMask before = heldTiles(layer, p.box, res);
   TileMask after = before;
+  std::uint32_t deferred = 0;
+  const TileMask marked = left != nullptr ? admitTiles(p, before, res, *left, deferred) : p.marked;
   std::vector<TexelRect> draw;
   std::uint32_t drawn = 0;
   constexpr std::int64_t side = kTileGridSide;
@@ -182,9 +245,18 @@ void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t r
     std::int64_t last = -1;
     for (std::int64_t x = 0; x < side; ++x) {
       if (tileRect(before, x, y, res, p.box).empty()) continue;
-      if (!p.marked.test(x, y) || before.test(x, y)) continue;
+      if (!marked.test(x, y) || before.test(x, y)) continue;
       if (last >= 0 && x - last - 1 <= kTileGapFill) {
-        for (std::int64_t g = last + 1; g < x; ++g) whole[std::size_t(g)] = true;
+        // A gap's tiles cost texels of their own; with a budget, only where they all fit.
+        std::uint64_t gap = 0;
+        for (std::int64_t g = last + 1; g < x; ++g) {
+          gap += tileRect(before, g, y, res, p.box).area() -
+                 (marked.test(g, y) ? staleIn(p, tileRect(before, g, y, res, p.box)) : 0u);
+        }
+        if (left == nullptr || gap <= *left) {
+          if (left != nullptr) *left -= gap;
+          for (std::int64_t g = last + 1; g < x; ++g) whole[std::size_t(g)] = true;
+        }
       }
       whole[std::size_t(x)] = true;
       last = x;
@@ -207,9 +279,9 @@ void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t r
         const TexelRect q = r.intersect(rect);
         if (q.empty()) continue;
         touched = true;
-        if (p.marked.test(x, y)) draw.push_back(q);  // held (else drawn whole above)
+        if (marked.test(x, y)) draw.push_back(q);  // held (else drawn whole above)
       }
-      if (p.marked.test(x, y)) {
+      if (marked.test(x, y)) {
         after.set(x, y, true);
         if (draw.size() > first) ++drawn;
       } else if (touched) {
@@ -219,14 +291,16 @@ void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t r
   }
   mergeRows(draw);
   // Many pieces (a new window, marks after a cut): one rectangle around them where it is at
-  // most twice their area. Each caster is then drawn once, not once per piece, and every tile
-  // inside it is drawn whole and held.
+  // most twice their area (and, with a budget, what it adds fits). Each caster is then drawn
+  // once, not once per piece, and every tile inside it is drawn whole and held.
   if (draw.size() > kTilePiecesBeforeBounds) {
     TexelRect b = draw.front();
     for (const TexelRect& r : draw) {
       b = {std::min(b.x0, r.x0), std::min(b.y0, r.y0), std::max(b.x1, r.x1), std::max(b.y1, r.y1)};
     }
-    if (b.area() <= 2 * totalArea(draw)) {
+    const std::uint64_t pieces = totalArea(draw);
+    if (b.area() <= 2 * pieces && (left == nullptr || b.area() - pieces <= *left)) {
+      if (left != nullptr) *left -= b.area() - pieces;
       draw.assign(1, b);
       drawn = 0;
       for (std::int64_t y = 0; y < side; ++y) {
@@ -245,6 +319,18 @@ void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t r
   p.tiles = after;
   p.tilesMarked = p.marked.count();
   p.tilesDrawn = drawn;
+  // Deferred tiles that the gaps or the rectangle drew after all are held.
+  p.tilesDeferred = 0;
+  if (deferred != 0) {
+    for (std::int64_t y = 0; y < side; ++y) {
+      for (std::int64_t x = 0; x < side; ++x) {
+        if (p.marked.test(x, y) && !after.test(x, y) &&
+            !tileRect(before, x, y, res, p.box).empty()) {
+          ++p.tilesDeferred;
+        }
+      }
+    }
+  }
 }
 
 // A cascade that is complete again after being partial: its stale rectangles also cover the
@@ -262,9 +348,10 @@ void completeTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64
 }
 
 // The tiles of cascade i in `frame`, or its completion, after its stale rectangles are planned.
-void planCascadeTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t res) {
+void planCascadeTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t res,
+                      std::uint64_t* left = nullptr) {
   if (p.partial) {
-    planTiles(p, layer, res);
+    planTiles(p, layer, res, left);
   } else {
     p.tiles = {};
     completeTiles(p, layer, res);
@@ -330,6 +417,10 @@ CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t r
     if (plan.cascades[i].active) last = i;
     shownAny = shownAny || state.shown[i].valid;
   }
+  // The tile budget: what the partial cascades before the last may still draw this frame.
+  const bool budget = tiles != nullptr && tiles->budgetTexels != 0;
+  plan.tileBudgetTexels = budget ? tiles->budgetTexels : 0;
+  std::uint64_t left = plan.tileBudgetTexels;
   const bool hasMarks = tiles != nullptr && tiles->marks != nullptr && tiles->marks->present();
   // The view's first frame (no layer shown yet: the start, or a new image) without marks draws
   // every cascade whole, as the cache alone does: no depth buffer has been marked, and a frame
@@ -393,7 +484,8 @@ CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t r
         }
       }
     }
-    planCascadeTiles(p, state.layers[i], res);
+    p.cameraTexel = glm::dvec2(basisT * frame.cameraPositionWs) / c.texelSizeLs.x;
+    planCascadeTiles(p, state.layers[i], res, budget && !isLast ? &left : nullptr);
     const CacheShownState& sh = state.shown[i];
     candidates[i] = {true, sh.valid, sh.lagFrames, p.covered, p.staleTexels};
   }
@@ -443,16 +535,33 @@ CachePlan planCacheFrame(CascadeFrame& frame, CacheState& state, std::uint32_t r
 
 void updateCacheStale(CachePlan& plan, const CacheState& state) {
   const std::int64_t res = plan.resolution;
+  auto changed = [&](std::uint32_t i) {
+    const CacheCascadePlan& p = plan.cascades[i];
+    const CacheLayerState& layer = state.layers[i];
+    return p.active && p.refreshed &&
+           (layer.pending.size() != p.pendingPlanned ||
+            layer.wholeInvalidations != p.wholeInvalidations);
+  };
+  std::uint32_t last = 0;
+  bool any = false;
+  for (std::uint32_t i = 0; i < plan.cascadeCount; ++i) {
+    if (plan.cascades[i].active) last = i;
+    any = any || changed(i);
+  }
+  if (!any) return;
+  // With a tile budget the partial cascades share it in order: re-plan each of them (the same
+  // plan where nothing before it changed) so that what one now draws more, a later one draws
+  // less.
+  const bool budget = plan.tileBudgetTexels != 0;
+  std::uint64_t left = plan.tileBudgetTexels;
   for (std::uint32_t i = 0; i < plan.cascadeCount; ++i) {
     CacheCascadePlan& p = plan.cascades[i];
-    const CacheLayerState& layer = state.layers[i];
     if (!p.active || !p.refreshed) continue;
-    if (layer.pending.size() == p.pendingPlanned &&
-        layer.wholeInvalidations == p.wholeInvalidations) {
-      continue;
-    }
+    const bool shared = budget && p.partial && i != last;
+    if (!changed(i) && !shared) continue;
+    const CacheLayerState& layer = state.layers[i];
     planStale(p, layer, p.box, glm::transpose(p.basis), res);
-    planCascadeTiles(p, layer, res);
+    planCascadeTiles(p, layer, res, shared ? &left : nullptr);
     p.newWindow = !layer.staticValid;
   }
 }

@@ -133,6 +133,15 @@ Status ShadowRenderer::Impl::checkCacheOptions(const ShadowSettings& settings,
                   "options.tiles = true is invalid without options.cache: receiver-marked tiles "
                   "are drawn on top of the cache");
   }
+  const std::uint64_t tile =
+      std::uint64_t(settings.resolution / kTilesPerSide) * (settings.resolution / kTilesPerSide);
+  if (options.tileBudgetTexels != 0 && options.tileBudgetTexels < tile) {
+    return Status(ErrorCode::kInvalidArgument,
+                  fmt("options.tileBudgetTexels = %llu is invalid: allowed 0 (no cap) or at "
+                      "least one tile, (settings.resolution / 16)^2 = %llu",
+                      static_cast<unsigned long long>(options.tileBudgetTexels),
+                      static_cast<unsigned long long>(tile)));
+  }
   if (options.tiles && isPrefiltered(settings.kernel)) {
     return Status(ErrorCode::kInvalidArgument,
                   fmt("options.tiles = true is invalid with settings.kernel = %s: allowed with "
@@ -171,6 +180,7 @@ void ShadowRenderer::Impl::applyCacheWindows(CascadeFrame& frame) {
     tileReach_[i] = receiverSampleReachTexels(settings_, frame, i);
   }
   tiles.reachTexels = tileReach_;
+  tiles.budgetTexels = options_.tileBudgetTexels;
   plan_ = planCacheFrame(frame, cache_, resolution_, budget, options_.cacheExactCascades, &tiles);
 }
 
@@ -514,6 +524,7 @@ bool ShadowRenderer::Impl::recordCachedCascade(CachedPass& pass, std::uint32_t i
   st.tilesMarked = p.tilesMarked;
   st.tilesDrawn = p.refreshed ? p.tilesDrawn : 0;
   st.tilesHeld = p.tiles.count();
+  st.tilesDeferred = p.refreshed ? p.tilesDeferred : 0;
   bool dynamicNow = false;
   pass.computeCasterRects(list, win.texel);
   for (std::uint32_t idx : list) dynamicNow = dynamicNow || pass.casters.instances[idx].dynamic;

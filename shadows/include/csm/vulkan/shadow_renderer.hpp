@@ -222,6 +222,14 @@ struct RendererOptions {
   /// to lit). What is sampled is bit-identical to a full render wherever it is drawn. See
   /// shadows/docs/receiver_tiles.md.
   bool tiles = false;
+  /// With `tiles`: the most static texels the partial cascades (all but the last) draw in one
+  /// frame, so that a light step or a camera cut spreads over frames instead of spiking. Their
+  /// held tiles' stale texels go first, then the marked tiles they do not hold, from the camera
+  /// out, cascade 0 first; what does not fit waits for a later frame and its pixels fall back to
+  /// a coarser cascade meanwhile (CascadeCacheStats::tilesDeferred). The last cascade and
+  /// cascades drawn whole are not counted. 0 (default) = no cap; else at least one tile,
+  /// (resolution / 16)^2 texels.
+  std::uint64_t tileBudgetTexels = 0;
 };
 
 /// A range of an index buffer drawn as one caster mesh.
@@ -365,6 +373,9 @@ struct CascadeCacheStats {
   std::uint32_t tilesMarked = 0;
   std::uint32_t tilesDrawn = 0;
   std::uint32_t tilesHeld = 0;
+  /// RendererOptions::tileBudgetTexels: marked tiles the budget left for a later frame (their
+  /// pixels fall back this frame).
+  std::uint32_t tilesDeferred = 0;
 };
 
 /// What a draw callback gets for one cascade: the command buffer inside the cascade's render
