@@ -491,12 +491,16 @@ INSTANTIATE_TEST_SUITE_P(Paths, CacheWorld,
 constexpr double kMaxFallback = 0.10;
 constexpr double kMeanFallback = 0.01;
 // With a tile budget (the "tilebudget" flights, a quarter of a layer a frame, at the
-// fly-through's pace): the tiles the budget leaves for later frames fall back too. A light
-// step's frame draws the first quarter layer of tiles from the camera out and most of its
-// pixels fall back (measured: 61% on day); the flight's mean stays small (measured: 4.3% on day,
-// 0.7% on cut).
-constexpr double kMaxBudgetFallback = 0.70;
-constexpr double kMeanBudgetFallback = 0.06;
+// fly-through's pace): the tiles the budget leaves for later frames fall back too. On day a
+// light step's frame draws the first quarter layer of tiles from the camera out and most of its
+// pixels fall back (measured: worst 61%, mean 4.3%); on cut the frames after a cut (measured:
+// worst 30%, mean 0.7%).
+struct FallbackBound {
+  double worst, mean;
+};
+FallbackBound budgetFallbackBound(const std::string& path) {
+  return path == "cut" ? FallbackBound{0.40, 0.02} : FallbackBound{0.70, 0.06};
+}
 
 /// Frames per tile flight: CSM_TILE_WORLD_FRAMES, else 48.
 int tileFlightFrames() {
@@ -614,9 +618,10 @@ TEST_P(TileWorld, HeldTilesBitIdenticalToFullRenderAndFallbacksBounded) {
   }
   EXPECT_LT(tiledTexels, fullTexels);
   // With a tile budget the frames after a cut or a light step leave tiles for later frames.
-  EXPECT_LE(maxFallback, budget != 0 ? kMaxBudgetFallback : kMaxFallback) << "frame " << worstFrame;
-  EXPECT_LE(settledFrames ? sumFallback / double(settledFrames) : 0.0,
-            budget != 0 ? kMeanBudgetFallback : kMeanFallback);
+  const FallbackBound bound =
+      budget != 0 ? budgetFallbackBound(flight.path) : FallbackBound{kMaxFallback, kMeanFallback};
+  EXPECT_LE(maxFallback, bound.worst) << "frame " << worstFrame;
+  EXPECT_LE(settledFrames ? sumFallback / double(settledFrames) : 0.0, bound.mean);
   if (budget != 0) {
     EXPECT_GT(deferredTiles, 0u) << "the budget deferred nothing: the case tests nothing";
   }

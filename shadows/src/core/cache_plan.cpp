@@ -175,12 +175,11 @@ std::uint64_t staleIn(const CacheCascadePlan& p, const TexelRect& rect) {
 
 // The tile budget (CacheTileInputs::budgetTexels): of the marked tiles of `p` that need a draw,
 // those that fit in `left` texels, in order (held tiles' stale texels first, then the tiles the
-// layer does not hold, each in square rings from the camera out: what is drawn stays close to
-// one rectangle, so its casters are drawn once, not once per piece); the first that does not
-// fit ends the admission and empties `left`, so no later piece or cascade draws past it.
-// Returns the marks admitted; `deferred`: the marked tiles in the box left for a later frame.
+// layer does not hold, each in square rings from the camera out: what is drawn stays compact,
+// in few pieces); the first that does not fit ends the admission and empties `left`, so no
+// later piece or cascade draws past it. Returns the marks admitted.
 TileMask admitTiles(const CacheCascadePlan& p, const TileMask& before, std::int64_t res,
-                    std::uint64_t& left, std::uint32_t& deferred) {
+                    std::uint64_t& left) {
   struct Candidate {
     bool held;
     double ring;  // the Chebyshev distance from the camera
@@ -211,7 +210,6 @@ TileMask admitTiles(const CacheCascadePlan& p, const TileMask& before, std::int6
     return a.y != b.y ? a.y < b.y : a.x < b.x;
   });
   TileMask admitted = p.marked;
-  deferred = 0;
   for (const Candidate& c : need) {
     if (c.cost <= left) {
       left -= c.cost;
@@ -219,7 +217,6 @@ TileMask admitTiles(const CacheCascadePlan& p, const TileMask& before, std::int6
     }
     left = 0;
     admitted.set(c.x, c.y, false);
-    ++deferred;
   }
   return admitted;
 }
@@ -234,8 +231,7 @@ void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t r
                std::uint64_t* left) {
   const TileMask before = heldTiles(layer, p.box, res);
   TileMask after = before;
-  std::uint32_t deferred = 0;
-  const TileMask marked = left != nullptr ? admitTiles(p, before, res, *left, deferred) : p.marked;
+  const TileMask marked = left != nullptr ? admitTiles(p, before, res, *left) : p.marked;
   std::vector<TexelRect> draw;
   std::uint32_t drawn = 0;
   constexpr std::int64_t side = kTileGridSide;
@@ -250,8 +246,8 @@ void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t r
         // A gap's tiles cost texels of their own; with a budget, only where they all fit.
         std::uint64_t gap = 0;
         for (std::int64_t g = last + 1; g < x; ++g) {
-          gap += tileRect(before, g, y, res, p.box).area() -
-                 (marked.test(g, y) ? staleIn(p, tileRect(before, g, y, res, p.box)) : 0u);
+          const TexelRect r = tileRect(before, g, y, res, p.box);
+          gap += r.area() - (marked.test(g, y) ? staleIn(p, r) : 0u);
         }
         if (left == nullptr || gap <= *left) {
           if (left != nullptr) *left -= gap;
@@ -319,15 +315,13 @@ void planTiles(CacheCascadePlan& p, const CacheLayerState& layer, std::int64_t r
   p.tiles = after;
   p.tilesMarked = p.marked.count();
   p.tilesDrawn = drawn;
-  // Deferred tiles that the gaps or the rectangle drew after all are held.
+  // Marked tiles in the box not held after the draw: only those the budget left waiting (every
+  // admitted one is held; a gap or the rectangle may hold one the budget did not admit).
   p.tilesDeferred = 0;
-  if (deferred != 0) {
-    for (std::int64_t y = 0; y < side; ++y) {
-      for (std::int64_t x = 0; x < side; ++x) {
-        if (p.marked.test(x, y) && !after.test(x, y) &&
-            !tileRect(before, x, y, res, p.box).empty()) {
-          ++p.tilesDeferred;
-        }
+  for (std::int64_t y = 0; y < side; ++y) {
+    for (std::int64_t x = 0; x < side; ++x) {
+      if (p.marked.test(x, y) && !after.test(x, y) && !tileRect(before, x, y, res, p.box).empty()) {
+        ++p.tilesDeferred;
       }
     }
   }
